@@ -1,0 +1,23 @@
+"""The one place for numba flags (STUMPY-style): every kernel is compiled with ``JIT``.
+
+* ``cache``: compiled kernels are written next to the source (or to ``NUMBA_CACHE_DIR``), so a worker
+  process that starts later loads them instead of compiling.
+* ``nogil``: kernels release the GIL, so strings can be stepped from threads.
+* ``fastmath``: only re-association and contraction (FMA), which let LLVM vectorise the stencil's
+  reductions.  No ``nnan``/``ninf``: the kernels must be able to see a non-finite value and report it.
+  Results stay deterministic for a given machine, so block and one-shot renders are bit-identical.
+"""
+
+from __future__ import annotations
+
+import os
+
+FASTMATH = frozenset({"reassoc", "contract", "nsz"})
+
+JIT = {
+    "cache": os.environ.get("GUITAR_NUMBA_CACHE", "1") != "0",
+    "nogil": True,
+    "fastmath": set(FASTMATH),
+    "error_model": "numpy",
+    "boundscheck": False,
+}

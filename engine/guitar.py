@@ -1,0 +1,264 @@
+"""Many strings: per-string state, block rendering, skips, oversampling and mixing.
+
+Each string is simulated on its own (the DAFx24 model has no coupling between strings) at an internal
+rate ``oversample * sample_rate`` and decimated to the output rate by a linear-phase FIR filter whose
+state is carried across blocks.  The output is the string *velocity* at the pickup point (m/s): it is
+what a magnetic pickup senses and, like the bridge force that drives an acoustic top, it carries no
+static offset when a finger presses the string down (a displacement output would jump by the
+fretting depth).
+
+Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in ``benchmarks/``):
+* a string with no events is never simulated (its output is exactly zero);
+* contact work is done only where contact is possible: the fretboard column is formed only when the
+  fused linear pass finds a node below the board (or a residual psi remains), a finger only while it
+  exists, rigid frets only while active or violated;
+* a string whose motion has decayed below ``decay_velocity`` (m/s at every node and at the pickup)
+  after its last event stops being computed; its remaining output is below that level.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import signal
+
+from . import kernels
+from .controls import StringControls, string_controls
+from .presets import Preset
+from .scene import Scene
+from .string import (
+    FRET_PENALTY,
+    FRET_RIGID,
+    Geometry,
+    StringModel,
+    coefficients,
+    geometry,
+    tune,
+)
+
+# Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.
+FIXED_GAIN = 0.25
+
+
+@dataclass(frozen=True)
+class Quality:
+    """Accuracy/cost knobs; the scene's ``quality`` picks one of ``QUALITY``."""
+
+    max_h_m: float  # strings are oversampled until their grid spacing is at most this
+    max_oversample: int = 8
+    fret_mode: int = FRET_RIGID
+    grid_scale: float = 1.0
+
+
+QUALITY = {
+    "draft": Quality(max_h_m=1.0),
+    "standard": Quality(max_h_m=6e-3),
+    "high": Quality(max_h_m=3e-3, max_oversample=16),
+}
+
+
+@dataclass
+class RenderOptions:
+    """Engine-level switches (the benchmarks and tests turn them; users pick ``quality``)."""
+
+    quality: Quality | None = None
+    oversample: int | None = None  # force one internal factor for every string
+    kirchhoff_carrier: bool = True
+    fretboard: bool = True
+    frets: bool = True
+    skip_silent: bool = True
+    skip_decayed: bool = True
+    decay_velocity: float = 1e-7  # m/s; -140 dB below the fixed-gain full scale
+    block_frames: int = 2048
+
+
+def oversample_for(spec, length: float, rate: float, q: Quality) -> int:
+    """Smallest factor whose stable grid has h <= q.max_h_m (at most q.max_oversample)."""
+    for os_ in range(1, q.max_oversample + 1):
+        m = tune(spec, length, rate * os_, q.grid_scale)
+        if m.h <= q.max_h_m:
+            return os_
+    return q.max_oversample
+
+
+class Decimator:
+    """Linear-phase FIR low-pass + downsampling by an integer factor, state kept across blocks."""
+
+    def __init__(self, factor: int, rate_out: float):
+        self.factor = factor
+        self.phase = 0
+        if factor > 1:
+            ntaps = 24 * factor + 1
+            self.taps = signal.firwin(ntaps, 0.45 * rate_out, fs=rate_out * factor,
+                                      window=("kaiser", 9.0))
+            self.zi = np.zeros(ntaps - 1)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        if self.factor == 1:
+            return x
+        y, self.zi = signal.lfilter(self.taps, 1.0, x, zi=self.zi)
+        start = (-self.phase) % self.factor
+        self.phase = (self.phase + len(x)) % self.factor
+        return y[start :: self.factor]
+
+
+@dataclass
+class Voice:
+    """One string in a scene: model, coefficients, controls and the state carried across blocks."""
+
+    index: int  # 1-based string number
+    model: StringModel
+    coefs: kernels.Coefs
+    geom: Geometry
+    ctl: StringControls
+    oversample: int
+    decimator: Decimator
+    diagnostics: bool
+    skip_decayed: bool
+    decay_velocity: float
+    step: int = 0
+    stopped: bool = False
+    u: np.ndarray = field(init=False)
+    u1: np.ndarray = field(init=False)
+    energy_h: list = field(default_factory=list)
+    energy_q: list = field(default_factory=list)
+    energy_p: list = field(default_factory=list)
+
+    def __post_init__(self):
+        n = self.coefs.n
+        nslot = len(self.ctl.fs_on)
+        self.u = np.zeros(n + 3)
+        self.u1 = np.zeros(n + 3)
+        self.uf = np.zeros(n + 3)
+        self.q = np.zeros(n - 1)
+        self.psi = np.zeros(2)
+        self.gprev_b = np.zeros(n + 3)
+        self.gprev_f = np.zeros(n + 3)
+        self.has_gprev = np.zeros(2, np.int64)
+        self.fret_active = np.zeros(len(self.geom.fret_p), np.int64)
+        self.f_state = np.zeros(nslot, np.int64)
+        self.f_w = np.zeros(nslot)
+        self.f_w1 = np.zeros(nslot)
+        self.f_psi = np.zeros(nslot)
+        self.f_bprev = np.zeros(nslot)
+        self.h_start = 0.0  # H^(-1/2): the string starts at rest
+
+    def run(self, nsteps: int) -> np.ndarray:
+        """Advance nsteps internal steps; return the pickup velocity at the internal rate."""
+        out = np.zeros(nsteps)
+        if self.stopped or nsteps == 0:
+            self.step += nsteps
+            return out
+        d = self.diagnostics
+        e_h = np.empty(nsteps if d else 0)
+        e_q = np.empty(nsteps if d else 0)
+        e_p = np.empty(nsteps if d else 0)
+        g = self.geom
+        status = kernels.step_block(
+            self.coefs, self.u, self.u1, self.uf, self.q, g.board, self.psi, self.gprev_b,
+            self.gprev_f, self.has_gprev, g.fret_p, g.fret_w0, g.fret_w1, g.fret_m0,
+            self.fret_active, *self.ctl.kernel_args(), self.f_state, self.f_w, self.f_w1,
+            self.f_psi, self.f_bprev, self.step, nsteps, out, d, e_h, e_q, e_p,
+        )
+        if status != kernels.OK:
+            raise FloatingPointError(f"string {self.index}: the simulation became non-finite")
+        self.step += nsteps
+        if d:
+            self.energy_h.append(e_h)
+            self.energy_q.append(e_q)
+            self.energy_p.append(e_p)
+        if self.skip_decayed and not d and self.step > self.ctl.last_step:
+            self._maybe_stop(out)
+        return out
+
+    def _maybe_stop(self, out: np.ndarray) -> None:
+        # Nothing will act on the string again (no event pending, fingers either gone or holding
+        # still); stop once every node and the pickup move slower than decay_velocity.
+        if np.any(self.f_state == kernels.ACTIVE) and np.any(
+            self.ctl.fs_rel[self.f_state == kernels.ACTIVE] < np.iinfo(np.int64).max // 4
+        ):
+            return
+        vmax = np.max(np.abs(self.u - self.u1)) / self.coefs.k
+        if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
+            self.stopped = True
+
+    def energy_error(self) -> float:
+        """Largest relative energy-balance deviation (paper sec. 6.1):
+
+        max_n |H^(n+1/2) - H^(n-1/2) + k Q^n - k P^n| / [max H]_2,
+        with [.]_2 the nearest power of two below (the paper normalises by H^(1/2), which is zero
+        for a string that starts at rest and is plucked; the largest stored energy is the scale).
+        """
+        if not self.energy_h:
+            return 0.0
+        h = np.concatenate(self.energy_h)
+        q = np.concatenate(self.energy_q)
+        p = np.concatenate(self.energy_p)
+        hprev = np.concatenate(([self.h_start], h[:-1]))
+        scale = np.max(np.abs(h))
+        if scale == 0.0:
+            return 0.0
+        scale = 2.0 ** math.floor(math.log2(scale))
+        return float(np.max(np.abs(h - hprev + q - p)) / scale)
+
+
+@dataclass
+class Engine:
+    """A scene prepared for rendering: voices for the strings that need simulating."""
+
+    scene: Scene
+    preset: Preset
+    voices: list[Voice]
+    options: RenderOptions
+    frames: int
+    frame: int = 0
+
+    def blocks(self, block_frames: int | None = None):
+        """Yield the mono mix (pickup velocity, m/s, output rate) block by block."""
+        bf = block_frames or self.options.block_frames
+        while self.frame < self.frames:
+            m = min(bf, self.frames - self.frame)
+            yield self.render_frames(m)
+
+    def render_frames(self, m: int) -> np.ndarray:
+        mix = np.zeros(m)
+        for v in self.voices:
+            target = (self.frame + m) * v.oversample
+            y = v.decimator(v.run(target - v.step))
+            mix += y
+        self.frame += m
+        return mix
+
+    def energy_error(self) -> float:
+        return max((v.energy_error() for v in self.voices), default=0.0)
+
+
+def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
+    """Tune and grid every string, compile the controls, allocate state."""
+    opts = options or RenderOptions()
+    q = opts.quality or QUALITY[scene.quality]
+    preset = scene.preset()
+    rate = float(scene.sample_rate)
+    pickup = scene.output.pickup_position or preset.pickup_position
+    L = preset.scale_length_m
+    voices = []
+    for i, spec in enumerate(preset.strings, start=1):
+        if opts.skip_silent and not any(e.string == i for e in scene.events):
+            continue
+        os_ = opts.oversample or oversample_for(spec, L, rate, q)
+        model = tune(spec, L, rate * os_, q.grid_scale)
+        fret_mode = q.fret_mode if opts.frets else 0
+        coefs = coefficients(model, preset, fret_mode, pickup, opts.kirchhoff_carrier,
+                             opts.fretboard)
+        geom = geometry(model, preset, with_frets=fret_mode != 0)
+        ctl = string_controls(scene, i, L, model.h, model.n, rate * os_)
+        voices.append(Voice(i, model, coefs, geom, ctl, os_, Decimator(os_, rate),
+                            scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
+    frames = int(round(scene.duration * rate))
+    return Engine(scene, preset, voices, opts, frames)
+
+
+__all__ = ["Engine", "FIXED_GAIN", "QUALITY", "Quality", "RenderOptions", "prepare",
+           "FRET_PENALTY", "FRET_RIGID"]

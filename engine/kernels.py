@@ -1,0 +1,848 @@
+"""The time-step loop of one string: the DAFx24 scheme (Bilbao, Russo, Webb & Ducceschi 2024), sec. 4.
+
+One step n -> n+1, in the order of the paper's sec. 5 breakdown:
+
+a) linear update u_free = B u^n + C u^(n-1) + E f^n            eqs. (36), (50a-c)
+   fused with q = D u^n and its dot products for the Kirchhoff-Carrier column    eqs. (37), (52)
+   and with the smallest gap u^n - b to the fretboard (is a contact possible at all?)
+b) the excitation f_e^n of eq. (5), spread by its interpolant                    eqs. (4), (19)
+c) fretboard: SAV gradient g_B from eq. (54)-(55a), gradient correction gamma      sec. 4.7
+d) frets: either penalty SAV (eqs. (24b), (55b)) or one-sided rigid constraints (the K_F -> inf
+   limit; see below), finger(s): SAV contact with damping, eqs. (25)-(27), (39)-(41), (55c-d)
+f) the small linear system, solved directly for the column multipliers (Woodbury without forming
+   b^n of eq. (49); see ``../shared/papers/NOTES.md``), the psi updates of eq. (48), output.
+
+Every nonlinear force enters the update as  z^(n+1) = z_free + Lambda * sum_c v_c x_c  with a sparse
+column v_c (the dense exception is the Kirchhoff-Carrier column q = D u^n) and a scalar multiplier
+x_c.  Each multiplier obeys one linear equation:
+
+* penalty-like columns (KC, SAV contacts, finger):  x_c + c_c v_c^T z^(n+1) = -a_c
+* an active rigid fret q:                            j_q^T u^(n+1) = m0_q
+* an inactive rigid fret:                            x_q = 0
+
+so the whole nonlinear part of a step is one dense solve of the size of the active set (usually 1 to
+4).  The rigid frets use a warm-started active set (x_q >= 0 and j_q^T u^(n+1) >= m0_q); their
+reaction does non-positive work, which the energy balance books as a loss (exactly).
+
+Indexing: a string of N intervals has interior nodes 1..N-1.  Arrays ``U`` hold them with two ghost
+cells each side: node i lives at U[i+1]; U[1] = U[N+1] = 0 are the fixed ends and U[0] = -U[2],
+U[N+2] = -U[N] make D^2 the square of the Dirichlet D (simply supported ends, eq. (2)).  Loops run
+over non-negative offsets (U[j], U[j+1] ... U[j+4]) so that LLVM vectorises them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .config import JIT
+
+EPS = 2.220446049250313e-16  # the gauge constant epsilon of eq. (54)
+
+# column kinds
+KC, BOARD, FRETPEN, FINGER, RIGID = 0, 1, 2, 3, 4
+# finger slot states
+IDLE, ACTIVE, GONE = 0, 1, 2
+# status codes
+OK, NONFINITE = 0, 1
+
+
+class Coefs(NamedTuple):
+    """Per-string constants of the scheme (all SI); built by ``engine.string``."""
+
+    n: int  # N, number of grid intervals
+    k: float  # time step, s
+    h: float  # grid spacing, m
+    lam: float  # Lambda for the string, k^2 / (rho A h (1 + sigma0 k)), eq. (51)
+    b0: float  # stencil of B, eq. (50a): centre, +-1, +-2
+    b1: float
+    b2: float
+    c0: float  # stencil of C, eq. (50b): centre, +-1
+    c1: float
+    ih2: float  # 1 / h^2
+    kc: float  # E A h^2 / (4 L): Kirchhoff-Carrier weight (0 switches it off), eq. (37)
+    rho_a_h: float  # rho A h, for the energy
+    t0: float  # tension, N
+    ei: float  # E I
+    sigma0: float
+    sigma1: float
+    board_k: float  # K_B (0: no fretboard)
+    board_alpha: float
+    fret_mode: int  # 0 none, 1 rigid, 2 penalty
+    fret_k: float
+    fret_alpha: float
+    fg_mass: float
+    fg_k: float
+    fg_alpha: float
+    fg_r: float  # finger contact damping, N s / m
+    fg_lift: float  # finger is removed once this far above the string, m
+    out_p: int  # pickup interpolant: left node's padded index and weights
+    out_w0: float
+    out_w1: float
+
+
+@njit(**JIT)
+def interp(x: float, h: float, n: int):
+    """Linear interpolant j^(x) (eq. (15)-(16)): padded index of the left node and two weights.
+
+    Weights on the fixed end nodes are dropped (those nodes never move), so 1^T j = 1 holds except
+    within one grid step of an end.
+    """
+    s = x / h
+    l = int(math.floor(s))
+    if l < 0:
+        l = 0
+    if l > n - 1:
+        l = n - 1
+    a = s - l
+    w0 = 1.0 - a
+    w1 = a
+    if l == 0:
+        w0 = 0.0
+    if l + 1 == n:
+        w1 = 0.0
+    return l + 1, w0, w1
+
+
+@njit(**JIT)
+def _linear_pass_kc(c, U0, U1, UF, Q, board):
+    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), min gap to the board."""
+    n = c.n
+    qq = 0.0
+    quf = 0.0
+    qu1 = 0.0
+    gap = np.inf
+    for j in range(n - 1):
+        a = U0[j]
+        b = U0[j + 1]
+        m = U0[j + 2]
+        d = U0[j + 3]
+        e = U0[j + 4]
+        u1 = U1[j + 2]
+        uf = c.b0 * m + c.b1 * (b + d) + c.b2 * (a + e) + c.c0 * u1 + c.c1 * (U1[j + 1] + U1[j + 3])
+        UF[j + 2] = uf
+        qv = (b - 2.0 * m + d) * c.ih2
+        Q[j] = qv
+        qq += qv * qv
+        quf += qv * uf
+        qu1 += qv * u1
+        gap = min(gap, m - board[j])
+    return qq, quf, qu1, gap
+
+
+@njit(**JIT)
+def _linear_pass(c, U0, U1, UF, board):
+    """a) without Kirchhoff-Carrier: u_free and the min gap to the board."""
+    n = c.n
+    gap = np.inf
+    for j in range(n - 1):
+        m = U0[j + 2]
+        UF[j + 2] = (
+            c.b0 * m
+            + c.b1 * (U0[j + 1] + U0[j + 3])
+            + c.b2 * (U0[j] + U0[j + 4])
+            + c.c0 * U1[j + 2]
+            + c.c1 * (U1[j + 1] + U1[j + 3])
+        )
+        gap = min(gap, m - board[j])
+    return gap
+
+
+@njit(**JIT)
+def _solve(A, r, n):
+    """Gaussian elimination with partial pivoting, in place; returns False if singular."""
+    for i in range(n):
+        p = i
+        big = abs(A[i, i])
+        for m in range(i + 1, n):
+            if abs(A[m, i]) > big:
+                big = abs(A[m, i])
+                p = m
+        if not big > 0.0:
+            return False
+        if p != i:
+            for m in range(n):
+                t = A[i, m]
+                A[i, m] = A[p, m]
+                A[p, m] = t
+            t = r[i]
+            r[i] = r[p]
+            r[p] = t
+        piv = A[i, i]
+        for m in range(i + 1, n):
+            f = A[m, i] / piv
+            if f != 0.0:
+                for l in range(i, n):
+                    A[m, l] -= f * A[i, l]
+                r[m] -= f * r[i]
+    for i in range(n - 1, -1, -1):
+        s = r[i]
+        for m in range(i + 1, n):
+            s -= A[i, m] * r[m]
+        r[i] = s / A[i, i]
+    return True
+
+
+@njit(**JIT)
+def _gamma(psi, xi, s, in_contact):
+    """Gradient correction of sec. 4.7, written so that its aim is explicit.
+
+    In contact: gamma = 1 unless the predicted M_- psi^(n+1/2) (Sherman-Morrison with this column
+    alone, eq. (57)) would be negative; then gamma = -4 psi / xi, which makes it zero (eq. (60)).
+    Out of contact with a residual psi: the previous gradient is reused with the gamma that drives the
+    predicted psi^(n+1/2) to zero, the root of smaller magnitude of
+        (s psi / 4) gamma^2 - (xi / 2) gamma - psi = 0,
+    where psi^(n+1/2) = 2 M_- psi - psi^(n-1/2) and M_- psi = (psi + gamma xi / 4) / (1 + gamma^2 s / 4).
+    (The paper's lambda rule after eq. (61) serves this aim but reads sign-inconsistent; this form
+    has no free constant.)  Any gamma keeps the discrete energy balance exact.
+    """
+    if in_contact:
+        if 4.0 * psi + xi < 0.0 and xi != 0.0:
+            return -4.0 * psi / xi
+        return 1.0
+    a = 0.25 * psi * s
+    b = -0.5 * xi
+    cc = -psi
+    disc = b * b - 4.0 * a * cc
+    if a == 0.0 or disc < 0.0:
+        return 0.0
+    qv = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+    if qv == 0.0:
+        return 0.0
+    return cc / qv
+
+
+@njit(**JIT)
+def step_block(
+    c,
+    U0,
+    U1,
+    UF,
+    Q,
+    board,
+    psi,
+    gprev_b,
+    gprev_f,
+    has_gprev,
+    fret_p,
+    fret_w0,
+    fret_w1,
+    fret_m0,
+    fret_active,
+    pl_start,
+    pl_len,
+    pl_amp,
+    pl_p,
+    pl_w0,
+    pl_w1,
+    fs_on,
+    fs_rel,
+    fs_x0,
+    fs_x1,
+    fs_ms,
+    fs_me,
+    fs_force,
+    fs_v0,
+    fs_gap,
+    f_state,
+    f_w,
+    f_w1,
+    f_psi,
+    f_bprev,
+    step0,
+    nsteps,
+    out,
+    diag,
+    e_h,
+    e_q,
+    e_p,
+):
+    """Advance one string by ``nsteps`` steps from global step ``step0``; fill ``out`` (pickup
+    velocity, m/s) and, when ``diag``, the energy series e_h = H^(n+1/2), e_q = k Q^n and
+    e_p = k P^n (+ energy injected or removed with fingers).  Returns a status code.
+
+    U0, U1 hold u^n, u^(n-1) on entry and on exit; UF, Q are scratch.  psi, gprev_*, has_gprev,
+    fret_active and the f_* arrays are the persistent contact state.
+    """
+    n = c.n
+    k = c.k
+    lam = c.lam
+    nfret = fret_p.shape[0]
+    nslot = fs_on.shape[0]
+    npl = pl_start.shape[0]
+    ncap = 3 + nslot + nfret
+    cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + 8
+    kind = np.empty(ncap, np.int64)
+    cstart = np.empty(ncap + 1, np.int64)
+    cslot = np.empty(ncap, np.int64)  # finger slot of the column (-1: none)
+    cfret = np.empty(ncap, np.int64)  # fret of a rigid column
+    ca = np.empty(ncap)
+    cc = np.empty(ncap)
+    vfree = np.empty(ncap)
+    v1 = np.empty(ncap)
+    cidx = np.empty(cap, np.int64)
+    cval = np.empty(cap)
+    G = np.empty((ncap, ncap))
+    A = np.empty((ncap, ncap))
+    x = np.empty(ncap)
+    scr = np.zeros(n + 3)
+    du = np.zeros(n + 3)
+    touched = np.empty(cap, np.int64)
+    wfree = np.empty(nslot)
+    fext = np.zeros(nslot)
+    fp = np.zeros(nslot, np.int64)
+    fw0 = np.zeros(nslot)
+    fw1 = np.zeros(nslot)
+    fchi = np.zeros(nslot)
+    fbeta = np.zeros(nslot)
+    fcol = np.full(nslot, -1, np.int64)
+    lam_f = k * k / c.fg_mass
+    status = OK
+
+    for it in range(nsteps):
+        step = step0 + it
+        U0[0] = -U0[2]
+        U0[n + 2] = -U0[n]
+        # ---- a) linear update (+ KC vector, + board gap) -------------------------------------
+        if c.kc > 0.0:
+            qq, quf, qu1, gap = _linear_pass_kc(c, U0, U1, UF, Q, board)
+        else:
+            qq = 0.0
+            quf = 0.0
+            qu1 = 0.0
+            gap = _linear_pass(c, U0, U1, UF, board)
+        # ---- b) excitation, eq. (5) ------------------------------------------------------------
+        pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
+        for e in range(npl):
+            m = step - pl_start[e]
+            if m >= 0 and m <= pl_len[e]:
+                s_ = math.sin(0.5 * math.pi * m / pl_len[e])
+                f = pl_amp[e] * s_ * s_
+                p_ = pl_p[e]
+                UF[p_] += lam * pl_w0[e] * f
+                UF[p_ + 1] += lam * pl_w1[e] * f
+                if c.kc > 0.0:  # keep q.u_free current
+                    quf += lam * f * (pl_w0[e] * Q[p_ - 2] + pl_w1[e] * Q[p_ - 1])
+        # ---- fingers: life cycle, free update, eq. (39) -------------------------------------
+        inject = 0.0
+        for s in range(nslot):
+            if f_state[s] == IDLE and step >= fs_on[s]:
+                f_state[s] = ACTIVE
+                p_, a0, a1 = interp(_finger_x(fs_x0[s], fs_x1[s], fs_ms[s], fs_me[s], step), c.h, n)
+                f_w[s] = a0 * U0[p_] + a1 * U0[p_ + 1] + fs_gap[s]
+                f_w1[s] = f_w[s] + fs_v0[s] * k  # moving towards the board at v0
+                f_psi[s] = 0.0
+                f_bprev[s] = 0.0
+                inject += 0.5 * c.fg_mass * fs_v0[s] * fs_v0[s]
+            if f_state[s] != ACTIVE:
+                continue
+            xs = _finger_x(fs_x0[s], fs_x1[s], fs_ms[s], fs_me[s], step)
+            p_, a0, a1 = interp(xs, c.h, n)
+            fp[s] = p_
+            fw0[s] = a0
+            fw1[s] = a1
+            eta = a0 * U0[p_] + a1 * U0[p_ + 1] - f_w[s]
+            if step >= fs_rel[s]:
+                if -eta > c.fg_lift and f_w[s] > f_w1[s]:
+                    # far above the string and rising: the finger leaves the model, and its
+                    # energy (kinetic, and any residual psi) leaves the balance as work done
+                    vel = (f_w[s] - f_w1[s]) / k
+                    inject -= 0.5 * c.fg_mass * vel * vel + 0.5 * f_psi[s] * f_psi[s]
+                    f_state[s] = GONE
+                    continue
+                fext[s] = fs_force[s]  # lifting
+            else:
+                fext[s] = -fs_force[s]  # pressing towards the board
+            wfree[s] = 2.0 * f_w[s] - f_w1[s] + lam_f * fext[s]
+        # ---- assemble the columns --------------------------------------------------------------
+        nc = 0
+        nent = 0
+        cstart[0] = 0
+        if c.kc > 0.0:
+            kind[nc] = KC
+            cslot[nc] = -1
+            ca[nc] = c.kc * qu1
+            cc[nc] = c.kc
+            vfree[nc] = quf
+            v1[nc] = qu1
+            nc += 1
+            cstart[nc] = nent
+        # c) fretboard, eq. (24a), (55a)
+        if c.board_k > 0.0 and (gap < 0.0 or psi[0] != 0.0):
+            nent, used = _sav_board(c, U0, U1, UF, board, psi, gprev_b, has_gprev, gap < 0.0,
+                                    cidx, cval, nent, scr)
+            if used:
+                kind[nc] = BOARD
+                cslot[nc] = -1
+                nc += 1
+                cstart[nc] = nent
+        # d) frets as penalty, eq. (24b), (55b)
+        if c.fret_mode == 2:
+            nent, used = _sav_frets(c, U0, U1, UF, psi, gprev_f, has_gprev, fret_p, fret_w0,
+                                    fret_w1, fret_m0, cidx, cval, nent, scr)
+            if used:
+                kind[nc] = FRETPEN
+                cslot[nc] = -1
+                nc += 1
+                cstart[nc] = nent
+        # e) fingers, eqs. (25)-(27), (55c-d), with contact damping
+        for s in range(nslot):
+            fcol[s] = -1
+            if f_state[s] != ACTIVE:
+                continue
+            p_ = fp[s]
+            eta = fw0[s] * U0[p_] + fw1[s] * U0[p_ + 1] - f_w[s]
+            eta1 = fw0[s] * U1[p_] + fw1[s] * U1[p_ + 1] - f_w1[s]
+            etaf = fw0[s] * UF[p_] + fw1[s] * UF[p_ + 1] - wfree[s]
+            contact = eta > 0.0
+            if contact:
+                vpot = c.fg_k / (c.fg_alpha + 1.0) * eta ** (c.fg_alpha + 1.0)
+                bt = c.fg_k * eta**c.fg_alpha / math.sqrt(2.0 * vpot + EPS)
+                f_bprev[s] = bt
+            elif f_psi[s] != 0.0:
+                bt = f_bprev[s]
+            else:
+                continue
+            vlv = lam * (fw0[s] * fw0[s] + fw1[s] * fw1[s]) + lam_f
+            gm = _gamma(f_psi[s], bt * (etaf - eta1), bt * bt * vlv, contact)
+            bt *= gm
+            if bt == 0.0 and not contact:
+                continue
+            fbeta[s] = bt
+            fchi[s] = 1.0 if contact else 0.0
+            cf = 0.25 * bt * bt + fchi[s] * c.fg_r / (2.0 * k)
+            kind[nc] = FINGER
+            cslot[nc] = s
+            ca[nc] = bt * f_psi[s] - cf * eta1
+            cc[nc] = cf
+            vfree[nc] = etaf
+            v1[nc] = eta1
+            cidx[nent] = p_
+            cval[nent] = fw0[s]
+            cidx[nent + 1] = p_ + 1
+            cval[nent + 1] = fw1[s]
+            nent += 2
+            fcol[s] = nc
+            nc += 1
+            cstart[nc] = nent
+        # SAV columns' row data (board / penalty frets): x + 1/4 g.z^(n+1) = -(psi - 1/4 g.z^(n-1))
+        for ci in range(nc):
+            if kind[ci] == BOARD or kind[ci] == FRETPEN:
+                sf = 0.0
+                s1 = 0.0
+                for e in range(cstart[ci], cstart[ci + 1]):
+                    sf += cval[e] * UF[cidx[e]]
+                    s1 += cval[e] * U1[cidx[e]]
+                ps = psi[0] if kind[ci] == BOARD else psi[1]
+                ca[ci] = ps - 0.25 * s1
+                cc[ci] = 0.25
+                vfree[ci] = sf
+                v1[ci] = s1
+        nbase = nc
+        # ---- f) solve; rigid frets by a warm-started active set -------------------------------
+        if c.fret_mode == 1:
+            for q in range(nfret):
+                if fret_active[q]:
+                    nent = _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent,
+                                      fret_p, fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
+                    nc += 1
+        for _attempt in range(2 * nfret + 4):
+            if nc > 0:
+                _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
+                for i in range(nc):
+                    for j in range(nc):
+                        if kind[i] == RIGID:
+                            A[i, j] = G[i, j]
+                        else:
+                            A[i, j] = cc[i] * G[i, j]
+                    if kind[i] == RIGID:
+                        x[i] = ca[i] - vfree[i]
+                    else:
+                        A[i, i] += 1.0
+                        x[i] = -ca[i] - cc[i] * vfree[i]
+                if not _solve(A, x, nc):
+                    if nc > nbase:  # drop the newest rigid constraint and try again
+                        fret_active[cfret[nc - 1]] = 0
+                        nc -= 1
+                        nent = cstart[nc]
+                        continue
+                    status = NONFINITE
+                    break
+            if c.fret_mode != 1:
+                break
+            # check the rigid frets: reactions >= 0, no fret penetrated
+            worst = -1
+            wval = 0.0
+            for i in range(nbase, nc):
+                if x[i] < wval:
+                    wval = x[i]
+                    worst = i
+            if worst >= 0:
+                fret_active[cfret[worst]] = 0
+                nc = _remove_col(worst, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
+                                 vfree, v1)
+                nent = cstart[nc]
+                continue
+            xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du, touched)
+            add = -1
+            wval = -1e-12
+            for q in range(nfret):
+                if fret_active[q]:
+                    continue
+                p_ = fret_p[q]
+                pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
+                if c.kc > 0.0:
+                    pv += lam * xk * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
+                viol = pv - fret_m0[q]
+                if viol < wval:
+                    wval = viol
+                    add = q
+            _unscatter(nc, cstart, cidx, du)
+            if add < 0:
+                break
+            fret_active[add] = 1
+            nent = _add_rigid(add, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p,
+                              fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
+            nc += 1
+        # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
+        xk = 0.0
+        for ci in range(nc):
+            if kind[ci] == KC:
+                xk = x[ci]
+                continue
+            for e in range(cstart[ci], cstart[ci + 1]):
+                UF[cidx[e]] += lam * cval[e] * x[ci]
+        if xk != 0.0:
+            a_ = lam * xk
+            for j in range(n - 1):
+                UF[j + 2] += a_ * Q[j]
+        # fingers' new positions and psi updates, eqs. (41), (48)
+        qloss = 0.0
+        for s in range(nslot):
+            if f_state[s] != ACTIVE:
+                continue
+            wn = wfree[s]
+            ci = fcol[s]
+            if ci >= 0:
+                wn -= lam_f * x[ci]
+            p_ = fp[s]
+            etan = fw0[s] * UF[p_] + fw1[s] * UF[p_ + 1] - wn
+            if ci >= 0:
+                deta = etan - v1[ci]
+                f_psi[s] += 0.5 * fbeta[s] * deta
+                if diag:
+                    dr = deta / (2.0 * k)
+                    qloss += fchi[s] * c.fg_r * dr * dr * k
+            if diag:
+                pin += fext[s] * (wn - f_w1[s]) * 0.5
+            f_w1[s] = f_w[s]
+            f_w[s] = wn
+        for ci in range(nc):
+            kd = kind[ci]
+            if kd == BOARD or kd == FRETPEN:
+                sn = 0.0
+                for e in range(cstart[ci], cstart[ci + 1]):
+                    sn += cval[e] * UF[cidx[e]]
+                psi[kd - 1] += 0.5 * (sn - v1[ci])
+            elif kd == RIGID and diag:
+                p_ = fret_p[cfret[ci]]
+                sn = fret_w0[cfret[ci]] * UF[p_] + fret_w1[cfret[ci]] * UF[p_ + 1]
+                qloss -= x[ci] * (sn - v1[ci]) * 0.5  # reaction's work, booked as loss
+        # ---- output: velocity at the pickup ---------------------------------------------------
+        po = c.out_p
+        out[it] = (
+            c.out_w0 * (UF[po] - U0[po]) + c.out_w1 * (UF[po + 1] - U0[po + 1])
+        ) / k
+        if diag:
+            for e in range(npl):
+                m = step - pl_start[e]
+                if m >= 0 and m <= pl_len[e]:
+                    s_ = math.sin(0.5 * math.pi * m / pl_len[e])
+                    f = pl_amp[e] * s_ * s_
+                    p_ = pl_p[e]
+                    dv = pl_w0[e] * (UF[p_] - U1[p_]) + pl_w1[e] * (UF[p_ + 1] - U1[p_ + 1])
+                    pin += f * dv * 0.5
+            h_, ql = _energy(c, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1)
+            e_h[it] = h_
+            e_q[it] = ql + qloss
+            e_p[it] = pin + inject
+        # ---- rotate: u^(n-1) <- u^n <- u^(n+1) ----------------------------------------------------
+        T = U1
+        U1 = U0
+        U0 = UF
+        UF = T
+    # hand the state back in the caller's arrays (U0/U1 may have rotated)
+    if nsteps % 3 != 0:
+        _restore(U0, U1, UF, nsteps % 3)
+    for it in range(nsteps):
+        if not math.isfinite(out[it]):
+            status = NONFINITE
+            break
+    return status
+
+
+@njit(**JIT)
+def _restore(U0, U1, UF, r):
+    """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
+    # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
+    # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
+    tmp = U0.copy()
+    tmp1 = U1.copy()
+    if r == 1:
+        # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
+        UF[:] = tmp1  # b <- old a
+        U1[:] = tmp  # a <- old c
+    else:
+        # local (U0, U1, UF) = (b, c, a): caller wants a <- u^n (=b), b <- u^(n-1) (=c)
+        UF[:] = tmp  # a <- b
+        U0[:] = tmp1  # b <- c
+
+
+@njit(**JIT)
+def _finger_x(x0, x1, ms, me, step):
+    """Finger position x / L... in metres: x0 until step ms, gliding linearly to x1 at step me."""
+    if me <= ms:
+        return x0 if step < ms else x1
+    if step <= ms:
+        return x0
+    if step >= me:
+        return x1
+    return x0 + (x1 - x0) * (step - ms) / (me - ms)
+
+
+@njit(**JIT)
+def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, cidx, cval, nent, scr):
+    """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used)."""
+    n = c.n
+    start = nent
+    if contact:
+        vpot = 0.0
+        for j in range(n - 1):
+            pen = board[j] - U0[j + 2]
+            if pen > 0.0:
+                vpot += c.h * c.board_k / (c.board_alpha + 1.0) * pen ** (c.board_alpha + 1.0)
+        den = math.sqrt(2.0 * vpot + EPS)
+        for j in range(n - 1):
+            pen = board[j] - U0[j + 2]
+            if pen > 0.0:
+                cidx[nent] = j + 2
+                cval[nent] = -c.h * c.board_k * pen**c.board_alpha / den
+                nent += 1
+        # keep the gradient for the out-of-contact rule
+        gprev[:] = 0.0
+        for e in range(start, nent):
+            gprev[cidx[e]] = cval[e]
+        has_gprev[0] = 1
+    else:
+        if not has_gprev[0]:
+            return nent, False
+        for j in range(n - 1):
+            if gprev[j + 2] != 0.0:
+                cidx[nent] = j + 2
+                cval[nent] = gprev[j + 2]
+                nent += 1
+    return _apply_gamma(c, UF, U1, psi, 0, contact, cidx, cval, start, nent)
+
+
+@njit(**JIT)
+def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
+               cidx, cval, nent, scr):
+    """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used)."""
+    start = nent
+    vpot = 0.0
+    nf = fret_p.shape[0]
+    contact = False
+    for q in range(nf):
+        p_ = fret_p[q]
+        pen = fret_m0[q] - (fret_w0[q] * U0[p_] + fret_w1[q] * U0[p_ + 1])
+        if pen > 0.0:
+            contact = True
+            vpot += c.fret_k / (c.fret_alpha + 1.0) * pen ** (c.fret_alpha + 1.0)
+    if contact:
+        den = math.sqrt(2.0 * vpot + EPS)
+        for q in range(nf):
+            p_ = fret_p[q]
+            pen = fret_m0[q] - (fret_w0[q] * U0[p_] + fret_w1[q] * U0[p_ + 1])
+            if pen > 0.0:
+                f = -c.fret_k * pen**c.fret_alpha / den
+                scr[p_] += f * fret_w0[q]
+                scr[p_ + 1] += f * fret_w1[q]
+        gprev[:] = 0.0
+        for q in range(nf):
+            p_ = fret_p[q]
+            for pp in (p_, p_ + 1):
+                if scr[pp] != 0.0:
+                    cidx[nent] = pp
+                    cval[nent] = scr[pp]
+                    gprev[pp] = scr[pp]
+                    scr[pp] = 0.0
+                    nent += 1
+        has_gprev[1] = 1
+    else:
+        if psi[1] == 0.0 or not has_gprev[1]:
+            return nent, False
+        for q in range(nf):
+            p_ = fret_p[q]
+            for pp in (p_, p_ + 1):
+                if gprev[pp] != 0.0 and scr[pp] == 0.0:
+                    scr[pp] = 1.0
+                    cidx[nent] = pp
+                    cval[nent] = gprev[pp]
+                    nent += 1
+        for e in range(start, nent):
+            scr[cidx[e]] = 0.0
+    return _apply_gamma(c, UF, U1, psi, 1, contact, cidx, cval, start, nent)
+
+
+@njit(**JIT)
+def _apply_gamma(c, UF, U1, psi, which, contact, cidx, cval, start, nent):
+    xi = 0.0
+    s = 0.0
+    for e in range(start, nent):
+        xi += cval[e] * (UF[cidx[e]] - U1[cidx[e]])
+        s += cval[e] * cval[e]
+    s *= c.lam
+    gm = _gamma(psi[which], xi, s, contact)
+    if gm == 0.0 or nent == start:
+        return start, False
+    for e in range(start, nent):
+        cval[e] *= gm
+    return nent, True
+
+
+@njit(**JIT)
+def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret_w0, fret_w1,
+               fret_m0, UF, U1, ca, vfree, v1):
+    p_ = fret_p[q]
+    kind[nc] = RIGID
+    cslot[nc] = -1
+    cfret[nc] = q
+    cidx[nent] = p_
+    cval[nent] = fret_w0[q]
+    cidx[nent + 1] = p_ + 1
+    cval[nent + 1] = fret_w1[q]
+    ca[nc] = fret_m0[q]
+    vfree[nc] = fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1]
+    v1[nc] = fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1]
+    cstart[nc + 1] = nent + 2
+    return nent + 2
+
+
+@njit(**JIT)
+def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1):
+    """Remove column i (a rigid fret, always stored after the others) and compact the storage."""
+    width = cstart[i + 1] - cstart[i]
+    for m in range(i, nc - 1):
+        kind[m] = kind[m + 1]
+        cslot[m] = cslot[m + 1]
+        cfret[m] = cfret[m + 1]
+        ca[m] = ca[m + 1]
+        cc[m] = cc[m + 1]
+        vfree[m] = vfree[m + 1]
+        v1[m] = v1[m + 1]
+        for e in range(cstart[m + 1], cstart[m + 2]):
+            cidx[e - width] = cidx[e]
+            cval[e - width] = cval[e]
+        cstart[m + 1] = cstart[m + 2] - width
+    return nc - 1
+
+
+@njit(**JIT)
+def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
+    """G[i, j] = v_i^T Lambda v_j for the active columns (the Woodbury core matrix)."""
+    for i in range(nc):
+        if kind[i] == KC:
+            continue
+        for e in range(cstart[i], cstart[i + 1]):
+            scr[cidx[e]] += cval[e]
+        for j in range(i, nc):
+            if kind[j] == KC:
+                continue
+            s = 0.0
+            for e in range(cstart[j], cstart[j + 1]):
+                s += scr[cidx[e]] * cval[e]
+            s *= lam
+            if cslot[i] >= 0 and cslot[i] == cslot[j]:
+                s += lam_f  # the finger entries (-1)(-1)
+            G[i, j] = s
+            G[j, i] = s
+        for e in range(cstart[i], cstart[i + 1]):
+            scr[cidx[e]] = 0.0
+    for i in range(nc):
+        if kind[i] != KC:
+            continue
+        G[i, i] = lam * qq
+        for j in range(nc):
+            if j == i:
+                continue
+            t = 0.0
+            for e in range(cstart[j], cstart[j + 1]):
+                t += Q[cidx[e] - 2] * cval[e]
+            G[i, j] = lam * t
+            G[j, i] = lam * t
+
+
+@njit(**JIT)
+def _scatter(nc, kind, cstart, cidx, cval, x, lam, du, touched):
+    """du = Lambda * sum of the sparse columns' forces; returns the KC multiplier."""
+    xk = 0.0
+    for ci in range(nc):
+        if kind[ci] == KC:
+            xk = x[ci]
+            continue
+        for e in range(cstart[ci], cstart[ci + 1]):
+            du[cidx[e]] += lam * cval[e] * x[ci]
+    return xk
+
+
+@njit(**JIT)
+def _unscatter(nc, cstart, cidx, du):
+    for e in range(cstart[0], cstart[nc]):
+        du[cidx[e]] = 0.0
+
+
+@njit(**JIT)
+def _energy(c, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
+    """H^(n+1/2) of eqs. (43)-(45) and k Q^n of eq. (46a) for the string (and fingers' H)."""
+    n = c.n
+    k = c.k
+    ih2 = c.ih2
+    kin = 0.0
+    kin_d = 0.0
+    vt = 0.0
+    vs = 0.0
+    kcd = 0.0
+    lo0 = 0.0
+    lo1 = 0.0
+    for j in range(n):  # intervals between nodes j and j+1 (padded j+1, j+2)
+        dn = UN[j + 2] - UN[j + 1]
+        d0 = U0[j + 2] - U0[j + 1]
+        vt += dn * d0
+        a = (UN[j + 2] - U0[j + 2]) - (UN[j + 1] - U0[j + 1])
+        kin_d += a * a
+        b = (UN[j + 2] - U1[j + 2]) - (UN[j + 1] - U1[j + 1])
+        lo1 += b * b
+    for j in range(n - 1):
+        p = j + 2
+        a = UN[p] - U0[p]
+        kin += a * a
+        lapn = (UN[p - 1] - 2.0 * UN[p] + UN[p + 1]) * ih2
+        lap0 = (U0[p - 1] - 2.0 * U0[p] + U0[p + 1]) * ih2
+        vs += lapn * lap0
+        kcd += UN[p] * lap0
+        b = UN[p] - U1[p]
+        lo0 += b * b
+    h = c.h
+    tl = 0.5 * c.rho_a_h / (k * k) * (kin - c.sigma1 * k * ih2 * kin_d)
+    vl = 0.5 * h * (c.t0 * vt * ih2 + c.ei * vs)
+    vkc = 0.5 * c.kc * kcd * kcd
+    hh = tl + vl + vkc + 0.5 * psi[0] * psi[0] + 0.5 * psi[1] * psi[1]
+    for s in range(f_state.shape[0]):
+        if f_state[s] == ACTIVE:
+            v = (f_w[s] - f_w1[s]) / k
+            hh += 0.5 * c.fg_mass * v * v + 0.5 * f_psi[s] * f_psi[s]
+    q = 2.0 * c.rho_a_h * (c.sigma0 * lo0 + c.sigma1 * ih2 * lo1) / (4.0 * k * k) * k
+    return hh, q

@@ -1,0 +1,215 @@
+"""Instruments: string sets, action, frets and the fretting finger, in SI units.
+
+Each preset is a set of physical strings (the parameters of eq. (3) of the DAFx24 paper, Bilbao,
+Russo, Webb & Ducceschi 2024) plus the geometry the collision terms of eqs. (7)-(10) need.  Tensions
+are *not* stored: every string is tuned by solving the numerical scheme's own dispersion relation for
+the tension that puts its fundamental at the nominal pitch (see ``engine.string``), so grid error and
+bending stiffness do not detune the open strings.
+
+Sources and reasoning
+---------------------
+* Steel acoustic: 645 mm (25.4") scale, light gauge .012-.053 phosphor-bronze set.  Plain strings are
+  steel (rho 7850 kg/m^3, E 200 GPa).  A wound string is described by its outer radius, its mass per
+  length (from the maker's published tension at pitch, mu = T / (2 L f0)^2) and an *effective* Young's
+  modulus E_eff = E_steel (r_core / r)^4, so that E_eff * I(r) equals the core's bending stiffness: the
+  wrap adds mass but almost no stiffness.  (The single-modulus model then under-states the wound
+  strings' axial stiffness EA in the Kirchhoff-Carrier term; documented, not hidden.)
+* Nylon classical: 650 mm scale, normal-tension set; nylon rho 1140 kg/m^3, E 5 GPa for the trebles;
+  basses are silver-plated copper on a multifilament nylon core, whose stiffness is mostly the core's.
+* Decay: T60 at the fundamental and at 2 kHz, typical of measured guitar partial decays (several
+  seconds at the fundamental, a second or less at 2 kHz; nylon shorter than steel).  sigma_0 and
+  sigma_1 follow from these by the two-frequency calibration of Bilbao 2009, sec. 7.1.
+* Action: clearance between the string and the fret crowns at the nut and at the 12th fret (the
+  string's rest line rises linearly towards the bridge); fret crowns stand ``fret_height_m`` above the
+  fretboard.  Values are those of a comfortable factory set-up.
+* Finger: a fingertip pad of a few grams effective mass, a linear (alpha = 1) contact stiffness of a
+  fleshy pad and contact damping (real fingertips are lossy; an undamped finger mass rings, see
+  ``../shared/papers/NOTES.md``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+STEEL_DENSITY = 7850.0
+STEEL_E = 2.0e11
+NYLON_DENSITY = 1140.0
+NYLON_E = 5.0e9
+INCH = 0.0254
+
+
+def note_frequency(name: str) -> float:
+    """Scientific pitch name ('E2', 'F#3', 'Bb4') to Hz with A4 = 440 Hz."""
+    name = name.strip()
+    letters = {"C": -9, "D": -7, "E": -5, "F": -4, "G": -2, "A": 0, "B": 2}
+    if not name or name[0].upper() not in letters:
+        raise ValueError(f"not a note name: {name!r}")
+    semis = letters[name[0].upper()]
+    rest = name[1:]
+    while rest and rest[0] in "#b":
+        semis += 1 if rest[0] == "#" else -1
+        rest = rest[1:]
+    try:
+        octave = int(rest)
+    except ValueError as exc:
+        raise ValueError(f"not a note name: {name!r}") from exc
+    return 440.0 * 2.0 ** ((semis + 12 * (octave - 4)) / 12.0)
+
+
+@dataclass(frozen=True)
+class StringSpec:
+    """One string's physical parameters (SI units)."""
+
+    note: str  # nominal open-string pitch, scientific notation
+    radius_m: float  # outer radius r; A = pi r^2, I = pi r^4 / 4
+    density_kg_m3: float  # effective rho, so that rho A is the mass per length
+    youngs_modulus_pa: float  # effective E (bending stiffness E I)
+    t60_fundamental_s: float  # 60 dB decay time at the fundamental
+    t60_2khz_s: float  # 60 dB decay time at 2 kHz
+
+    @property
+    def frequency_hz(self) -> float:
+        return note_frequency(self.note)
+
+    @property
+    def area_m2(self) -> float:
+        return float(np.pi * self.radius_m**2)
+
+    @property
+    def linear_density_kg_m(self) -> float:
+        return self.density_kg_m3 * self.area_m2
+
+
+@dataclass(frozen=True)
+class FingerSpec:
+    """The fretting/tapping finger of eqs. (9)-(10), with contact damping added."""
+
+    mass_kg: float = 0.005
+    stiffness: float = 2.0e4  # K_FG, N/m^alpha
+    alpha: float = 1.0
+    damping_n_s_m: float = 8.0  # contact damping while touching (counted in the loss Q)
+
+
+@dataclass(frozen=True)
+class Preset:
+    name: str
+    description: str
+    scale_length_m: float
+    strings: tuple[StringSpec, ...]  # index 0 is string 1 (the highest)
+    frets: int = 20
+    action_nut_m: float = 0.5e-3
+    action_12th_m: float = 2.0e-3
+    fret_height_m: float = 1.0e-3
+    fretboard_stiffness: float = 1.0e10  # K_B, N/m^(alpha+1) per metre of string
+    fretboard_alpha: float = 1.5
+    fret_stiffness: float = 1.0e10  # K_F for the penalty fret model, N/m^alpha
+    fret_alpha: float = 1.5
+    finger: FingerSpec = field(default_factory=FingerSpec)
+    pickup_position: float = 0.92  # output point, fraction of the length from the nut
+
+    @property
+    def n_strings(self) -> int:
+        return len(self.strings)
+
+    def fret_position(self, fret: int) -> float:
+        """x_q / L = 1 - 2^(-q/12) (API.md, Coordinates)."""
+        return 1.0 - 2.0 ** (-fret / 12.0)
+
+    def clearance_m(self, position: float) -> np.ndarray | float:
+        """Height of the string's rest line above the fret crowns at x / L = position."""
+        x12 = self.fret_position(12)
+        return self.action_nut_m + (self.action_12th_m - self.action_nut_m) * (
+            np.asarray(position) / x12
+        )
+
+
+def _wound(note, gauge_in, core_in, tension_n, scale, t60_f0, t60_2k) -> StringSpec:
+    """A wound string from its gauge, core gauge and the maker's tension at pitch."""
+    r = gauge_in * INCH / 2
+    f0 = note_frequency(note)
+    mu = tension_n / (2 * scale * f0) ** 2
+    rho = mu / (np.pi * r**2)
+    e_eff = STEEL_E * ((core_in / gauge_in) ** 4)
+    return StringSpec(note, r, rho, e_eff, t60_f0, t60_2k)
+
+
+def _plain(note, gauge_in, rho, e, t60_f0, t60_2k) -> StringSpec:
+    return StringSpec(note, gauge_in * INCH / 2, rho, e, t60_f0, t60_2k)
+
+
+_STEEL_SCALE = 0.645
+STEEL_ACOUSTIC = Preset(
+    name="steel-acoustic",
+    description="Steel-string acoustic, 645 mm scale, light .012-.053 set, standard tuning",
+    scale_length_m=_STEEL_SCALE,
+    strings=(
+        _plain("E4", 0.012, STEEL_DENSITY, STEEL_E, 4.0, 1.2),
+        _plain("B3", 0.016, STEEL_DENSITY, STEEL_E, 5.0, 1.2),
+        _wound("G3", 0.024, 0.0110, 134.0, _STEEL_SCALE, 6.0, 1.0),
+        _wound("D3", 0.032, 0.0135, 133.0, _STEEL_SCALE, 7.0, 0.9),
+        _wound("A2", 0.042, 0.0160, 130.0, _STEEL_SCALE, 8.0, 0.8),
+        _wound("E2", 0.053, 0.0180, 107.0, _STEEL_SCALE, 9.0, 0.7),
+    ),
+    frets=20,
+    action_nut_m=0.5e-3,
+    action_12th_m=2.0e-3,
+)
+
+_NYLON_SCALE = 0.650
+NYLON_CLASSICAL = Preset(
+    name="nylon-classical",
+    description="Nylon-string classical, 650 mm scale, normal tension, standard tuning",
+    scale_length_m=_NYLON_SCALE,
+    strings=(
+        _plain("E4", 0.028, NYLON_DENSITY, NYLON_E, 2.5, 0.6),
+        _plain("B3", 0.032, NYLON_DENSITY, NYLON_E, 3.0, 0.6),
+        _plain("G3", 0.040, NYLON_DENSITY, NYLON_E, 3.5, 0.5),
+        _wound("D3", 0.029, 0.020, 71.0, _NYLON_SCALE, 4.0, 0.5),
+        _wound("A2", 0.035, 0.024, 70.0, _NYLON_SCALE, 4.5, 0.4),
+        _wound("E2", 0.043, 0.028, 72.0, _NYLON_SCALE, 5.0, 0.4),
+    ),
+    frets=19,
+    action_nut_m=0.6e-3,
+    action_12th_m=3.5e-3,
+    fret_height_m=1.1e-3,
+)
+# The nylon basses' cores are multifilament nylon: their bending stiffness is that of a nylon rod
+# of the core's size, not steel.
+NYLON_CLASSICAL = replace(
+    NYLON_CLASSICAL,
+    strings=NYLON_CLASSICAL.strings[:3]
+    + tuple(
+        replace(s, youngs_modulus_pa=s.youngs_modulus_pa * NYLON_E / STEEL_E)
+        for s in NYLON_CLASSICAL.strings[3:]
+    ),
+)
+
+PRESETS: dict[str, Preset] = {p.name: p for p in (STEEL_ACOUSTIC, NYLON_CLASSICAL)}
+DEFAULT_PRESET = STEEL_ACOUSTIC.name
+
+
+def get_preset(name: str) -> Preset:
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise KeyError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}") from None
+
+
+def apply_overrides(preset: Preset, guitar) -> Preset:
+    """The preset refined by a scene's ``guitar`` overrides (tuning, strings, frets, action)."""
+    strings = list(preset.strings)
+    if guitar.tuning is not None:
+        strings = [replace(s, note=n) for s, n in zip(strings, guitar.tuning, strict=True)]
+    for o in guitar.strings:
+        changes = {
+            k: v for k, v in o.model_dump(exclude={"string"}).items() if v is not None
+        }
+        strings[o.string - 1] = replace(strings[o.string - 1], **changes)
+    geometry = {
+        k: getattr(guitar, k)
+        for k in ("frets", "action_nut_m", "action_12th_m")
+        if getattr(guitar, k) is not None
+    }
+    return replace(preset, strings=tuple(strings), **geometry)

@@ -1,0 +1,224 @@
+"""One string: the coefficients of the DAFx24 scheme from physical parameters, and its tuning.
+
+* Loss: sigma_0, sigma_1 of eq. (3) from two 60 dB decay times (Bilbao, *Numerical Sound Synthesis*,
+  2009, sec. 7.1.2): the decay rate of a mode of wavenumber beta is sigma_0 + sigma_1 beta^2.
+* Grid: the stability bound eq. (47), h >= h_min; N = floor(L / h_min), h = L / N.
+* Tuning: the tension is solved from the *scheme's own* dispersion relation (with its loss terms), so
+  the simulated open string's fundamental is the nominal pitch to rounding, whatever the grid and the
+  bending stiffness do to it.
+* Geometry of the collisions: fret tips m0 (eq. (8)) and the fretboard b(x) (eq. (7)) from the
+  preset's action; interpolants j^(x) (eq. (15)) for plucks, frets, fingers and the pickup.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .kernels import Coefs, interp
+from .presets import Preset, StringSpec
+
+LN1000 = 3.0 * math.log(10.0) * 2.0  # 6 ln 10: T60 = 6 ln(10) / sigma
+
+FRET_NONE, FRET_RIGID, FRET_PENALTY = 0, 1, 2
+
+
+def loss_coefficients(spec: StringSpec, tension: float) -> tuple[float, float]:
+    """sigma_0, sigma_1 matching T60 at the fundamental and at 2 kHz (two-frequency calibration)."""
+    rho_a = spec.linear_density_kg_m
+    gamma2 = tension / rho_a
+    kappa2 = spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0 / rho_a
+
+    def xi(f: float) -> float:  # beta^2 of the mode at frequency f (continuous dispersion)
+        w = 2.0 * math.pi * f
+        return (-gamma2 + math.sqrt(gamma2**2 + 4.0 * kappa2 * w * w)) / (2.0 * kappa2)
+
+    f1, f2 = spec.frequency_hz, 2000.0
+    x1, x2 = xi(f1), xi(f2)
+    t1, t2 = spec.t60_fundamental_s, spec.t60_2khz_s
+    sigma1 = LN1000 * (1.0 / t2 - 1.0 / t1) / (x2 - x1)
+    sigma1 = max(sigma1, 0.0)
+    sigma0 = max(LN1000 / t1 - sigma1 * x1, 0.0)
+    return sigma0, sigma1
+
+
+def h_min(k: float, tension: float, rho_a: float, ei: float, sigma1: float) -> float:
+    """The stability bound of eq. (47)."""
+    a = tension * k / rho_a + 4.0 * sigma1
+    return math.sqrt(0.5 * k * (a + math.sqrt(a * a + 16.0 * ei / rho_a)))
+
+
+def scheme_frequency(mode: int, n: int, length: float, k: float, tension: float, rho_a: float,
+                     ei: float, sigma0: float, sigma1: float) -> float:
+    """Frequency (Hz) of mode ``mode`` of the discrete lossy scheme (roots of z^2 - b z - c)."""
+    h = length / n
+    lam = 4.0 / (h * h) * math.sin(mode * math.pi / (2 * n)) ** 2  # eigenvalue of -D
+    den = 1.0 + sigma0 * k
+    b = (2.0 - (tension * k * k / rho_a) * lam - (ei * k * k / rho_a) * lam * lam
+         - 2.0 * sigma1 * k * lam) / den
+    c = (sigma0 * k - 1.0 + 2.0 * sigma1 * k * lam) / den
+    disc = b * b + 4.0 * c
+    if disc >= 0.0:
+        return 0.0
+    return math.atan2(math.sqrt(-disc), b) / (2.0 * math.pi * k)
+
+
+@dataclass(frozen=True)
+class StringModel:
+    """A tuned string on its grid: everything the kernel needs except the per-scene controls."""
+
+    spec: StringSpec
+    length_m: float
+    k: float
+    n: int
+    tension_n: float
+    sigma0: float
+    sigma1: float
+
+    @property
+    def h(self) -> float:
+        return self.length_m / self.n
+
+    @property
+    def rho_a(self) -> float:
+        return self.spec.linear_density_kg_m
+
+    @property
+    def ei(self) -> float:
+        return self.spec.youngs_modulus_pa * math.pi * self.spec.radius_m**4 / 4.0
+
+    @property
+    def ea(self) -> float:
+        return self.spec.youngs_modulus_pa * self.spec.area_m2
+
+    def frequency(self, mode: int = 1) -> float:
+        return scheme_frequency(mode, self.n, self.length_m, self.k, self.tension_n, self.rho_a,
+                                self.ei, self.sigma0, self.sigma1)
+
+    def inharmonicity(self) -> float:
+        """B = pi^2 E I / (T L^2) of f_n = n f0 sqrt(1 + B n^2)."""
+        return math.pi**2 * self.ei / (self.tension_n * self.length_m**2)
+
+
+def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float = 1.0
+         ) -> StringModel:
+    """Build the string at internal rate ``sample_rate``, tuned so mode 1 sounds at spec's pitch.
+
+    ``grid_scale`` >= 1 makes the grid coarser than the bound (h = grid_scale * h_min), a knob of the
+    accuracy/cost study; 1 is the finest stable grid.
+    """
+    k = 1.0 / sample_rate
+    rho_a = spec.linear_density_kg_m
+    ei = spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0
+    f0 = spec.frequency_hz
+    t_guess = rho_a * (2.0 * length * f0) ** 2
+    sigma0, sigma1 = loss_coefficients(spec, t_guess)
+    n = max(int(length / (grid_scale * h_min(k, t_guess, rho_a, ei, sigma1))), 4)
+    for _ in range(50):
+        tension = _solve_tension(f0, n, length, k, rho_a, ei, spec, t_guess)
+        sigma0, sigma1 = loss_coefficients(spec, tension)
+        tension = _solve_tension(f0, n, length, k, rho_a, ei, spec, tension)
+        if length / n >= h_min(k, tension, rho_a, ei, sigma1) * (1.0 + 1e-12):
+            return StringModel(spec, length, k, n, tension, sigma0, sigma1)
+        n -= 1
+    raise ValueError(f"cannot place a stable grid on string {spec.note}")
+
+
+def _solve_tension(f0, n, length, k, rho_a, ei, spec, t0) -> float:
+    """Secant iteration on the tension for the scheme's mode-1 frequency = f0."""
+    sigma0, sigma1 = loss_coefficients(spec, t0)
+
+    def err(t):
+        return scheme_frequency(1, n, length, k, t, rho_a, ei, sigma0, sigma1) - f0
+
+    t1 = t0 * 1.01
+    e0, e1 = err(t0), err(t1)
+    for _ in range(60):
+        if e1 == e0:
+            break
+        t2 = t1 - e1 * (t1 - t0) / (e1 - e0)
+        t0, e0 = t1, e1
+        t1, e1 = t2, err(t2)
+        if abs(e1) < 1e-12 * f0:
+            break
+    return t1
+
+
+def coefficients(model: StringModel, preset: Preset, fret_mode: int, pickup: float,
+                 kirchhoff_carrier: bool = True, fretboard: bool = True) -> Coefs:
+    """The kernel's constants, eqs. (50a)-(52) written as stencils."""
+    k, h, n = model.k, model.h, model.n
+    rho_a = model.rho_a
+    s0, s1 = model.sigma0, model.sigma1
+    den = 1.0 + s0 * k
+    lam2 = model.tension_n * k * k / (rho_a * h * h)
+    mu2 = model.ei * k * k / (rho_a * h**4)
+    sg = 2.0 * s1 * k / (h * h)
+    p, w0, w1 = interp(pickup * model.length_m, h, n)
+    finger = preset.finger
+    return Coefs(
+        n=n,
+        k=k,
+        h=h,
+        lam=k * k / (rho_a * h * den),
+        b0=(2.0 - 2.0 * lam2 - 6.0 * mu2 - 2.0 * sg) / den,
+        b1=(lam2 + 4.0 * mu2 + sg) / den,
+        b2=-mu2 / den,
+        c0=(s0 * k - 1.0 + 2.0 * sg) / den,
+        c1=-sg / den,
+        ih2=1.0 / (h * h),
+        kc=model.ea * h * h / (4.0 * model.length_m) if kirchhoff_carrier else 0.0,
+        rho_a_h=rho_a * h,
+        t0=model.tension_n,
+        ei=model.ei,
+        sigma0=s0,
+        sigma1=s1,
+        board_k=preset.fretboard_stiffness if fretboard else 0.0,
+        board_alpha=preset.fretboard_alpha,
+        fret_mode=fret_mode,
+        fret_k=preset.fret_stiffness,
+        fret_alpha=preset.fret_alpha,
+        fg_mass=finger.mass_kg,
+        fg_k=finger.stiffness,
+        fg_alpha=finger.alpha,
+        fg_r=finger.damping_n_s_m,
+        fg_lift=3e-3,
+        out_p=p,
+        out_w0=w0,
+        out_w1=w1,
+    )
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Fret tips and fretboard on the string's grid (arrays the kernel reads)."""
+
+    fret_p: np.ndarray
+    fret_w0: np.ndarray
+    fret_w1: np.ndarray
+    fret_m0: np.ndarray
+    board: np.ndarray  # b at interior nodes 1..N-1 (very low where there is no fretboard)
+
+
+NO_BOARD = -1.0  # a "fretboard" a metre below the string: unreachable
+
+
+def geometry(model: StringModel, preset: Preset, with_frets: bool = True) -> Geometry:
+    """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
+    from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12."""
+    L, h, n = model.length_m, model.h, model.n
+    q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
+    xq = 1.0 - 2.0 ** (-q / 12.0)
+    p = np.empty(len(q), np.int64)
+    w0 = np.empty(len(q))
+    w1 = np.empty(len(q))
+    for i, xf in enumerate(xq):
+        p[i], w0[i], w1[i] = interp(xf * L, h, n)
+    m0 = -np.asarray(preset.clearance_m(xq), dtype=float)
+    xn = np.arange(1, n) * h / L
+    board = -(np.asarray(preset.clearance_m(xn), dtype=float) + preset.fret_height_m)
+    last = 1.0 - 2.0 ** (-(preset.frets + 0.5) / 12.0)  # the board ends half a fret past the last
+    board[xn > last] = NO_BOARD
+    return Geometry(p, w0, w1, m0, board)

@@ -18,18 +18,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import interp
+from .presets import Preset
 from .scene import Fret, Pluck, Scene, Tap
 
-FINGER_BEHIND = 0.35  # of the spacing between fret q-1 and fret q
+FINGER_BEHIND = 0.3  # of the spacing between fret q-1 and fret q
 TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
 NEVER = np.iinfo(np.int64).max // 4
 
 
-def finger_position(fret: int) -> float:
-    """x / L of a finger stopping ``fret`` (just behind it)."""
-    xq = 1.0 - 2.0 ** (-fret / 12.0)
-    xp = 1.0 - 2.0 ** (-(fret - 1) / 12.0)
-    return xq - FINGER_BEHIND * (xq - xp)
+def finger_x_m(preset: Preset, fret: int) -> float:
+    """Metres from the nut of a finger stopping ``fret`` (just behind it)."""
+    xq = preset.fret_x_m(fret)
+    return float(xq - FINGER_BEHIND * (xq - preset.fret_x_m(fret - 1)))
 
 
 @dataclass
@@ -63,10 +63,11 @@ class StringControls:
                 self.fs_force, self.fs_v0, self.fs_gap)
 
 
-def string_controls(scene: Scene, string: int, length_m: float, h: float, n: int,
+def string_controls(scene: Scene, preset: Preset, string: int, h: float, n: int,
                     rate: float) -> StringControls:
     """Compile the events on ``string`` (1-based) for a grid of spacing h at ``rate`` Hz."""
     evs = sorted((e for e in scene.events if e.string == string), key=lambda e: e.time)
+    length_m = preset.string_length_m(string)
 
     def step(t: float) -> int:
         return int(round(t * rate))
@@ -88,7 +89,7 @@ def string_controls(scene: Scene, string: int, length_m: float, h: float, n: int
                     s["rel"] = on
             if e.fret == 0:
                 continue
-            x = finger_position(e.fret) * length_m
+            x = finger_x_m(preset, e.fret)
             rel = step(e.release) if e.release is not None else NEVER
             if e.release is not None:
                 last = max(last, rel)

@@ -25,7 +25,7 @@ import numpy as np
 from scipy import signal
 
 from . import kernels
-from .controls import StringControls, string_controls
+from .controls import NEVER, StringControls, string_controls
 from .presets import Preset
 from .scene import Scene
 from .string import (
@@ -34,6 +34,8 @@ from .string import (
     Geometry,
     StringModel,
     coefficients,
+    dispersion_cents,
+    fret_margin,
     geometry,
     tune,
 )
@@ -47,6 +49,7 @@ class Quality:
     """Accuracy/cost knobs; the scene's ``quality`` picks one of ``QUALITY``."""
 
     max_h_m: float  # strings are oversampled until their grid spacing is at most this
+    max_dispersion_cents: float = math.inf  # ... and partials 1-10 are this close to f_n
     max_oversample: int = 8
     fret_mode: int = FRET_RIGID
     grid_scale: float = 1.0
@@ -54,8 +57,8 @@ class Quality:
 
 QUALITY = {
     "draft": Quality(max_h_m=1.0),
-    "standard": Quality(max_h_m=6e-3),
-    "high": Quality(max_h_m=3e-3, max_oversample=16),
+    "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8),
+    "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16),
 }
 
 
@@ -70,21 +73,26 @@ class RenderOptions:
     frets: bool = True
     skip_silent: bool = True
     skip_decayed: bool = True
+    skip_contacts: bool = True  # look at rigid frets only when one is within reach
     decay_velocity: float = 1e-7  # m/s; -140 dB below the fixed-gain full scale
     block_frames: int = 2048
 
 
 def oversample_for(spec, length: float, rate: float, q: Quality) -> int:
-    """Smallest factor whose stable grid has h <= q.max_h_m (at most q.max_oversample)."""
+    """Smallest factor (at most q.max_oversample) whose stable grid has h <= q.max_h_m (contacts
+    resolved finely enough for fretted pitch) and whose partials 1-10 lie within
+    q.max_dispersion_cents of the stiff-string frequencies (the scheme's dispersion error)."""
     for os_ in range(1, q.max_oversample + 1):
         m = tune(spec, length, rate * os_, q.grid_scale)
-        if m.h <= q.max_h_m:
+        if m.h <= q.max_h_m and dispersion_cents(m) <= q.max_dispersion_cents:
             return os_
     return q.max_oversample
 
 
 class Decimator:
-    """Linear-phase FIR low-pass + downsampling by an integer factor, state kept across blocks."""
+    """Linear-phase FIR low-pass (scipy's firwin, Kaiser window) + downsampling by an integer
+    factor, with the input history kept across blocks.  Each output sample is one dot product in a
+    fixed order (``kernels.fir_decimate``), so any block size gives bit-identical samples."""
 
     def __init__(self, factor: int, rate_out: float):
         self.factor = factor
@@ -92,16 +100,18 @@ class Decimator:
         if factor > 1:
             ntaps = 24 * factor + 1
             self.taps = signal.firwin(ntaps, 0.45 * rate_out, fs=rate_out * factor,
-                                      window=("kaiser", 9.0))
-            self.zi = np.zeros(ntaps - 1)
+                                      window=("kaiser", 9.0))[::-1].copy()
+            self.history = np.zeros(ntaps - 1)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         if self.factor == 1:
             return x
-        y, self.zi = signal.lfilter(self.taps, 1.0, x, zi=self.zi)
+        buf = np.concatenate((self.history, x))
         start = (-self.phase) % self.factor
+        y = kernels.fir_decimate(buf, self.taps, start, self.factor, len(x))
         self.phase = (self.phase + len(x)) % self.factor
-        return y[start :: self.factor]
+        self.history = buf[len(x):]
+        return y
 
 
 @dataclass
@@ -157,7 +167,7 @@ class Voice:
         e_p = np.empty(nsteps if d else 0)
         g = self.geom
         status = kernels.step_block(
-            self.coefs, self.u, self.u1, self.uf, self.q, g.board, self.psi, self.gprev_b,
+            self.coefs, self.u, self.u1, self.uf, self.q, g.board, g.near, self.psi, self.gprev_b,
             self.gprev_f, self.has_gprev, g.fret_p, g.fret_w0, g.fret_w1, g.fret_m0,
             self.fret_active, *self.ctl.kernel_args(), self.f_state, self.f_w, self.f_w1,
             self.f_psi, self.f_bprev, self.step, nsteps, out, d, e_h, e_q, e_p,
@@ -174,13 +184,16 @@ class Voice:
         return out
 
     def _maybe_stop(self, out: np.ndarray) -> None:
-        # Nothing will act on the string again (no event pending, fingers either gone or holding
-        # still); stop once every node and the pickup move slower than decay_velocity.
-        if np.any(self.f_state == kernels.ACTIVE) and np.any(
-            self.ctl.fs_rel[self.f_state == kernels.ACTIVE] < np.iinfo(np.int64).max // 4
-        ):
+        # Nothing will act on the string again (no event pending; a finger still on the string
+        # holds still), so stop once every node, every finger and the pickup move slower than
+        # decay_velocity.  A finger with a release still to come keeps the string running.
+        active = self.f_state == kernels.ACTIVE
+        if np.any(self.ctl.fs_rel[active] < NEVER):
             return
-        vmax = np.max(np.abs(self.u - self.u1)) / self.coefs.k
+        k = self.coefs.k
+        vmax = np.max(np.abs(self.u - self.u1)) / k
+        if np.any(active):
+            vmax = max(vmax, float(np.max(np.abs(self.f_w[active] - self.f_w1[active]))) / k)
         if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
             self.stopped = True
 
@@ -242,18 +255,20 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     preset = scene.preset()
     rate = float(scene.sample_rate)
     pickup = scene.output.pickup_position or preset.pickup_position
-    L = preset.scale_length_m
     voices = []
     for i, spec in enumerate(preset.strings, start=1):
         if opts.skip_silent and not any(e.string == i for e in scene.events):
             continue
+        L = preset.string_length_m(i)
         os_ = opts.oversample or oversample_for(spec, L, rate, q)
         model = tune(spec, L, rate * os_, q.grid_scale)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, pickup, opts.kirchhoff_carrier,
                              opts.fretboard)
-        geom = geometry(model, preset, with_frets=fret_mode != 0)
-        ctl = string_controls(scene, i, L, model.h, model.n, rate * os_)
+        plucks = [e.force for e in scene.events if e.string == i and e.type == "pluck"]
+        margin = fret_margin(model, max(plucks, default=0.0)) if opts.skip_contacts else 1.0
+        geom = geometry(model, preset, with_frets=fret_mode != 0, margin=margin)
+        ctl = string_controls(scene, preset, i, model.h, model.n, rate * os_)
         voices.append(Voice(i, model, coefs, geom, ctl, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
     frames = int(round(scene.duration * rate))

@@ -108,13 +108,14 @@ def interp(x: float, h: float, n: int):
 
 
 @njit(**JIT)
-def _linear_pass_kc(c, U0, U1, UF, Q, board):
-    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), min gap to the board."""
+def _linear_pass_kc(c, U0, U1, UF, Q, board, near):
+    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), nodes below the board."""
     n = c.n
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
-    gap = np.inf
+    below = 0
+    close = 0
     for j in range(n - 1):
         a = U0[j]
         b = U0[j + 1]
@@ -129,15 +130,17 @@ def _linear_pass_kc(c, U0, U1, UF, Q, board):
         qq += qv * qv
         quf += qv * uf
         qu1 += qv * u1
-        gap = min(gap, m - board[j])
-    return qq, quf, qu1, gap
+        below += m < board[j]  # an integer count vectorises; a float min() does not
+        close += m < near[j]
+    return qq, quf, qu1, below, close
 
 
 @njit(**JIT)
-def _linear_pass(c, U0, U1, UF, board):
-    """a) without Kirchhoff-Carrier: u_free and the min gap to the board."""
+def _linear_pass(c, U0, U1, UF, board, near):
+    """a) without Kirchhoff-Carrier: u_free and the count of nodes below the board."""
     n = c.n
-    gap = np.inf
+    below = 0
+    close = 0
     for j in range(n - 1):
         m = U0[j + 2]
         UF[j + 2] = (
@@ -147,8 +150,9 @@ def _linear_pass(c, U0, U1, UF, board):
             + c.c0 * U1[j + 2]
             + c.c1 * (U1[j + 1] + U1[j + 3])
         )
-        gap = min(gap, m - board[j])
-    return gap
+        below += m < board[j]
+        close += m < near[j]
+    return below, close
 
 
 @njit(**JIT)
@@ -223,6 +227,7 @@ def step_block(
     UF,
     Q,
     board,
+    near,
     psi,
     gprev_b,
     gprev_f,
@@ -308,12 +313,12 @@ def step_block(
         U0[n + 2] = -U0[n]
         # ---- a) linear update (+ KC vector, + board gap) -------------------------------------
         if c.kc > 0.0:
-            qq, quf, qu1, gap = _linear_pass_kc(c, U0, U1, UF, Q, board)
+            qq, quf, qu1, below, close = _linear_pass_kc(c, U0, U1, UF, Q, board, near)
         else:
             qq = 0.0
             quf = 0.0
             qu1 = 0.0
-            gap = _linear_pass(c, U0, U1, UF, board)
+            below, close = _linear_pass(c, U0, U1, UF, board, near)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         for e in range(npl):
@@ -339,12 +344,11 @@ def step_block(
                 inject += 0.5 * c.fg_mass * fs_v0[s] * fs_v0[s]
             if f_state[s] != ACTIVE:
                 continue
-            xs = _finger_x(fs_x0[s], fs_x1[s], fs_ms[s], fs_me[s], step)
-            p_, a0, a1 = interp(xs, c.h, n)
-            fp[s] = p_
-            fw0[s] = a0
-            fw1[s] = a1
-            eta = a0 * U0[p_] + a1 * U0[p_ + 1] - f_w[s]
+            if fp[s] == 0 or fs_x0[s] != fs_x1[s]:  # a static finger's interpolant is kept
+                xs = _finger_x(fs_x0[s], fs_x1[s], fs_ms[s], fs_me[s], step)
+                fp[s], fw0[s], fw1[s] = interp(xs, c.h, n)
+            p_ = fp[s]
+            eta = fw0[s] * U0[p_] + fw1[s] * U0[p_ + 1] - f_w[s]
             if step >= fs_rel[s]:
                 if -eta > c.fg_lift and f_w[s] > f_w1[s]:
                     # far above the string and rising: the finger leaves the model, and its
@@ -371,8 +375,8 @@ def step_block(
             nc += 1
             cstart[nc] = nent
         # c) fretboard, eq. (24a), (55a)
-        if c.board_k > 0.0 and (gap < 0.0 or psi[0] != 0.0):
-            nent, used = _sav_board(c, U0, U1, UF, board, psi, gprev_b, has_gprev, gap < 0.0,
+        if c.board_k > 0.0 and (below > 0 or psi[0] != 0.0):
+            nent, used = _sav_board(c, U0, U1, UF, board, psi, gprev_b, has_gprev, below > 0,
                                     cidx, cval, nent, scr)
             if used:
                 kind[nc] = BOARD
@@ -399,8 +403,9 @@ def step_block(
             etaf = fw0[s] * UF[p_] + fw1[s] * UF[p_ + 1] - wfree[s]
             contact = eta > 0.0
             if contact:
-                vpot = c.fg_k / (c.fg_alpha + 1.0) * eta ** (c.fg_alpha + 1.0)
-                bt = c.fg_k * eta**c.fg_alpha / math.sqrt(2.0 * vpot + EPS)
+                ea = eta if c.fg_alpha == 1.0 else eta**c.fg_alpha  # pow() is slow
+                vpot = c.fg_k / (c.fg_alpha + 1.0) * ea * eta
+                bt = c.fg_k * ea / math.sqrt(2.0 * vpot + EPS)
                 f_bprev[s] = bt
             elif f_psi[s] != 0.0:
                 bt = f_bprev[s]
@@ -443,7 +448,10 @@ def step_block(
                 v1[ci] = s1
         nbase = nc
         # ---- f) solve; rigid frets by a warm-started active set -------------------------------
-        if c.fret_mode == 1:
+        # Rigid frets are looked at only when one can be reached this step: some node of u^n is
+        # within FRET_MARGIN of a fret tip (``near``), a fret is active, or a finger touches.
+        rigid = c.fret_mode == 1 and (close > 0 or nc > (1 if c.kc > 0.0 else 0))
+        if rigid:
             for q in range(nfret):
                 if fret_active[q]:
                     nent = _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent,
@@ -471,7 +479,7 @@ def step_block(
                         continue
                     status = NONFINITE
                     break
-            if c.fret_mode != 1:
+            if not rigid:
                 break
             # check the rigid frets: reactions >= 0, no fret penetrated
             worst = -1
@@ -846,3 +854,19 @@ def _energy(c, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
             hh += 0.5 * c.fg_mass * v * v + 0.5 * f_psi[s] * f_psi[s]
     q = 2.0 * c.rho_a_h * (c.sigma0 * lo0 + c.sigma1 * ih2 * lo1) / (4.0 * k * k) * k
     return hh, q
+
+
+@njit(**JIT)
+def fir_decimate(buf, rtaps, start, factor, nnew):
+    """y[m] = sum_i rtaps[i] buf[j + i] for the new inputs j = start, start + factor, ... (buf
+    holds len(rtaps) - 1 samples of history before the nnew new ones; rtaps is time-reversed)."""
+    nt = rtaps.shape[0]
+    count = 0 if start >= nnew else (nnew - 1 - start) // factor + 1
+    out = np.empty(count)
+    for m in range(count):
+        j = start + m * factor
+        acc = 0.0
+        for i in range(nt):
+            acc += rtaps[i] * buf[j + i]
+        out[m] = acc
+    return out

@@ -68,6 +68,7 @@ class StringSpec:
     youngs_modulus_pa: float  # effective E (bending stiffness E I)
     t60_fundamental_s: float  # 60 dB decay time at the fundamental
     t60_2khz_s: float  # 60 dB decay time at 2 kHz
+    saddle_setback_m: float = 0.0  # intonation compensation: speaking length = scale + setback
 
     @property
     def frequency_hz(self) -> float:
@@ -99,7 +100,7 @@ class Preset:
     scale_length_m: float
     strings: tuple[StringSpec, ...]  # index 0 is string 1 (the highest)
     frets: int = 20
-    action_nut_m: float = 0.5e-3
+    action_nut_m: float = 0.25e-3
     action_12th_m: float = 2.0e-3
     fret_height_m: float = 1.0e-3
     fretboard_stiffness: float = 1.0e10  # K_B, N/m^(alpha+1) per metre of string
@@ -113,16 +114,18 @@ class Preset:
     def n_strings(self) -> int:
         return len(self.strings)
 
-    def fret_position(self, fret: int) -> float:
-        """x_q / L = 1 - 2^(-q/12) (API.md, Coordinates)."""
-        return 1.0 - 2.0 ** (-fret / 12.0)
+    def fret_x_m(self, fret: int | np.ndarray) -> np.ndarray | float:
+        """x_q = L_scale (1 - 2^(-q/12)), metres from the nut (API.md, Coordinates)."""
+        return self.scale_length_m * (1.0 - 2.0 ** (-np.asarray(fret) / 12.0))
 
-    def clearance_m(self, position: float) -> np.ndarray | float:
-        """Height of the string's rest line above the fret crowns at x / L = position."""
-        x12 = self.fret_position(12)
-        return self.action_nut_m + (self.action_12th_m - self.action_nut_m) * (
-            np.asarray(position) / x12
-        )
+    def string_length_m(self, string: int) -> float:
+        """Speaking length of string ``string`` (1-based): the scale plus its saddle setback."""
+        return self.scale_length_m + self.strings[string - 1].saddle_setback_m
+
+    def clearance_m(self, x_m: float | np.ndarray) -> np.ndarray | float:
+        """Height of the string's rest line above the fret crowns at x_m metres from the nut."""
+        x12 = self.scale_length_m / 2.0
+        return self.action_nut_m + (self.action_12th_m - self.action_nut_m) * (np.asarray(x_m) / x12)
 
 
 def _wound(note, gauge_in, core_in, tension_n, scale, t60_f0, t60_2k) -> StringSpec:
@@ -139,21 +142,30 @@ def _plain(note, gauge_in, rho, e, t60_f0, t60_2k) -> StringSpec:
     return StringSpec(note, gauge_in * INCH / 2, rho, e, t60_f0, t60_2k)
 
 
+def _with_setbacks(strings, setbacks) -> tuple[StringSpec, ...]:
+    return tuple(replace(s, saddle_setback_m=d) for s, d in zip(strings, setbacks, strict=True))
+
+
 _STEEL_SCALE = 0.645
 STEEL_ACOUSTIC = Preset(
     name="steel-acoustic",
     description="Steel-string acoustic, 645 mm scale, light .012-.053 set, standard tuning",
     scale_length_m=_STEEL_SCALE,
-    strings=(
-        _plain("E4", 0.012, STEEL_DENSITY, STEEL_E, 4.0, 1.2),
-        _plain("B3", 0.016, STEEL_DENSITY, STEEL_E, 5.0, 1.2),
-        _wound("G3", 0.024, 0.0110, 134.0, _STEEL_SCALE, 6.0, 1.0),
-        _wound("D3", 0.032, 0.0135, 133.0, _STEEL_SCALE, 7.0, 0.9),
-        _wound("A2", 0.042, 0.0160, 130.0, _STEEL_SCALE, 8.0, 0.8),
-        _wound("E2", 0.053, 0.0180, 107.0, _STEEL_SCALE, 9.0, 0.7),
+    strings=_with_setbacks(
+        (
+            _plain("E4", 0.012, STEEL_DENSITY, STEEL_E, 4.0, 1.2),
+            _plain("B3", 0.016, STEEL_DENSITY, STEEL_E, 5.0, 1.2),
+            _wound("G3", 0.024, 0.0110, 134.0, _STEEL_SCALE, 6.0, 1.0),
+            _wound("D3", 0.032, 0.0135, 133.0, _STEEL_SCALE, 7.0, 0.9),
+            _wound("A2", 0.042, 0.0160, 130.0, _STEEL_SCALE, 8.0, 0.8),
+            _wound("E2", 0.053, 0.0180, 107.0, _STEEL_SCALE, 9.0, 0.7),
+        ),
+        # fitted by `python -m benchmarks.intonation` (reference grid, 3 N finger); the B string
+        # needs the most, as on real compensated acoustic saddles
+        (2.50e-3, 5.20e-3, 1.05e-3, 2.05e-3, 2.20e-3, 3.50e-3),
     ),
     frets=20,
-    action_nut_m=0.5e-3,
+    action_nut_m=0.25e-3,
     action_12th_m=2.0e-3,
 )
 
@@ -171,8 +183,8 @@ NYLON_CLASSICAL = Preset(
         _wound("E2", 0.043, 0.028, 72.0, _NYLON_SCALE, 5.0, 0.4),
     ),
     frets=19,
-    action_nut_m=0.6e-3,
-    action_12th_m=3.5e-3,
+    action_nut_m=0.35e-3,
+    action_12th_m=3.2e-3,
     fret_height_m=1.1e-3,
 )
 # The nylon basses' cores are multifilament nylon: their bending stiffness is that of a nylon rod

@@ -18,6 +18,9 @@ MAX_DURATION_S = 120.0
 MAX_EVENTS = 2000
 MAX_PLUCK_FORCE_N = 20.0
 MAX_FINGER_FORCE_N = 10.0
+# Default pressing force: enough to seat every string of the presets on frets 1-12 (the string must
+# be pushed below the line from the next fret to the bridge; benchmarks/intonation.py uses it too).
+FINGER_FORCE_N = 3.0
 MAX_TAP_VELOCITY_M_S = 5.0
 SAMPLE_RATE_MIN = 22050
 SAMPLE_RATE_MAX = 96000
@@ -55,7 +58,9 @@ class Fret(_Event):
 
     type: Literal["fret"] = "fret"
     fret: int = Field(ge=0, le=24, description="0 lifts the finger")
-    force: float = Field(2.0, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N")
+    force: float = Field(
+        FINGER_FORCE_N, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N"
+    )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
 
     model_config = ConfigDict(
@@ -68,7 +73,9 @@ class Tap(_Event):
 
     type: Literal["tap"] = "tap"
     fret: int = Field(ge=1, le=24)
-    force: float = Field(1.0, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N")
+    force: float = Field(
+        FINGER_FORCE_N, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N"
+    )
     velocity: float = Field(
         1.0, gt=0.0, le=MAX_TAP_VELOCITY_M_S, description="speed towards the fretboard, m/s"
     )
@@ -92,6 +99,9 @@ class StringOverride(_Model):
     youngs_modulus_pa: float | None = Field(None, ge=1e8, le=4e11)
     t60_fundamental_s: float | None = Field(None, ge=0.05, le=60.0)
     t60_2khz_s: float | None = Field(None, ge=0.02, le=60.0)
+    saddle_setback_m: float | None = Field(
+        None, ge=0.0, le=0.01, description="intonation compensation: length beyond the scale, m"
+    )
 
     @field_validator("note")
     @classmethod
@@ -171,13 +181,14 @@ class Scene(_Model):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:
-        preset = self.preset()
-        n = preset.n_strings
+        base = get_preset(self.guitar.preset)
+        n = base.n_strings
         if self.guitar.tuning is not None and len(self.guitar.tuning) != n:
-            raise ValueError(f"guitar.tuning: {n} notes expected for {preset.name}")
+            raise ValueError(f"guitar.tuning: {n} notes expected for {base.name}")
         for s in self.guitar.strings:
             if s.string > n:
                 raise ValueError(f"guitar.strings: string {s.string} outside 1..{n}")
+        preset = self.preset()
         frets = preset.frets
         for i, ev in enumerate(self.events):
             where = f"events[{i}]"

@@ -20,7 +20,9 @@ import numpy as np
 from .kernels import Coefs, interp
 from .presets import Preset, StringSpec
 
-LN1000 = 3.0 * math.log(10.0) * 2.0  # 6 ln 10: T60 = 6 ln(10) / sigma
+# 60 dB of amplitude: exp(-sigma T60) = 1e-3, so sigma = 3 ln(10) / T60.  (Bilbao 2009 writes
+# 6 ln(10) / T60; measured on rendered audio that halves the decay time: tests/engine/test_string.py)
+LN1000 = 3.0 * math.log(10.0)
 
 FRET_NONE, FRET_RIGID, FRET_PENALTY = 0, 1, 2
 
@@ -100,6 +102,18 @@ class StringModel:
     def inharmonicity(self) -> float:
         """B = pi^2 E I / (T L^2) of f_n = n f0 sqrt(1 + B n^2)."""
         return math.pi**2 * self.ei / (self.tension_n * self.length_m**2)
+
+
+def dispersion_cents(model: StringModel, partials: int = 10) -> float:
+    """Largest |cents| between the scheme's modes 1..partials and the continuous stiff string's
+    f_n = n f0 sqrt(1 + B n^2), f0 = sqrt(T / rho A) / 2L, at the model's tension."""
+    f0 = math.sqrt(model.tension_n / model.rho_a) / (2.0 * model.length_m)
+    b = model.inharmonicity()
+    worst = 0.0
+    for m in range(1, partials + 1):
+        exact = m * f0 * math.sqrt(1.0 + b * m * m)
+        worst = max(worst, abs(1200.0 * math.log2(model.frequency(m) / exact)))
+    return worst
 
 
 def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float = 1.0
@@ -200,25 +214,43 @@ class Geometry:
     fret_w1: np.ndarray
     fret_m0: np.ndarray
     board: np.ndarray  # b at interior nodes 1..N-1 (very low where there is no fretboard)
-
+    near: np.ndarray  # per node: a level below which a rigid fret may be reached this step
 
 NO_BOARD = -1.0  # a "fretboard" a metre below the string: unreachable
 
 
-def geometry(model: StringModel, preset: Preset, with_frets: bool = True) -> Geometry:
+def fret_margin(model: StringModel, max_pluck_force: float) -> float:
+    """How far above a fret tip a node of u^n must be for that fret to be out of reach next step.
+
+    A point force f on a string moves it at most at f / (2 sqrt(T rho A)) (the string's wave
+    impedance); three times that speed for one step, plus 50 um, bounds the motion with a wide
+    margin.  tests/engine/test_skips.py checks that the skip leaves the output bit-identical.
+    """
+    z = math.sqrt(model.tension_n * model.rho_a)
+    return 3.0 * max_pluck_force / (2.0 * z) * model.k + 50e-6
+
+
+
+def geometry(model: StringModel, preset: Preset, with_frets: bool = True,
+             margin: float = math.inf) -> Geometry:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12."""
-    L, h, n = model.length_m, model.h, model.n
+    h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
-    xq = 1.0 - 2.0 ** (-q / 12.0)
+    xq = preset.fret_x_m(q)
     p = np.empty(len(q), np.int64)
     w0 = np.empty(len(q))
     w1 = np.empty(len(q))
     for i, xf in enumerate(xq):
-        p[i], w0[i], w1[i] = interp(xf * L, h, n)
+        p[i], w0[i], w1[i] = interp(xf, h, n)
     m0 = -np.asarray(preset.clearance_m(xq), dtype=float)
-    xn = np.arange(1, n) * h / L
+    xn = np.arange(1, n) * h
     board = -(np.asarray(preset.clearance_m(xn), dtype=float) + preset.fret_height_m)
-    last = 1.0 - 2.0 ** (-(preset.frets + 0.5) / 12.0)  # the board ends half a fret past the last
+    last = preset.fret_x_m(preset.frets + 0.5)  # the board ends half a fret past the last
     board[xn > last] = NO_BOARD
-    return Geometry(p, w0, w1, m0, board)
+    near = np.full(n - 1, NO_BOARD)
+    for i in range(len(q)):
+        for node, w in ((p[i] - 1, w0[i]), (p[i], w1[i])):  # padded index -> node -> array index
+            if w > 0.0:
+                near[node - 1] = max(near[node - 1], m0[i] + margin)
+    return Geometry(p, w0, w1, m0, board, near)

@@ -1,0 +1,119 @@
+"""Fretted-note intonation: cents from 12-TET for every string and frets 1-12.
+
+A stiff string pressed onto a fret is sharper than the ideal shorter string (bending stiffness
+carries across the fret, and pressing stretches the string); real guitars compensate by setting the
+saddle back a few millimetres.  This script
+
+1. measures the fretted error with no compensation on a fine reference grid (h <= 1.5 mm),
+2. fits, per string, the saddle setback that minimises the largest error (exact ideal-string
+   formula for the effect of a longer speaking length),
+3. measures every quality level *with the preset's setbacks* and prints the tables.
+
+    python -m benchmarks.intonation [--preset steel-acoustic] [--fit-only]
+
+The presets' ``saddle_setback_m`` values come from step 2 of this script.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from multiprocessing import Pool
+
+import numpy as np
+
+import engine
+from engine.analysis import cents, spectrum_peak
+from engine.guitar import QUALITY, Quality, RenderOptions
+from engine.presets import get_preset
+
+FRETS = tuple(range(1, 13))
+FORCE = 3.0  # N: enough to seat every string on every fret 1-12 of the presets
+SR = 44100
+
+
+def fretted_cents(args) -> tuple[int, int, float]:
+    preset_name, string, fret, quality, zero_setback = args
+    guitar: dict = {"preset": preset_name}
+    if zero_setback:
+        n = get_preset(preset_name).n_strings
+        guitar["strings"] = [{"string": s, "saddle_setback_m": 0.0} for s in range(1, n + 1)]
+    scene = {
+        "duration": 1.2,
+        "sample_rate": SR,
+        "guitar": guitar,
+        "events": [
+            {"type": "fret", "time": 0.0, "string": string, "fret": fret, "force": FORCE},
+            {"type": "pluck", "time": 0.05, "string": string, "force": 1.0, "position": 0.8},
+        ],
+    }
+    audio = engine.render(scene, options=RenderOptions(quality=quality))
+    target = get_preset(preset_name).strings[string - 1].frequency_hz * 2 ** (fret / 12)
+    f = spectrum_peak(audio[int(0.2 * SR) :], SR, target, 0.08)
+    return string, fret, float(cents(f, target))
+
+
+def table(preset_name: str, quality: Quality, zero_setback: bool, pool) -> np.ndarray:
+    n = get_preset(preset_name).n_strings
+    jobs = [(preset_name, s, q, quality, zero_setback) for s in range(1, n + 1) for q in FRETS]
+    err = np.zeros((n, len(FRETS)))
+    for s, q, c in pool.map(fretted_cents, jobs):
+        err[s - 1, FRETS.index(q)] = c
+    return err
+
+
+def print_table(title: str, err: np.ndarray) -> None:
+    print(f"\n{title}")
+    print("string | " + " ".join(f"{q:>6d}" for q in FRETS) + " |  worst")
+    for s, row in enumerate(err, start=1):
+        worst = row[np.argmax(np.abs(row))]
+        print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst:+6.1f}")
+    print(f"all strings: worst {err.flat[np.argmax(np.abs(err))]:+.1f} cents")
+
+
+def setback_effect(scale: float, setback: float) -> np.ndarray:
+    """Cents a setback adds to frets 1-12 of an ideal string (relative to the open string)."""
+    q = np.array(FRETS)
+    ratio = (scale + setback) / (scale * 2.0 ** (-q / 12.0) + setback)
+    return 1200.0 * np.log2(ratio) - 100.0 * q
+
+
+def fit_setbacks(err: np.ndarray, scale: float) -> list[float]:
+    grid = np.arange(0.0, 8e-3, 5e-5)
+    best = []
+    for row in err:
+        worst = [np.max(np.abs(row + setback_effect(scale, d))) for d in grid]
+        best.append(float(grid[int(np.argmin(worst))]))
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--preset", default="steel-acoustic")
+    ap.add_argument("--fit-only", action="store_true")
+    args = ap.parse_args()
+    preset = get_preset(args.preset)
+    reference = Quality(max_h_m=1.5e-3, max_oversample=16)
+    t0 = time.perf_counter()
+    with Pool(2) as pool:
+        raw = table(args.preset, reference, True, pool)
+        print_table(f"{args.preset}: no compensation, reference grid h <= 1.5 mm, "
+                    f"finger {FORCE} N (cents from 12-TET)", raw)
+        fit = fit_setbacks(raw, preset.scale_length_m)
+        print("\nsaddle setback that minimises the worst error (mm): "
+              + ", ".join(f"string {s}: {d * 1e3:.2f}" for s, d in enumerate(fit, start=1)))
+        predicted = raw + np.array([setback_effect(preset.scale_length_m, d) for d in fit])
+        print_table("predicted with those setbacks (reference grid)", predicted)
+        if not args.fit_only:
+            current = [s.saddle_setback_m * 1e3 for s in preset.strings]
+            print("\npreset's setbacks (mm): " + ", ".join(f"{d:.2f}" for d in current))
+            for name, q in QUALITY.items():
+                print_table(f"quality '{name}' with the preset's setbacks",
+                            table(args.preset, q, False, pool))
+            print_table("reference grid with the preset's setbacks",
+                        table(args.preset, reference, False, pool))
+    print(f"\n({time.perf_counter() - t0:.0f} s on this machine)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,55 @@
+"""The ASGI application: wiring only (settings, logging, middleware, pool lifespan, routers).
+
+    uvicorn service.app:app
+
+Handlers live in ``service.routes``; the worker pool in ``service.pool``; settings in
+``service.config`` (``GUITAR_*`` environment variables).
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.staticfiles import StaticFiles
+
+from . import errors
+from .config import Settings
+from .logs import setup_logging
+from .middleware import BodyLimitMiddleware, RequestContextMiddleware
+from .pool import WorkerPool
+from .routes import health, pages, presets, render
+
+DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
+timed pluck, fret and tap events), get audio back. The scene schema is the engine's own
+(`engine.Scene`); this server adds limits on body size, duration, events and sample rate
+(see `GET /limits`), a pool of render worker processes and streaming."""
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or Settings()
+    setup_logging(settings.log_level)
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[dict]:
+        pool = WorkerPool(settings)
+        await pool.start()  # workers warm up in the background; /health tells when they are
+        try:
+            yield {"pool": pool, "settings": settings}
+        finally:
+            await pool.close()
+
+    app = FastAPI(title="Guitar synthesis service", version="1.0.0", description=DESCRIPTION,
+                  lifespan=lifespan)
+    # Added innermost first: the request-id/access-log layer also sees 413s.
+    app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    app.add_middleware(RequestContextMiddleware)
+    errors.install(app, settings.retry_after_s)
+    for router in (pages.router, health.router, presets.router, render.router):
+        app.include_router(router)
+    app.mount("/static", StaticFiles(directory=pages.STATIC_DIR), name="static")
+    return app
+
+
+app = create_app()

@@ -1,0 +1,94 @@
+"""Encoding samples to bytes: WAV by hand, FLAC and Ogg Vorbis through soundfile (libsndfile).
+
+WAV is written here rather than by libsndfile for two reasons:
+* a stream must send its header before any sample exists, and ``/render`` must produce the very same
+  bytes, so both go through one header function and one sample conversion (``pcm_bytes``);
+* libsndfile adds a ``PEAK`` chunk (peak values and a time stamp) to float WAV files, which a
+  stream cannot know in advance and which would make two renders of one scene differ.
+
+The integer conversion is libsndfile 1.2's: round x * 2^31 to int32 (saturating), keep the top 16
+or 24 bits.  Samples are clipped to [-1, 1] first, everywhere (the fixed-gain output may exceed it).
+"""
+
+from __future__ import annotations
+
+import io
+import struct
+
+import numpy as np
+import soundfile as sf
+
+MEDIA_TYPES = {"wav": "audio/wav", "flac": "audio/flac", "ogg": "audio/ogg"}
+BYTES_PER_SAMPLE = {"PCM_16": 2, "PCM_24": 3, "FLOAT": 4}
+_WAVE_FORMAT_PCM = 1
+_WAVE_FORMAT_IEEE_FLOAT = 3
+
+
+def frame_count(duration_s: float, sample_rate: int) -> int:
+    """Frames the engine renders for a scene (``engine.guitar.prepare``: round(duration * rate))."""
+    return int(round(duration_s * sample_rate))
+
+
+def clip(x: np.ndarray) -> np.ndarray:
+    return np.clip(x, -1.0, 1.0)
+
+
+def pcm_bytes(x: np.ndarray, subtype: str) -> bytes:
+    """Little-endian sample bytes of a mono block for a WAV ``data`` chunk."""
+    x = clip(np.asarray(x, dtype=np.float64))
+    if subtype == "FLOAT":
+        return x.astype("<f4").tobytes()
+    i32 = np.clip(np.rint(x * 2.0**31), -(2.0**31), 2.0**31 - 1).astype(np.int64)
+    if subtype == "PCM_16":
+        return (i32 >> 16).astype("<i2").tobytes()
+    if subtype == "PCM_24":
+        # Keep the low three bytes of each little-endian int32 holding the top 24 bits.
+        top = (i32 >> 8).astype("<i4")
+        return top.view(np.uint8).reshape(-1, 4)[:, :3].tobytes()
+    raise ValueError(f"unsupported WAV subtype {subtype!r}")
+
+
+def wav_header(frames: int, sample_rate: int, subtype: str) -> bytes:
+    """RIFF/WAVE header of a mono file of ``frames`` frames (known before any sample is computed)."""
+    width = BYTES_PER_SAMPLE[subtype]
+    data_bytes = frames * width
+    is_float = subtype == "FLOAT"
+    fmt = struct.pack(
+        "<HHIIHH",
+        _WAVE_FORMAT_IEEE_FLOAT if is_float else _WAVE_FORMAT_PCM,
+        1,  # channels
+        sample_rate,
+        sample_rate * width,  # byte rate
+        width,  # block align
+        8 * width,  # bits per sample
+    )
+    chunks = b"fmt " + struct.pack("<I", len(fmt)) + fmt
+    if is_float:  # non-PCM WAV files carry a fact chunk with the frame count
+        chunks += b"fact" + struct.pack("<II", 4, frames)
+    chunks += b"data" + struct.pack("<I", data_bytes)
+    return b"RIFF" + struct.pack("<I", 4 + len(chunks) + data_bytes) + b"WAVE" + chunks
+
+
+def wav_size(frames: int, subtype: str) -> int:
+    return len(wav_header(frames, 44100, subtype)) + frames * BYTES_PER_SAMPLE[subtype]
+
+
+def _soundfile_bytes(x: np.ndarray, sample_rate: int, fmt: str, subtype: str) -> bytes:
+    buf = io.BytesIO()
+    sf.write(buf, clip(x), sample_rate, format=fmt.upper(), subtype=subtype)
+    return buf.getvalue()
+
+
+def encode(x: np.ndarray, sample_rate: int, fmt: str = "wav", subtype: str = "PCM_16") -> bytes:
+    """A whole mono signal as a file: ``wav`` (subtype PCM_16/PCM_24/FLOAT), ``flac`` or ``ogg``.
+
+    ``subtype`` is a WAV option (API.md); FLAC keeps 24 bits when PCM_24 or FLOAT is asked for and
+    16 otherwise, Ogg is always Vorbis.
+    """
+    if fmt == "wav":
+        return wav_header(len(x), sample_rate, subtype) + pcm_bytes(x, subtype)
+    if fmt == "flac":
+        return _soundfile_bytes(x, sample_rate, "flac", "PCM_16" if subtype == "PCM_16" else "PCM_24")
+    if fmt == "ogg":
+        return _soundfile_bytes(x, sample_rate, "ogg", "VORBIS")
+    raise ValueError(f"unsupported format {fmt!r}")

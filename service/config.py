@@ -1,0 +1,58 @@
+"""Service settings: every limit and knob of the HTTP layer, read from ``GUITAR_*`` environment
+variables (pydantic-settings).  The engine's own schema limits (``engine.scene``) still apply; these
+are the tighter limits a public server puts on top of them.  ``docs/service.md`` tabulates them.
+"""
+
+from __future__ import annotations
+
+import os
+from pydantic import Field, model_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+def _default_workers() -> int:
+    return max(1, os.cpu_count() or 1)
+
+
+class Settings(BaseSettings):
+    model_config = SettingsConfigDict(env_prefix="GUITAR_", extra="ignore")
+
+    # Worker pool
+    workers: int = Field(default_factory=_default_workers, ge=1, le=64,
+                         description="render worker processes (default: one per core)")
+    queue_size: int = Field(8, ge=0, le=10_000,
+                            description="renders that may wait for a worker; more get 503")
+    queue_timeout_s: float = Field(30.0, gt=0.0,
+                                   description="longest wait for a free worker before 503")
+    retry_after_s: int = Field(2, ge=1, description="Retry-After sent with a 503")
+    warmup: bool = Field(True, description="render a tiny scene in each worker at start-up")
+    mp_context: str = Field("spawn", pattern="^(spawn|forkserver)$",
+                            description="multiprocessing start method of the workers")
+
+    # Time limit of one render: base + per_audio_second * duration (seconds of wall time)
+    time_limit_base_s: float = Field(10.0, gt=0.0)
+    time_limit_per_audio_s: float = Field(5.0, ge=0.0)
+
+    # Request limits (tighter than, or equal to, the engine's schema limits)
+    max_body_bytes: int = Field(256 * 1024, ge=1024)
+    max_duration_s: float = Field(30.0, gt=0.0, le=120.0)
+    max_events: int = Field(500, ge=1, le=2000)
+    min_sample_rate: int = Field(22050, ge=22050)
+    max_sample_rate: int = Field(96000, le=96000)
+
+    # Streaming
+    stream_block_frames: int = Field(4096, ge=256, le=1 << 20,
+                                     description="frames per streamed block")
+
+    # Logging
+    log_level: str = Field("INFO", description="level of the service's JSON logs")
+
+    @model_validator(mode="after")
+    def _ranges(self) -> Settings:
+        if self.min_sample_rate > self.max_sample_rate:
+            raise ValueError("min_sample_rate must not exceed max_sample_rate")
+        return self
+
+    def time_limit_s(self, duration_s: float) -> float:
+        """Wall-time budget of one render of ``duration_s`` seconds of audio."""
+        return self.time_limit_base_s + self.time_limit_per_audio_s * duration_s

@@ -1,0 +1,125 @@
+"""Exception -> HTTP answer, in one place.
+
+| cause                                  | status | why that one                                    |
+| -------------------------------------- | ------ | ----------------------------------------------- |
+| invalid scene, service limit           | 422    | pydantic's detail list, with a ``field`` added  |
+| engine: simulation became non-finite   | 422    | deterministic for that scene: retrying won't help|
+| body too large                         | 413    |                                                 |
+| queue full / no worker free in time    | 503    | with Retry-After: the load is transient         |
+| server shutting down                   | 503    |                                                 |
+| render past its time limit             | 504    | the worker was killed and replaced              |
+| worker process died mid-render         | 502    | the upstream (the worker) failed; it is replaced|
+| unexpected engine exception            | 500    | a bug to fix, logged with its message           |
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from typing import Any
+
+import engine
+from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+
+from .pool import PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
+
+log = logging.getLogger("service.errors")
+
+# The engine's cross-field checks name the field at the start of their message:
+# "Value error, events[2].time: 3.0 outside 0 <= time < 2.0".
+_FIELD_IN_MESSAGE = re.compile(r"^(?:Value error, )?((?:[a-z_]+(?:\[\d+\])?\.)*[a-z_]+(?:\[\d+\])?): ")
+
+
+def _event_tags() -> frozenset[str]:
+    """The event ``type`` values the engine's schema knows (pydantic puts them into error locs)."""
+    items = engine.Scene.model_json_schema()["properties"]["events"]["items"]
+    return frozenset(items.get("discriminator", {}).get("mapping", {}))
+
+
+_EVENT_TAGS = _event_tags()
+
+
+def field_path(loc: tuple | list, msg: str) -> str:
+    """A dotted path of the offending field, e.g. ``events[0].force`` (``""`` for the body)."""
+    parts = list(loc)
+    if parts and parts[0] == "body":
+        parts = parts[1:]
+    path = ""
+    for i, p in enumerate(parts):
+        if isinstance(p, int):
+            path += f"[{p}]"
+        elif (i and isinstance(parts[i - 1], int) and p in _EVENT_TAGS) or "[" in str(p):
+            continue  # pydantic's union-member tag, not a field
+        else:
+            path += f".{p}" if path else str(p)
+    if not path:
+        m = _FIELD_IN_MESSAGE.match(msg)
+        if m:
+            path = m.group(1)
+    return path
+
+
+def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    out = []
+    for err in errors:
+        item = dict(err)
+        msg = str(item.get("msg", ""))
+        if item.get("type") == "json_invalid":
+            field = ""  # the loc holds a character position, not a field
+            reason = (item.get("ctx") or {}).get("error")
+            msg = f"{msg}: {reason}" if reason else msg
+            loc = list(item.get("loc", ()))
+            if len(loc) > 1 and isinstance(loc[1], int):
+                msg += f" at character {loc[1]}"
+        else:
+            field = field_path(item.get("loc", ()), msg)
+        item["field"] = field
+        # One self-contained sentence for people: the field, then pydantic's text with the range.
+        text = msg.removeprefix("Value error, ")
+        item["message"] = text if not field or text.startswith(field) else f"{field}: {text}"
+        if tuple(item.get("loc", ())) == ("body",):
+            item.pop("input", None)  # the whole scene: no need to echo it back
+        item.pop("url", None)
+        out.append(item)
+    return jsonable_encoder(out)
+
+
+async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
+    return JSONResponse({"detail": _detail(list(exc.errors()))}, status_code=422)
+
+
+def _message(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
+    return JSONResponse({"detail": message}, status_code=status, headers=headers)
+
+
+def install(app: FastAPI, retry_after_s: int) -> None:
+    app.add_exception_handler(RequestValidationError, validation_error)  # type: ignore[arg-type]
+
+    async def busy(request: Request, exc: Exception) -> JSONResponse:
+        return _message(503, str(exc), {"Retry-After": str(retry_after_s)})
+
+    async def timeout(request: Request, exc: Exception) -> JSONResponse:
+        return _message(504, str(exc))
+
+    async def died(request: Request, exc: Exception) -> JSONResponse:
+        return _message(502, str(exc))
+
+    async def failed(request: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, RenderFailed)
+        if exc.kind == "non_finite":
+            return _message(422, f"the simulation of this scene became unstable ({exc.message}); "
+                                 "lower the forces or use quality 'high'")
+        if exc.kind == "invalid":
+            return _message(422, exc.message)
+        log.error("engine failure", extra={"fields": {
+            "request_id": getattr(request.state, "request_id", None), "error": exc.message}})
+        return _message(500, f"the engine failed on this scene: {exc.message}")
+
+    app.add_exception_handler(PoolBusy, busy)
+    app.add_exception_handler(PoolClosed, busy)
+    app.add_exception_handler(RenderTimeout, timeout)
+    app.add_exception_handler(WorkerDied, died)
+    app.add_exception_handler(RenderFailed, failed)

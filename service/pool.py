@@ -1,0 +1,409 @@
+"""A small pool of render worker processes that survives the death of any one of them.
+
+Why not ``concurrent.futures.ProcessPoolExecutor``: when one of its workers dies (killed for running
+past its time limit, or by the OOM killer) the whole executor is broken and every queued future
+fails.  Here each worker is a ``multiprocessing`` process (spawn/forkserver, never fork: the parent
+runs an event loop and threads) with its own duplex pipe, so one worker can be killed and replaced
+while the others carry on.  Streaming needs the same pipe: a worker sends each block as it is made.
+
+Threads and the loop: each worker has a reader thread that blocks on its pipe and hands every
+message to the event loop (``call_soon_threadsafe``); all pool state is touched on the loop only.
+A worker's death shows up as end-of-file on its pipe, whatever killed it.
+
+Admission: at most ``workers + queue_size`` renders are in flight (running or waiting); more are
+refused at once (``PoolBusy`` -> 503 with Retry-After).  Each job has a deadline armed when it is
+dispatched; past it the worker is killed (``RenderTimeout`` -> 504) and replaced.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import multiprocessing as mp
+import threading
+import time
+from collections.abc import AsyncIterator
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import worker as worker_module
+from .config import Settings
+
+log = logging.getLogger("service.pool")
+
+_TERMINAL = frozenset({"done", "end", "cancelled", "error"})
+_CANCEL_GRACE_S = 5.0  # a cancelled stream's worker that has not stopped by then is killed
+_RESPAWN_BACKOFF_MAX_S = 30.0
+
+
+class PoolError(Exception):
+    """A render could not be served; subclasses map to HTTP statuses in ``service.errors``."""
+
+
+class PoolBusy(PoolError):
+    pass
+
+
+class PoolClosed(PoolError):
+    pass
+
+
+class RenderTimeout(PoolError):
+    pass
+
+
+class WorkerDied(PoolError):
+    pass
+
+
+class RenderFailed(PoolError):
+    """The engine refused or failed the scene; ``kind`` is non_finite, invalid or internal."""
+
+    def __init__(self, kind: str, message: str):
+        super().__init__(message)
+        self.kind = kind
+        self.message = message
+
+
+@dataclass
+class RenderOutput:
+    data: bytes
+    render_seconds: float
+    frames: int
+    energy_error: float | None
+
+
+@dataclass
+class _Job:
+    id: int
+    kind: str
+    messages: asyncio.Queue = field(default_factory=asyncio.Queue)
+    worker: _Worker | None = None
+    timer: asyncio.TimerHandle | None = None
+    finished: bool = False
+
+
+class _Worker:
+    """One worker process, its pipe and the thread that reads the pipe."""
+
+    def __init__(self, pool: WorkerPool, ctx: Any, number: int):
+        self.pool = pool
+        self.number = number
+        parent_conn, child_conn = ctx.Pipe(duplex=True)
+        self.proc = ctx.Process(
+            target=worker_module.main,
+            args=(child_conn, pool.settings.warmup, pool.settings.stream_block_frames),
+            name=f"render-worker-{number}",
+            daemon=True,  # never outlive the server, even if its shutdown is skipped
+        )
+        self.proc.start()
+        child_conn.close()  # so that the worker's death closes the pipe for the reader
+        self.conn = parent_conn
+        self.started = time.monotonic()
+        self.ready = False
+        self.alive = True
+        self.job: _Job | None = None
+        self.jobs_done = 0
+        self.thread = threading.Thread(target=self._read, name=f"{self.proc.name}-reader",
+                                       daemon=True)
+        self.thread.start()
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid or 0
+
+    def _read(self) -> None:
+        loop = self.pool.loop
+        while True:
+            try:
+                msg = self.conn.recv()
+            except (EOFError, OSError):
+                break
+            try:
+                loop.call_soon_threadsafe(self.pool._on_message, self, msg)
+            except RuntimeError:  # the loop is closed: the server is gone
+                return
+        self.proc.join()
+        try:
+            loop.call_soon_threadsafe(self.pool._on_exit, self, self.proc.exitcode)
+        except RuntimeError:
+            pass
+
+    def send(self, msg: Any) -> None:
+        self.conn.send(msg)
+
+    def kill(self) -> None:
+        if self.proc.is_alive():
+            self.proc.kill()
+
+
+class WorkerPool:
+    def __init__(self, settings: Settings):
+        self.settings = settings
+        self.size = settings.workers
+        self.capacity = settings.workers + settings.queue_size
+        self.loop: asyncio.AbstractEventLoop
+        self._ctx = mp.get_context(settings.mp_context)
+        self._workers: list[_Worker] = []
+        self._idle: asyncio.Queue[_Worker] = asyncio.Queue()
+        self._numbers = itertools.count(1)
+        self._job_ids = itertools.count(1)
+        self._in_flight = 0
+        self._warm = False  # every worker of the first generation has warmed up
+        self._closing = False
+        self._failed_starts = 0
+        self.replaced = 0
+
+    # ---- life cycle -------------------------------------------------------------------------
+
+    async def start(self) -> None:
+        """Start the workers; they warm up in the background (``ready`` tells when done)."""
+        self.loop = asyncio.get_running_loop()
+        for _ in range(self.size):
+            self._spawn()
+
+    async def close(self, timeout_s: float = 5.0) -> None:
+        self._closing = True
+        for w in self._workers:
+            try:
+                w.send(None)
+            except OSError:
+                pass
+        deadline = time.monotonic() + timeout_s
+        for w in list(self._workers):
+            await asyncio.to_thread(w.proc.join, max(0.0, deadline - time.monotonic()))
+            w.kill()
+            await asyncio.to_thread(w.proc.join, 1.0)
+            w.conn.close()
+        self._workers.clear()
+
+    def _spawn(self) -> None:
+        w = _Worker(self, self._ctx, next(self._numbers))
+        self._workers.append(w)
+        log.info("worker started", extra={"fields": {"worker": w.number, "pid": w.pid}})
+
+    @property
+    def ready(self) -> bool:
+        return self._warm and any(w.ready for w in self._workers)
+
+    def status(self) -> dict[str, Any]:
+        return {
+            "workers": self.size,
+            "workers_ready": sum(w.ready for w in self._workers),
+            "busy": sum(w.job is not None for w in self._workers),
+            "in_flight": self._in_flight,
+            "capacity": self.capacity,
+            "replaced": self.replaced,
+        }
+
+    def pids(self) -> list[int]:
+        return [w.pid for w in self._workers if w.alive]
+
+    def busy_pids(self) -> list[int]:
+        return [w.pid for w in self._workers if w.alive and w.job is not None]
+
+    # ---- messages from the reader threads (run on the loop) ----------------------------------
+
+    def _on_message(self, w: _Worker, msg: tuple) -> None:
+        kind = msg[0]
+        if kind == "ready":
+            w.ready = True
+            self._failed_starts = 0
+            log.info("worker ready", extra={"fields": {
+                "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
+            if not self._warm and sum(x.ready for x in self._workers) >= self.size:
+                self._warm = True
+            self._idle.put_nowait(w)
+            return
+        job = w.job
+        if job is None or job.id != msg[1]:
+            return  # a late message of a job that timed out or was abandoned
+        job.messages.put_nowait(msg)
+        if kind in _TERMINAL:
+            self._finish(job)
+            w.job = None
+            w.jobs_done += 1
+            if not self._closing:
+                self._idle.put_nowait(w)
+
+    def _on_exit(self, w: _Worker, exitcode: int | None) -> None:
+        w.alive = False
+        w.ready = False
+        if w in self._workers:
+            self._workers.remove(w)
+        job, w.job = w.job, None
+        if job is not None and not job.finished:
+            job.messages.put_nowait(("died", job.id, exitcode))
+            self._finish(job)
+        if self._closing:
+            return
+        log.warning("worker exited", extra={"fields": {
+            "worker": w.number, "pid": w.pid, "exitcode": exitcode,
+            "during_job": job is not None}})
+        self.replaced += 1
+        self._respawn_later(w)
+
+    def _respawn_later(self, w: _Worker) -> None:
+        # A worker that dies before it was ever ready (broken install, engine import error) would
+        # otherwise be restarted in a tight loop.
+        delay = 0.0
+        if not w.ready and w.jobs_done == 0 and time.monotonic() - w.started < 60.0:
+            self._failed_starts += 1
+            delay = min(_RESPAWN_BACKOFF_MAX_S, 0.5 * 2 ** (self._failed_starts - 1))
+        self.loop.call_later(delay, self._respawn)
+
+    def _respawn(self) -> None:
+        if not self._closing and len(self._workers) < self.size:
+            self._spawn()
+
+    # ---- jobs -------------------------------------------------------------------------------
+
+    def _finish(self, job: _Job) -> None:
+        job.finished = True
+        if job.timer is not None:
+            job.timer.cancel()
+            job.timer = None
+
+    def _on_deadline(self, job: _Job) -> None:
+        w = job.worker
+        if job.finished or w is None:
+            return
+        log.warning("render past its time limit; killing worker",
+                    extra={"fields": {"worker": w.number, "pid": w.pid, "job": job.id}})
+        job.messages.put_nowait(("timeout", job.id))
+        self._finish(job)
+        w.job = None  # its exit is then a plain replacement
+        w.kill()
+
+    def _admit(self) -> None:
+        if self._closing:
+            raise PoolClosed("the server is shutting down")
+        if self._in_flight >= self.capacity:
+            raise PoolBusy(f"all {self.size} render workers are busy and the queue "
+                           f"({self.settings.queue_size}) is full")
+        self._in_flight += 1
+
+    def _release(self) -> None:
+        self._in_flight -= 1
+
+    async def _acquire(self) -> _Worker:
+        deadline = self.loop.time() + self.settings.queue_timeout_s
+        while True:
+            remaining = deadline - self.loop.time()
+            try:
+                w = await asyncio.wait_for(self._idle.get(), max(remaining, 0.0))
+            except TimeoutError:
+                raise PoolBusy(f"no render worker became free within "
+                               f"{self.settings.queue_timeout_s:g} s") from None
+            if w.alive and w.ready and w.job is None:
+                return w
+
+    async def _dispatch(self, kind: str, payload: dict[str, Any], time_limit_s: float) -> _Job:
+        """Hand a job to an idle worker and arm its deadline."""
+        while True:
+            w = await self._acquire()
+            job = _Job(next(self._job_ids), kind)
+            job.worker = w
+            w.job = job
+            try:
+                w.send((kind, job.id, payload))
+            except OSError:
+                w.job = None  # died between being idle and now; its exit replaces it
+                continue
+            job.timer = self.loop.call_later(time_limit_s, self._on_deadline, job)
+            return job
+
+    @staticmethod
+    def _raise_for(msg: tuple, time_limit_s: float) -> None:
+        kind = msg[0]
+        if kind == "timeout":
+            raise RenderTimeout(f"the render took longer than its time limit of "
+                                f"{time_limit_s:.1f} s and was stopped")
+        if kind == "died":
+            raise WorkerDied(f"the render worker died during the render (exit code {msg[2]}); "
+                             "it has been replaced")
+        if kind == "error":
+            raise RenderFailed(msg[2], msg[3])
+
+    async def render(self, payload: dict[str, Any], time_limit_s: float) -> RenderOutput:
+        """Render a whole scene in a worker; ``payload`` is what ``worker._render`` reads."""
+        self._admit()
+        try:
+            job = await self._dispatch("render", payload, time_limit_s)
+            msg = await job.messages.get()
+            self._raise_for(msg, time_limit_s)
+            meta = msg[3]
+            return RenderOutput(msg[2], meta["render_seconds"], meta["frames"],
+                                meta["energy_error"])
+        finally:
+            self._release()
+
+    async def stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
+        """Start a streamed render; returns once the first block exists (or fails before)."""
+        self._admit()
+        job: _Job | None = None
+        try:
+            job = await self._dispatch("stream", payload, time_limit_s)
+            first = await job.messages.get()
+            self._raise_for(first, time_limit_s)
+        except BaseException:
+            if job is not None:
+                self._cancel(job)  # e.g. the client left before the first block
+            self._release()
+            raise
+        return RenderStream(self, job, first, time_limit_s)
+
+    def _cancel(self, job: _Job) -> None:
+        w = job.worker
+        if job.finished or w is None or w.job is not job:
+            return
+        try:
+            w.send(("cancel", job.id))
+        except OSError:
+            return
+        # A worker stuck inside one long block would ignore the cancel until the block is done.
+        self.loop.call_later(_CANCEL_GRACE_S, self._on_deadline, job)
+
+
+class StreamAborted(Exception):
+    """A stream failed after its header was sent: the connection must be closed short."""
+
+
+class RenderStream:
+    """A streamed render in progress: the first block, then the rest as the worker sends it."""
+
+    def __init__(self, pool: WorkerPool, job: _Job, first: tuple, time_limit_s: float):
+        self._pool = pool
+        self._job = job
+        self._first = first
+        self._time_limit_s = time_limit_s
+        self._closed = False
+        self.render_seconds = first[3] if first[0] == "block" else first[2]["render_seconds"]
+        self.first_block_seconds = self.render_seconds
+
+    async def chunks(self) -> AsyncIterator[bytes]:
+        msg = self._first
+        while True:
+            kind = msg[0]
+            if kind == "block":
+                self.render_seconds = msg[3]
+                yield msg[2]
+            elif kind == "end":
+                self.render_seconds = msg[2]["render_seconds"]
+                return
+            else:
+                try:
+                    self._pool._raise_for(msg, self._time_limit_s)
+                except PoolError as exc:
+                    raise StreamAborted(str(exc)) from exc
+                raise StreamAborted(f"unexpected message {kind!r}")
+            msg = await self._job.messages.get()
+
+    def close(self) -> None:
+        """Stop the render if it still runs (client gone) and free the admission slot."""
+        if self._closed:
+            return
+        self._closed = True
+        self._pool._cancel(self._job)
+        self._pool._release()

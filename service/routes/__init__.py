@@ -1,0 +1,1 @@
+"""One router per resource: pages (the demo), health (and limits), presets, render."""

@@ -1,0 +1,149 @@
+"""POST /render (a whole file) and POST /render/stream (WAV sent as it is computed).
+
+Handlers stay thin: validate (engine schema via FastAPI, then the service's limits), hand the scene
+to the worker pool, turn the result into a response.  Status codes for failures: ``service.errors``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator, Callable
+from typing import Annotated, Any
+
+import engine
+from fastapi import APIRouter, Body, Request, Response
+from fastapi.responses import StreamingResponse
+from starlette.requests import ClientDisconnect
+from starlette.types import Receive, Scope, Send
+
+from .. import audio
+from ..examples import scene_examples, stream_examples
+from ..validation import StrictJSONRoute, check_limits, check_streamable
+
+router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
+
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    413: {"description": "request body too large"},
+    422: {"description": "invalid scene or outside the service's limits; `detail[].field` names "
+                         "the field"},
+    502: {"description": "the render worker died during the render (it is replaced)"},
+    503: {"description": "all workers busy and the queue full (see Retry-After)"},
+    504: {"description": "the render ran past its time limit and was stopped"},
+}
+
+
+def _seconds(x: float) -> str:
+    return f"{x:.6f}"
+
+
+def _realtime_factor(audio_s: float, render_s: float) -> str:
+    return f"{audio_s / render_s:.2f}" if render_s > 0 else "inf"
+
+
+@router.post(
+    "/render",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "the audio file; headers X-Render-Seconds, X-Realtime-Factor and, "
+                           "with diagnostics, X-Energy-Error",
+            "content": {t: {} for t in audio.MEDIA_TYPES.values()},
+        },
+        **_ERRORS,
+    },
+)
+async def render(
+    scene: Annotated[engine.Scene, Body(openapi_examples=scene_examples())], request: Request
+) -> Response:
+    """Render a scene to a WAV, FLAC or Ogg Vorbis file."""
+    settings, pool = request.state.settings, request.state.pool
+    check_limits(scene, settings)
+    out = await pool.render(
+        {
+            "scene": scene.model_dump(mode="json"),
+            "diagnostics": scene.diagnostics,
+            "sample_rate": scene.sample_rate,
+            "format": scene.output.format,
+            "subtype": scene.output.subtype,
+        },
+        settings.time_limit_s(scene.duration),
+    )
+    audio_s = out.frames / scene.sample_rate
+    request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
+    headers = {
+        "X-Render-Seconds": _seconds(out.render_seconds),
+        "X-Realtime-Factor": _realtime_factor(audio_s, out.render_seconds),
+        "Content-Disposition": f'inline; filename="guitar.{scene.output.format}"',
+    }
+    if out.energy_error is not None:
+        headers["X-Energy-Error"] = repr(out.energy_error)  # e.g. 6.24e-15
+    return Response(out.data, media_type=audio.MEDIA_TYPES[scene.output.format], headers=headers)
+
+
+class _StreamResponse(StreamingResponse):
+    """Calls ``on_close`` however the response ends: done, client gone, or never started."""
+
+    def __init__(self, content: AsyncIterator[bytes], on_close: Callable[[], None],
+                 **kwargs: Any):
+        super().__init__(content, **kwargs)
+        self._on_close = on_close
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        try:
+            await super().__call__(scope, receive, send)
+        except ClientDisconnect:
+            pass  # nobody to answer; on_close stops the render
+        finally:
+            self._on_close()
+
+
+@router.post(
+    "/render/stream",
+    response_class=StreamingResponse,
+    responses={
+        200: {
+            "description": "a WAV file sent block by block as the engine computes it, at the "
+                           "fixed gain; Content-Length is exact. X-Render-Seconds is the time to "
+                           "the first block (prepare + first block): the total is not known when "
+                           "headers are sent",
+            "content": {"audio/wav": {}},
+        },
+        **_ERRORS,
+    },
+)
+async def render_stream(
+    scene: Annotated[engine.Scene, Body(openapi_examples=stream_examples())], request: Request
+) -> Response:
+    """Stream a scene as WAV (PCM_16 unless ``output.subtype`` says otherwise). The bytes equal
+    those of ``POST /render`` for the same scene with ``output.normalize: false``; ``normalize``
+    and ``diagnostics`` are ignored here, and ``flac``/``ogg`` are refused (422)."""
+    settings, pool = request.state.settings, request.state.pool
+    check_limits(scene, settings)
+    check_streamable(scene)
+    rate, subtype = scene.sample_rate, scene.output.subtype
+    frames = audio.frame_count(scene.duration, rate)
+    header = audio.wav_header(frames, rate, subtype)
+    scene_json = scene.model_dump(mode="json")
+    scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them
+    stream = await pool.stream({"scene": scene_json, "frames": frames, "subtype": subtype},
+                               settings.time_limit_s(scene.duration))
+    audio_s = frames / rate
+    request.state.audio_seconds = audio_s
+
+    async def body() -> AsyncIterator[bytes]:
+        yield header
+        try:
+            async for chunk in stream.chunks():
+                yield chunk
+        finally:
+            request.state.render_seconds = stream.render_seconds
+
+    return _StreamResponse(
+        body(),
+        on_close=stream.close,
+        media_type="audio/wav",
+        headers={
+            "Content-Length": str(len(header) + frames * audio.BYTES_PER_SAMPLE[subtype]),
+            "X-Render-Seconds": _seconds(stream.first_block_seconds),
+            "Content-Disposition": 'inline; filename="guitar.wav"',
+        },
+    )

@@ -1,0 +1,74 @@
+"""Response models of the service's JSON endpoints (the request model is the engine's ``Scene``)."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, Field
+
+
+class PoolStatus(BaseModel):
+    workers: int = Field(description="configured worker processes")
+    workers_ready: int = Field(description="workers warmed up and alive now")
+    busy: int = Field(description="workers rendering now")
+    in_flight: int = Field(description="renders admitted (running or waiting)")
+    capacity: int = Field(description="workers + queue size; more renders are answered 503")
+    replaced: int = Field(description="workers replaced since start (killed, timed out, crashed)")
+
+
+class Health(BaseModel):
+    status: str = Field(description="'ok' once every worker has warmed up, else 'starting'")
+    ready: bool
+    pool: PoolStatus
+
+
+class StringInfo(BaseModel):
+    string: int = Field(description="1 = highest string")
+    note: str = Field(description="open-string pitch, scientific notation")
+    frequency_hz: float
+    tension_n: float = Field(description="tension that tunes the simulated string, N")
+    radius_m: float
+    density_kg_m3: float
+    youngs_modulus_pa: float
+    linear_density_kg_m: float
+    t60_fundamental_s: float
+    t60_2khz_s: float
+
+
+class FingerInfo(BaseModel):
+    mass_kg: float
+    stiffness: float
+    alpha: float
+    damping_n_s_m: float
+
+
+class PresetInfo(BaseModel):
+    name: str
+    description: str
+    default: bool = Field(description="used when a scene names no preset")
+    scale_length_m: float
+    frets: int
+    action_nut_m: float
+    action_12th_m: float
+    fret_height_m: float
+    pickup_position: float = Field(description="default output point, x / L")
+    tuning: list[str] = Field(description="open-string notes, string 1 first")
+    strings: list[StringInfo]
+    finger: FingerInfo
+
+
+class Presets(BaseModel):
+    default: str
+    presets: list[PresetInfo]
+
+
+class Limits(BaseModel):
+    """The service's limits on a scene, on top of the engine schema's own ranges."""
+
+    max_body_bytes: int
+    max_duration_s: float
+    max_events: int
+    min_sample_rate: int
+    max_sample_rate: int
+    time_limit_base_s: float
+    time_limit_per_audio_s: float
+    stream_formats: list[str]
+    formats: list[str]

@@ -1,0 +1,121 @@
+"""What the service checks on top of the engine's scene schema.
+
+* Strict JSON: Python's ``json`` (which FastAPI uses) accepts the non-standard tokens ``NaN``,
+  ``Infinity`` and ``-Infinity``.  The engine's schema refuses non-finite floats, but a token in a
+  string-typed field would reach it as text, so the tokens are refused here, before validation,
+  with the location of each.
+* Service limits (``Settings``): duration, number of events, sample rate.  They are reported in the
+  same shape as pydantic's own errors, so a client handles one format.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Coroutine, Iterator
+from typing import Any
+
+import engine
+from fastapi import Request, Response
+from fastapi.exceptions import RequestValidationError
+from fastapi.routing import APIRoute
+
+from .config import Settings
+
+
+class _NonFinite:
+    """Stands in for a NaN/Infinity token while the body is scanned."""
+
+    def __init__(self, token: str):
+        self.token = token
+
+
+def _nonfinite_locations(data: Any) -> Iterator[tuple[tuple[str | int, ...], str]]:
+    # Iterative: the body size limit bounds the depth, but not below Python's recursion limit.
+    stack: list[tuple[tuple[str | int, ...], Any]] = [((), data)]
+    while stack:
+        loc, value = stack.pop()
+        if isinstance(value, _NonFinite):
+            yield loc, value.token
+        elif isinstance(value, dict):
+            stack.extend(((*loc, k), v) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend(((*loc, i), v) for i, v in enumerate(value))
+
+
+async def reject_nonfinite_json(request: Request) -> None:
+    body = await request.body()
+    if not body:
+        return
+    try:
+        data = json.loads(body, parse_constant=_NonFinite)
+    except RecursionError:
+        raise RequestValidationError([{
+            "type": "json_invalid", "loc": ("body",), "msg": "JSON nested too deeply",
+            "input": None}]) from None
+    except ValueError:
+        return  # malformed: FastAPI's own parse answers it (422 json_invalid, with the position)
+    errors = [
+        {
+            "type": "finite_number",
+            "loc": ("body", *loc),
+            "msg": f"{token} is not valid JSON: numbers must be finite",
+            "input": token,
+        }
+        for loc, token in sorted(_nonfinite_locations(data), key=lambda x: str(x[0]))
+    ]
+    if errors:
+        raise RequestValidationError(errors)
+
+
+class StrictJSONRoute(APIRoute):
+    """An API route whose JSON body may not contain NaN or Infinity tokens."""
+
+    def get_route_handler(self) -> Callable[[Request], Coroutine[Any, Any, Response]]:
+        handler = super().get_route_handler()
+
+        async def strict_handler(request: Request) -> Response:
+            await reject_nonfinite_json(request)
+            return await handler(request)
+
+        return strict_handler
+
+
+def _error(field: str, kind: str, msg: str, value: Any, ctx: dict[str, Any]) -> dict[str, Any]:
+    return {"type": kind, "loc": ("body", *field.split(".")), "msg": msg, "input": value,
+            "ctx": ctx}
+
+
+def check_limits(scene: engine.Scene, settings: Settings) -> None:
+    """Raise a 422 for a valid scene that is outside this server's limits."""
+    errors = []
+    if scene.duration > settings.max_duration_s:
+        errors.append(_error(
+            "duration", "less_than_equal",
+            f"Input should be less than or equal to {settings.max_duration_s:g} "
+            "(service limit GUITAR_MAX_DURATION_S)", scene.duration,
+            {"le": settings.max_duration_s}))
+    if len(scene.events) > settings.max_events:
+        errors.append(_error(
+            "events", "too_long",
+            f"List should have at most {settings.max_events} items "
+            f"(service limit GUITAR_MAX_EVENTS), not {len(scene.events)}", len(scene.events),
+            {"max_length": settings.max_events}))
+    if not settings.min_sample_rate <= scene.sample_rate <= settings.max_sample_rate:
+        errors.append(_error(
+            "sample_rate", "range",
+            f"Input should be between {settings.min_sample_rate} and "
+            f"{settings.max_sample_rate} Hz (service limits GUITAR_MIN_SAMPLE_RATE, "
+            "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate,
+            {"ge": settings.min_sample_rate, "le": settings.max_sample_rate}))
+    if errors:
+        raise RequestValidationError(errors)
+
+
+def check_streamable(scene: engine.Scene) -> None:
+    """A stream is a WAV file: its header goes out before the first sample exists."""
+    if scene.output.format != "wav":
+        raise RequestValidationError([_error(
+            "output.format", "literal_error",
+            f"/render/stream sends WAV only; got {scene.output.format!r} "
+            "(use POST /render for flac or ogg)", scene.output.format,
+            {"expected": "'wav'"})])

@@ -1,0 +1,141 @@
+"""The render worker: the code that runs inside each worker process of ``service.pool``.
+
+A worker owns one end of a duplex pipe.  It warms up (the first render in a fresh process compiles
+or loads the numba kernels), says ``ready``, then serves one job at a time:
+
+    parent -> worker   ("render", job_id, payload) | ("stream", job_id, payload)
+                       | ("cancel", job_id) | None (stop)
+    worker -> parent   ("ready", pid, warmup_seconds)
+                       ("done", job_id, file_bytes, meta)             render finished
+                       ("block", job_id, pcm_bytes, seconds_so_far)   one streamed block
+                       ("end", job_id, meta) | ("cancelled", job_id)  stream finished / stopped
+                       ("error", job_id, kind, message)               kind: non_finite|invalid|internal
+
+Everything sent is plain data (bytes, floats, dicts) so the parent never unpickles engine objects.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+
+from . import audio
+
+# Short, but it touches every kernel path: a fretting finger, a pluck, a tap and the energy terms.
+WARMUP_SCENE: dict[str, Any] = {
+    "duration": 0.05,
+    "events": [
+        {"type": "fret", "time": 0.0, "string": 5, "fret": 3},
+        {"type": "pluck", "time": 0.001, "string": 5},
+        {"type": "tap", "time": 0.01, "string": 3, "fret": 7},
+    ],
+}
+
+
+def main(conn: Connection, warmup: bool, block_frames: int) -> None:
+    """Entry point of a worker process."""
+    # Ctrl-C reaches the whole process group; the parent decides when workers stop.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import engine
+
+    t0 = time.perf_counter()
+    if warmup:
+        _warm_up(engine)
+    try:
+        conn.send(("ready", os.getpid(), time.perf_counter() - t0))
+        _serve(conn, engine, block_frames)
+    except (BrokenPipeError, EOFError, ConnectionResetError):
+        pass  # the parent has gone away
+
+
+def _warm_up(engine: Any) -> None:
+    result = engine.render(WARMUP_SCENE, diagnostics=True)
+    for fmt in ("wav", "flac", "ogg"):
+        audio.encode(result.audio, result.sample_rate, fmt)
+
+
+def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
+    while True:
+        msg = conn.recv()
+        if msg is None:
+            return
+        kind, job_id = msg[0], msg[1]
+        if kind == "cancel":
+            continue  # the job it meant already finished
+        try:
+            if kind == "render":
+                _render(conn, engine, job_id, msg[2])
+            elif kind == "stream":
+                _stream(conn, engine, job_id, msg[2], block_frames)
+        except (BrokenPipeError, ConnectionResetError):
+            raise
+        except Exception as exc:  # reported to the parent, which maps it to a status code
+            conn.send(("error", job_id, *_classify(exc)))
+
+
+def _classify(exc: Exception) -> tuple[str, str]:
+    from pydantic import ValidationError
+
+    if isinstance(exc, FloatingPointError):
+        return "non_finite", str(exc)
+    if isinstance(exc, ValidationError):
+        return "invalid", str(exc)
+    return "internal", f"{type(exc).__name__}: {exc}"
+
+
+def _check_finite(x: np.ndarray) -> None:
+    # The engine raises on a non-finite state; this guards the output itself.
+    if not np.all(np.isfinite(x)):
+        raise FloatingPointError("the rendered audio contains non-finite samples")
+
+
+def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any]) -> None:
+    t0 = time.perf_counter()
+    result = engine.render(payload["scene"], diagnostics=payload["diagnostics"])
+    seconds = time.perf_counter() - t0
+    samples = result.audio if payload["diagnostics"] else result
+    _check_finite(samples)
+    data = audio.encode(samples, payload["sample_rate"], payload["format"], payload["subtype"])
+    meta = {
+        "render_seconds": seconds,
+        "frames": int(len(samples)),
+        "energy_error": float(result.energy_error) if payload["diagnostics"] else None,
+    }
+    conn.send(("done", job_id, data, meta))
+
+
+def _cancel_requested(conn: Connection, job_id: int) -> bool:
+    while conn.poll():
+        msg = conn.recv()
+        if msg is None:
+            raise EOFError("stop requested")
+        if msg[0] == "cancel" and msg[1] == job_id:
+            return True
+    return False
+
+
+def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
+            block_frames: int) -> None:
+    t0 = time.perf_counter()
+    frames, subtype = payload["frames"], payload["subtype"]
+    sent = 0
+    for block in engine.blocks(payload["scene"], block_frames=block_frames):
+        _check_finite(block)
+        # The header announced ``frames``: never send more than that.
+        block = block[: frames - sent]
+        if len(block):
+            conn.send(("block", job_id, audio.pcm_bytes(block, subtype), time.perf_counter() - t0))
+            sent += len(block)
+        if _cancel_requested(conn, job_id):
+            conn.send(("cancelled", job_id))
+            return
+    if sent < frames:
+        # Keep the file valid if the engine ever renders fewer frames than round(duration*rate).
+        conn.send(("block", job_id, audio.pcm_bytes(np.zeros(frames - sent), subtype),
+                   time.perf_counter() - t0))
+    conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent}))

@@ -1,0 +1,70 @@
+"""The discrete energy balance of the DAFx24 scheme (paper sec. 4.5, 6.1) holds to rounding."""
+
+import numpy as np
+import pytest
+
+import engine
+from engine.guitar import QUALITY, Quality, RenderOptions, prepare
+from engine.scene import Scene
+from engine.string import FRET_PENALTY
+
+from .conftest import fret, pluck, scene, tap
+
+TOL = 1e-11
+
+
+def test_every_nonlinearity_at_once():
+    """Fret + hard pluck (fret buzz, fretboard, KC) + tap on other strings: balance to 1e-11."""
+    sc = scene([fret(2, 5), pluck(2, time=0.05, force=8.0), tap(3, 7, time=0.3, force=0.9),
+                pluck(6, time=0.1, force=8.0, position=0.9)], duration=0.8, diagnostics=True)
+    r = engine.render(sc)
+    assert np.isfinite(r.audio).all()
+    assert 0.0 < r.energy_error <= TOL
+
+
+def test_finger_drop_of_fig_2():
+    """String at rest, the finger arrives from above at 0.7 m/s with (almost) no force."""
+    sc = scene([tap(4, 5, force=1e-6, velocity=0.7)], duration=0.3, diagnostics=True)
+    r = engine.render(sc)
+    assert 0.0 < r.energy_error <= TOL
+
+
+def test_finger_lift_and_replace():
+    """Fingers put down, lifted and replaced: energy leaving with a finger is booked exactly."""
+    sc = scene([fret(1, 3), pluck(1, time=0.02, force=3.0), fret(1, 5, time=0.15),
+                fret(1, 0, time=0.3), tap(1, 9, time=0.35, release=0.5)], duration=0.7,
+               diagnostics=True)
+    r = engine.render(sc)
+    assert 0.0 < r.energy_error <= TOL
+
+
+def test_penalty_frets_of_the_paper_also_balance():
+    q = Quality(max_h_m=QUALITY["standard"].max_h_m, fret_mode=FRET_PENALTY)
+    sc = scene([fret(3, 5), pluck(3, time=0.05, force=8.0)], duration=0.4, diagnostics=True)
+    r = engine.render(sc, options=RenderOptions(quality=q))
+    assert 0.0 < r.energy_error <= TOL
+
+
+def test_stored_energy_never_grows_without_forcing():
+    """After the pluck ends, H^(n+1/2) is non-increasing (Q >= 0, no supplied power)."""
+    sc = Scene.model_validate(scene([pluck(6, force=8.0, duration=0.001)], duration=0.5,
+                                    diagnostics=True))
+    eng = prepare(sc)
+    list(eng.blocks())
+    v = eng.voices[0]
+    h = np.concatenate(v.energy_h)
+    after = h[int(0.002 * 44100 * v.oversample):]
+    assert after[0] > 0
+    assert np.all(np.diff(after) <= 1e-13 * after[0])
+
+
+@pytest.mark.parametrize("string", [1, 6])
+def test_energy_rises_by_exactly_the_work_of_the_pluck(string):
+    """The pluck's discrete work k P^n sums to the stored plus dissipated energy."""
+    sc = Scene.model_validate(scene([pluck(string, force=2.0)], duration=0.05, diagnostics=True))
+    eng = prepare(sc)
+    list(eng.blocks())
+    v = eng.voices[0]
+    h, q, p = (np.concatenate(x) for x in (v.energy_h, v.energy_q, v.energy_p))
+    assert p.sum() > 0
+    np.testing.assert_allclose(h[-1] + q.sum(), p.sum(), rtol=1e-11)

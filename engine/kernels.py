@@ -458,7 +458,10 @@ def step_block(
                                       fret_p, fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                     nc += 1
         for _attempt in range(2 * nfret + 4):
-            if nc > 0:
+            if nc == 1 and kind[0] == KC:
+                # Kirchhoff-Carrier alone (the common free-vibration step): a 1x1 system
+                x[0] = -c.kc * (qu1 + quf) / (1.0 + c.kc * lam * qq)
+            elif nc > 0:
                 _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
                 for i in range(nc):
                     for j in range(nc):
@@ -501,6 +504,8 @@ def step_block(
                 if fret_active[q]:
                     continue
                 p_ = fret_p[q]
+                if U0[p_] >= near[p_ - 2] and U0[p_ + 1] >= near[p_ - 1]:
+                    continue  # out of reach this step (see string.fret_margin)
                 pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
                 if c.kc > 0.0:
                     pv += lam * xk * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])

@@ -162,7 +162,7 @@ STEEL_ACOUSTIC = Preset(
         ),
         # fitted by `python -m benchmarks.intonation` (reference grid, 3 N finger); the B string
         # needs the most, as on real compensated acoustic saddles
-        (2.50e-3, 5.20e-3, 1.05e-3, 2.05e-3, 2.20e-3, 3.50e-3),
+        (3.20e-3, 5.35e-3, 1.55e-3, 1.95e-3, 2.65e-3, 3.55e-3),
     ),
     frets=20,
     action_nut_m=0.25e-3,

@@ -1,0 +1,92 @@
+"""Cost of the engine on this machine: milliseconds of compute per second of audio.
+
+Table 1, per string of the default preset at the chosen quality: the linear string alone (the
+"baseline" of the paper's sec. 7), and the full model (Kirchhoff-Carrier, fretboard, rigid frets, a
+finger pressing at fret 5, an 8 N pluck), with the ratio between them.
+Table 2, whole scenes: a six-string strum (open strings), a fretted chord, and the paper's Table 1
+configuration for comparison (their C++: 40-180 ms per second of audio per string).
+
+    python -m benchmarks.speed [--quality standard] [--seconds 2] [--repeat 3]
+
+Timings are the best of ``--repeat`` runs of the simulation alone (scene preparation excluded), on
+one core (the engine is single-threaded; the service runs one render per worker process).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from engine.guitar import RenderOptions, prepare
+from engine.scene import Scene
+
+
+def best_time(scene: dict, options: RenderOptions, repeat: int) -> tuple[float, object]:
+    sc = Scene.model_validate(scene)
+    best = np.inf
+    eng = None
+    for _ in range(repeat):
+        eng = prepare(sc, options)
+        t = time.perf_counter()
+        for _block in eng.blocks():
+            pass
+        best = min(best, time.perf_counter() - t)
+    return best, eng
+
+
+def per_string(quality: str, seconds: float, repeat: int) -> None:
+    print(f"\nper string, quality '{quality}', {seconds:g} s of audio at 44.1 kHz "
+          "(ms of compute per second of audio)")
+    print("string | oversample |   N | linear | full model | full / linear")
+    linear_opts = RenderOptions(kirchhoff_carrier=False, fretboard=False, frets=False,
+                                skip_decayed=False)
+    full_opts = RenderOptions(skip_decayed=False)
+    for s in range(1, 7):
+        base = {"duration": seconds, "quality": quality}
+        lin = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 8.0}]}
+        full = {**base, "events": [
+            {"type": "fret", "time": 0.0, "string": s, "fret": 5},
+            {"type": "pluck", "time": 0.05, "string": s, "force": 8.0},
+        ]}
+        t_lin, eng = best_time(lin, linear_opts, repeat)
+        t_full, _ = best_time(full, full_opts, repeat)
+        v = eng.voices[0]
+        print(f"{s:>6d} | {v.oversample:>10d} | {v.coefs.n:>3d} | {t_lin / seconds * 1e3:6.1f} | "
+              f"{t_full / seconds * 1e3:10.1f} | {t_full / t_lin:13.2f}")
+
+
+def scenes(quality: str, seconds: float, repeat: int) -> None:
+    strum = [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0}
+             for i in range(6)]
+    chord_frets = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}  # C major
+    chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
+             for s, q in chord_frets.items() if q > 0]
+    chord += [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
+              for i in range(6)]
+    paper = [{"type": "fret", "time": 0.0, "string": 6, "fret": 5},
+             {"type": "pluck", "time": 0.05, "string": 6, "force": 5.0}]
+    print(f"\nscenes, quality '{quality}', {seconds:g} s of audio")
+    print("scene                          | ms per s of audio | x real time")
+    for name, evs, opts in [
+        ("six-string strum (open)", strum, RenderOptions(skip_decayed=False)),
+        ("fretted C chord, strummed", chord, RenderOptions(skip_decayed=False)),
+        ("paper Table 1 setup, low E", paper, RenderOptions(skip_decayed=False)),
+    ]:
+        t, _ = best_time({"duration": seconds, "quality": quality, "events": evs}, opts, repeat)
+        print(f"{name:30s} | {t / seconds * 1e3:17.1f} | {seconds / t:11.1f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quality", default="standard", choices=["draft", "standard", "high"])
+    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    per_string(args.quality, args.seconds, args.repeat)
+    scenes(args.quality, args.seconds, args.repeat)
+
+
+if __name__ == "__main__":
+    main()

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -148,20 +149,28 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     for _ in range(60):
         for _ in range(8):  # alternate: tension for mode 1, stiffness for the pinned mode
             sigma0, sigma1 = loss_coefficients(spec, tension)
-            tension = _secant(lambda t: scheme_frequency(
-                1, n, length, k, t, rho_a, ei_phys * scale, sigma0, sigma1) - f0, tension)
+            args = (n, length, k, rho_a, sigma0, sigma1)
+            tension = _secant(partial(_mode_error, 1, f0, args, ei_phys * scale, None), tension)
             if not compensate:
                 break
-            m = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale)
-            target = m.target_frequency(PINNED_PARTIAL)
-            scale = _secant(lambda c: scheme_frequency(
-                PINNED_PARTIAL, n, length, k, tension, rho_a, ei_phys * c, sigma0, sigma1)
-                - target, scale)
+            target = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale
+                                 ).target_frequency(PINNED_PARTIAL)
+            scale = _secant(partial(_mode_error, PINNED_PARTIAL, target, args, ei_phys, tension),
+                            scale)
         model = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale)
         if length / n >= h_min(k, tension, rho_a, model.ei, sigma1) * (1.0 + 1e-12):
             return model
         n -= 1
     raise ValueError(f"cannot place a stable grid on string {spec.note}")
+
+
+def _mode_error(mode, target, args, ei, tension, x):
+    """Scheme frequency of ``mode`` minus target, as a function of the tension (tension None) or
+    of the stiffness scale x (E I = ei * x)."""
+    n, length, k, rho_a, sigma0, sigma1 = args
+    if tension is None:
+        return scheme_frequency(mode, n, length, k, x, rho_a, ei, sigma0, sigma1) - target
+    return scheme_frequency(mode, n, length, k, tension, rho_a, ei * x, sigma0, sigma1) - target
 
 
 def _secant(err, x0: float) -> float:

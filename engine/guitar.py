@@ -40,8 +40,10 @@ from .string import (
     tune,
 )
 
-# Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.
-FIXED_GAIN = 0.25
+# Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.  A 2 N
+# strum of the six open strings peaks near 0.26 and an 8 N one near 0.8 (benchmarks/skips.py prints
+# the peaks); louder scenes clip in PCM, which is what a fixed gain means.
+FIXED_GAIN = 0.03
 
 
 @dataclass(frozen=True)

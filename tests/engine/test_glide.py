@@ -18,12 +18,14 @@ def _glide(steel, string, force):
 
 @pytest.mark.parametrize("string", [5, 6])
 def test_hard_pluck_glides_down(steel, string):
-    assert _glide(steel, string, 8.0) > 3.0
+    """8 N: the fundamental in the first 0.1 s is several cents above its pitch at 0.5 s."""
+    assert _glide(steel, string, 8.0) > 5.0
 
 
 @pytest.mark.parametrize("string", [1, 5, 6])
 def test_soft_pluck_does_not_glide(steel, string):
-    assert abs(_glide(steel, string, 0.2)) < 0.5
+    """0.2 N: below a cent (the estimator itself reads up to ~0.5 c on E2's 8 periods)."""
+    assert abs(_glide(steel, string, 0.2)) < 1.0
 
 
 def test_glide_vanishes_without_kirchhoff_carrier(steel):

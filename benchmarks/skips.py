@@ -1,0 +1,76 @@
+"""What each skip saves and what it changes: speed-up and largest output difference.
+
+For every way the engine avoids work, the same scene is rendered with the skip on and off:
+
+* silent strings: strings with no events are not simulated;
+* unreachable frets: rigid frets are evaluated only when one is within reach this step;
+* decayed strings: a string stops once every node (and finger) moves slower than 1e-7 m/s after
+  its last event.
+
+    python -m benchmarks.skips
+
+Differences are in output units at the fixed gain (full scale 1.0), i.e. pickup velocity x 0.25.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from engine.guitar import FIXED_GAIN, RenderOptions, prepare
+from engine.scene import Scene
+
+
+def render(scene: dict, **opts) -> tuple[np.ndarray, float]:
+    eng = prepare(Scene.model_validate(scene), RenderOptions(**opts))
+    t = time.perf_counter()
+    out = np.concatenate(list(eng.blocks()))
+    return out * FIXED_GAIN, time.perf_counter() - t
+
+
+SINGLE_NOTE = {"duration": 4.0, "events": [{"type": "pluck", "time": 0.0, "string": 3}]}
+STRUM = {"duration": 2.0, "events": [
+    {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0} for i in range(6)]}
+HARD_STRUM = {"duration": 2.0, "events": [
+    {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 8.0} for i in range(6)]}
+SHORT_NOTES = {
+    "duration": 10.0,
+    "guitar": {"strings": [{"string": s, "t60_fundamental_s": 0.6, "t60_2khz_s": 0.2}
+                           for s in range(1, 7)]},
+    "events": [{"type": "pluck", "time": 0.3 * i, "string": 1 + i % 6, "force": 2.0}
+               for i in range(6)],
+}
+MELODY_THEN_REST = {"duration": 15.0, "guitar": {"preset": "nylon-classical"}, "events": [
+    {"type": "fret", "time": 0.0, "string": 2, "fret": 1},
+    {"type": "pluck", "time": 0.05, "string": 2, "force": 2.0},
+    {"type": "fret", "time": 0.5, "string": 2, "fret": 3},
+    {"type": "pluck", "time": 0.55, "string": 2, "force": 2.0},
+    {"type": "fret", "time": 1.0, "string": 2, "fret": 0},
+]}
+
+CASES = [
+    ("silent strings", "one note on string 3, 4 s", SINGLE_NOTE,
+     {"skip_silent": False, "skip_decayed": False}, {"skip_decayed": False}),
+    ("unreachable frets", "open strum 2 N, 2 s", STRUM, {"skip_contacts": False}, {}),
+    ("unreachable frets", "open strum 8 N, 2 s", HARD_STRUM, {"skip_contacts": False}, {}),
+    ("decayed strings", "6 short notes (T60 0.6 s), 10 s", SHORT_NOTES,
+     {"skip_decayed": False}, {}),
+    ("decayed strings", "nylon B string melody, rest, 15 s", MELODY_THEN_REST,
+     {"skip_decayed": False}, {}),
+]
+
+
+def main() -> None:
+    print("skip              | scene                           | time off | time on | speed-up |"
+          " max |difference| | peak")
+    for skip, name, scene, off, on in CASES:
+        a, t_on = render(scene, **on)
+        b, t_off = render(scene, **off)
+        diff = float(np.max(np.abs(a - b)))
+        print(f"{skip:17s} | {name:31s} | {t_off:7.2f}s | {t_on:6.2f}s | {t_off / t_on:7.1f}x |"
+              f" {diff:17.2e} | {np.abs(b).max():.3f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -19,7 +19,7 @@ Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import signal
@@ -39,6 +39,8 @@ from .string import (
     geometry,
     tune,
 )
+
+FINGER_EVENTS = ("fret", "tap")
 
 # Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.  A 2 N
 # strum of the six open strings peaks near 0.26 and an 8 N one near 0.8 (benchmarks/skips.py prints
@@ -262,7 +264,11 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         if opts.skip_silent and not any(e.string == i for e in scene.events):
             continue
         L = preset.string_length_m(i)
-        os_ = opts.oversample or oversample_for(spec, L, rate, q)
+        # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
+        # finger touches in this scene needs only the dispersion criterion.
+        fingered = any(e.string == i and e.type in FINGER_EVENTS for e in scene.events)
+        q_string = q if fingered else replace(q, max_h_m=math.inf)
+        os_ = opts.oversample or oversample_for(spec, L, rate, q_string)
         model = tune(spec, L, rate * os_, q.grid_scale)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, pickup, opts.kirchhoff_carrier,

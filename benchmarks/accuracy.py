@@ -47,7 +47,8 @@ ENERGY_SCENES = {
 def energy(quality: str) -> None:
     print(f"\nenergy balance, quality '{quality}' (max relative deviation per step)")
     for name, evs in ENERGY_SCENES.items():
-        r = engine.render({"duration": 0.5, "events": evs, "quality": quality}, diagnostics=True)
+        r = engine.render({"duration": 0.5, "events": evs, "quality": quality,
+                           "output": {"body": "none"}}, diagnostics=True)
         print(f"  {name:48s} {r.energy_error:9.2e}")
 
 
@@ -58,6 +59,7 @@ def open_strings(quality: str) -> None:
         for s in range(1, 7):
             sc = Scene.model_validate({"duration": 2.0, "quality": quality,
                                        "guitar": {"preset": preset},
+                                       "output": {"body": "none", "pickup_position": 0.913},
                                        "events": [{"type": "pluck", "time": 0.0, "string": s,
                                                    "force": 0.2, "position": 0.83}]})
             m = prepare(sc).voices[0].model
@@ -78,7 +80,8 @@ def glide(quality: str) -> None:
         row = []
         f0 = PRESETS["steel-acoustic"].strings[s - 1].frequency_hz
         for force in forces:
-            a = engine.render({"duration": 0.7, "quality": quality, "events": [
+            a = engine.render({"duration": 0.7, "quality": quality, "output": {"body": "none"},
+                               "events": [
                 {"type": "pluck", "time": 0.0, "string": s, "force": force}]})
             early = spectrum_peak(a[int(0.01 * SR):int(0.11 * SR)], SR, f0, 0.05)
             late = spectrum_peak(a[int(0.5 * SR):int(0.6 * SR)], SR, f0, 0.05)

@@ -42,6 +42,7 @@ def fretted_cents(args) -> tuple[int, int, float]:
         "duration": 1.2,
         "sample_rate": SR,
         "guitar": guitar,
+        "output": {"body": "none"},
         "events": [
             {"type": "fret", "time": 0.0, "string": string, "fret": fret, "force": FORCE},
             {"type": "pluck", "time": 0.05, "string": string, "force": 1.0, "position": 0.8},

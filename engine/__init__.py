@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .guitar import FIXED_GAIN, QUALITY, RenderOptions, prepare
+from .output import convolve_ir
 from .presets import PRESETS, get_preset
 from .scene import Scene, parse_scene
 
@@ -27,7 +28,7 @@ PEAK_DBFS = -1.0
 
 @dataclass
 class RenderResult:
-    audio: np.ndarray  # float64, shape (frames,), scaled as the scene's output asks
+    audio: np.ndarray  # float64, (frames,) or (frames, 2), scaled as the scene's output asks
     energy_error: float  # largest relative energy-balance deviation over the strings (sec. 6.1)
     sample_rate: int
     seconds: float  # wall time of the simulation
@@ -45,9 +46,14 @@ def to_output_scale(velocity: np.ndarray, normalize: bool) -> np.ndarray:
 
 
 def render(scene: Scene | dict, diagnostics: bool | None = None,
-           options: RenderOptions | None = None):
-    """Render a scene. Returns the audio array, or a ``RenderResult`` when diagnostics are asked for
-    (by the argument or by the scene's ``diagnostics`` field when the argument is omitted)."""
+           options: RenderOptions | None = None, impulse_response: np.ndarray | None = None):
+    """Render a scene. Returns the audio array, shape (frames,) for mono or (frames, 2) for
+    stereo, or a ``RenderResult`` when diagnostics are asked for (by the argument or by the
+    scene's ``diagnostics`` field when the argument is omitted).
+
+    ``impulse_response``: a body or room response (samples at the scene's rate) convolved with the
+    output instead of the built-in body (scipy FFT convolution).
+    """
     import time
 
     sc = parse_scene(scene)
@@ -55,9 +61,13 @@ def render(scene: Scene | dict, diagnostics: bool | None = None,
     if diag != sc.diagnostics:
         sc = sc.model_copy(update={"diagnostics": diag})
     t0 = time.perf_counter()
+    if impulse_response is not None:
+        sc = sc.model_copy(update={"output": sc.output.model_copy(update={"body": "none"})})
     eng = prepare(sc, options)
     parts = list(eng.blocks())
     vel = np.concatenate(parts) if parts else np.zeros(0)
+    if impulse_response is not None:
+        vel = convolve_ir(vel, impulse_response)
     seconds = time.perf_counter() - t0
     audio = to_output_scale(vel, sc.output.normalize)
     if not diag:

@@ -1,29 +1,71 @@
-"""Events -> per-string control arrays the kernel reads (plucks, finger slots).
+"""Events -> per-string control arrays the kernel reads (``kernels.Controls``).
 
 Times become step indices at the string's internal rate once, before the loop; the kernel derives
 every control value from the global step number, so rendering in blocks of any size gives the same
 samples as rendering at once.
 
-Fingers.  A ``fret`` or ``tap`` event puts a finger (its own mass, eqs. (9)-(10)) on the string a
-fraction ``FINGER_BEHIND`` of the fret spacing behind the fret, on the nut side, where players press.
-A later ``fret``/``tap`` on the same string lifts the previous finger at that moment (a finger moves
-by being lifted and put down again); ``fret: 0`` only lifts.  A lifted finger is pulled up with its
-pressing force and leaves the model once it is ``Coefs.fg_lift`` above the string.
+How each event acts on the physics
+----------------------------------
+* ``pluck``: the force pulse f_e(t) of eq. (5); its ``style`` sets the pulse length and direction
+  (``PLUCK_STYLES``).  ``strum`` is a sequence of plucks across strings.
+* ``fret``/``tap``/``hammer_on``/``slide``: a finger (its own mass, eqs. (9)-(10), with contact
+  damping) a fraction ``FINGER_BEHIND`` of the fret spacing behind the fret, pressing with its
+  force.  A ``fret``, ``tap`` or ``slide`` lifts the finger already on that string at that moment
+  (one hand position per string); a ``hammer_on`` adds a second finger and leaves the first where it
+  is.  A ``slide`` moves the finger's position x_FG continuously (the paper's sec. 2.5 allows x_FG to
+  vary in time); the string crosses the frets under it.  ``pull_off`` lifts the finger on ``fret``
+  and plucks the string at the finger with ``force`` as it leaves.  A lifted finger is pulled up with
+  its pressing force and leaves the model once it is ``Coefs.fg_lift`` above the string.
+* ``harmonic``: a light touch, modelled as a point damper R (d/dt) u(x) with R matched to the
+  string's wave impedance 2 sqrt(T rho A) (the value that absorbs most of a wave passing the point),
+  with no pressing force: modes with a node at the touch point pass, the others are damped.
+* ``mute``: a palm near the bridge, a damper spread over ``PALM_WIDTH_M`` with R = amount * 4
+  sqrt(T rho A): shorter decay, duller tone.
+* ``bend``/``vibrato``: the tension T(t) = T0 * ratio(t), piecewise linear between breakpoints; the
+  ratio for a pitch change is solved from the scheme's dispersion relation.  The grid is built for
+  the highest tension the scene reaches (``max_tension_ratio``).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import interp
+from .kernels import Controls, interp
 from .presets import Preset
-from .scene import Fret, Pluck, Scene, Tap
+from .scene import (
+    Bend,
+    Fret,
+    HammerOn,
+    Harmonic,
+    Mute,
+    Pluck,
+    PullOff,
+    Scene,
+    Slide,
+    Strum,
+    Tap,
+    Vibrato,
+)
 
 FINGER_BEHIND = 0.3  # of the spacing between fret q-1 and fret q
 TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
 NEVER = np.iinfo(np.int64).max // 4
+PALM_WIDTH_M = 0.02
+HARMONIC_DAMPING = 2.0  # x sqrt(T rho A)
+PALM_DAMPING = 4.0  # x sqrt(T rho A) at amount 1
+VIBRATO_POINTS_PER_CYCLE = 32
+
+# style -> (pulse length s, direction): a pick releases faster than a fingertip; a slap drives
+# the string into the frets, a pop pulls it away so that it snaps back onto them.
+PLUCK_STYLES = {
+    "finger": (1e-3, 1.0),
+    "pick": (3e-4, 1.0),
+    "slap": (5e-4, -1.0),
+    "pop": (2e-3, 1.0),
+}
 
 
 def finger_x_m(preset: Preset, fret: int) -> float:
@@ -32,73 +74,164 @@ def finger_x_m(preset: Preset, fret: int) -> float:
     return float(xq - FINGER_BEHIND * (xq - preset.fret_x_m(fret - 1)))
 
 
+def expand(scene: Scene, n_strings: int) -> list:
+    """The scene's events with strums split into plucks and string-less mutes per string."""
+    out = []
+    for e in scene.events:
+        if isinstance(e, Strum):
+            strings = sorted(e.strings or range(1, n_strings + 1), reverse=e.direction == "down")
+            dt = e.spread / max(len(strings) - 1, 1)
+            for i, s in enumerate(strings):
+                t = e.time + i * dt
+                if t < scene.duration:
+                    out.append(Pluck(time=t, string=s, force=e.force, position=e.position,
+                                     style=e.style))
+        elif isinstance(e, Mute) and e.string is None:
+            out += [e.model_copy(update={"string": s}) for s in range(1, n_strings + 1)]
+        else:
+            out.append(e)
+    return out
+
+
+def events_on(scene: Scene, n_strings: int, string: int) -> list:
+    return sorted((e for e in expand(scene, n_strings) if e.string == string),
+                  key=lambda e: e.time)
+
+
+def max_tension_ratio(events: list, ratio_for_cents) -> float:
+    r = 1.0
+    for e in events:
+        if isinstance(e, Bend):
+            r = max(r, ratio_for_cents(100.0 * e.semitones))
+        elif isinstance(e, Vibrato):
+            r = max(r, ratio_for_cents(e.depth_cents))
+    return r
+
+
 @dataclass
 class StringControls:
-    """Arrays for ``kernels.step_block``; lengths are the counts of plucks and finger slots."""
-
-    pl_start: np.ndarray
-    pl_len: np.ndarray
-    pl_amp: np.ndarray
-    pl_p: np.ndarray
-    pl_w0: np.ndarray
-    pl_w1: np.ndarray
-    fs_on: np.ndarray
-    fs_rel: np.ndarray
-    fs_x0: np.ndarray
-    fs_x1: np.ndarray
-    fs_ms: np.ndarray
-    fs_me: np.ndarray
-    fs_force: np.ndarray
-    fs_v0: np.ndarray
-    fs_gap: np.ndarray
+    arrays: Controls
     last_step: int  # the last step at which any control changes (for the decay skip)
+    max_pluck_force: float
 
     @property
     def silent(self) -> bool:
-        return len(self.pl_start) == 0 and len(self.fs_on) == 0
-
-    def kernel_args(self) -> tuple:
-        return (self.pl_start, self.pl_len, self.pl_amp, self.pl_p, self.pl_w0, self.pl_w1,
-                self.fs_on, self.fs_rel, self.fs_x0, self.fs_x1, self.fs_ms, self.fs_me,
-                self.fs_force, self.fs_v0, self.fs_gap)
+        return self.arrays.pl_start.size == 0 and self.arrays.fs_on.size == 0
 
 
-def string_controls(scene: Scene, preset: Preset, string: int, h: float, n: int,
-                    rate: float) -> StringControls:
-    """Compile the events on ``string`` (1-based) for a grid of spacing h at ``rate`` Hz."""
-    evs = sorted((e for e in scene.events if e.string == string), key=lambda e: e.time)
+def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
+                    impedance: float, ratio_for_cents) -> StringControls:
+    """Compile ``events`` (already on ``string``, sorted) for a grid of spacing h at ``rate`` Hz.
+
+    ``impedance`` is sqrt(T rho A); ``ratio_for_cents(c)`` the tension ratio that raises the pitch
+    by c cents.
+    """
     length_m = preset.string_length_m(string)
 
     def step(t: float) -> int:
         return int(round(t * rate))
 
-    plucks = []
+    plucks: list[tuple] = []
     slots: list[dict] = []
+    dampers: list[tuple] = []
+    bends: list[tuple[int, float]] = []
     last = 0
-    for e in evs:
+
+    def add_pluck(t, x_m, force, duration):
+        nonlocal last
+        p, w0, w1 = interp(x_m, h, n)
+        ln = max(1, step(duration))
+        plucks.append((step(t), ln, force, p, w0, w1))
+        last = max(last, step(t) + ln)
+
+    def lift(at: int, only=None):
+        for s in slots:
+            if s["rel"] > at and (only is None or s is only):
+                s["rel"] = at
+
+    for e in events:
+        on = step(e.time)
+        last = max(last, on)
         if isinstance(e, Pluck):
-            p, w0, w1 = interp(e.position * length_m, h, n)
-            ln = max(1, step(e.duration))
-            plucks.append((step(e.time), ln, e.force, p, w0, w1))
-            last = max(last, step(e.time) + ln)
-        elif isinstance(e, Fret | Tap):
-            on = step(e.time)
-            last = max(last, on)
-            for s in slots:  # the previous finger lifts now
-                if s["rel"] > on:
-                    s["rel"] = on
-            if e.fret == 0:
+            dur, sign = PLUCK_STYLES[e.style]
+            add_pluck(e.time, e.position * length_m, sign * e.force, e.duration or dur)
+        elif isinstance(e, Fret | Tap | Slide):  # HammerOn is a Tap that keeps other fingers
+            if not isinstance(e, HammerOn):
+                lift(on)
+            if isinstance(e, Fret) and e.fret == 0:
                 continue
-            x = finger_x_m(preset, e.fret)
             rel = step(e.release) if e.release is not None else NEVER
             if e.release is not None:
                 last = max(last, rel)
             v0 = e.velocity if isinstance(e, Tap) else 0.0
-            gap = v0 * TAP_GAP_S
-            slots.append(dict(on=on, rel=rel, x=x, force=e.force, v0=v0, gap=gap))
-    pl = np.array(plucks, dtype=float).reshape(-1, 6)
+            if isinstance(e, Slide):
+                x0, x1 = finger_x_m(preset, e.from_fret), finger_x_m(preset, e.to_fret)
+                ms, me = on, on + max(step(e.duration), 1)
+                last = max(last, me)
+            else:
+                x0 = x1 = finger_x_m(preset, e.fret)
+                ms = me = 0
+            fret = e.to_fret if isinstance(e, Slide) else e.fret
+            slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=e.force, v0=v0,
+                              gap=v0 * TAP_GAP_S, fret=fret))
+        elif isinstance(e, PullOff):
+            held = [s for s in slots if s["fret"] == e.fret and s["on"] <= on < s["rel"]]
+            if held:
+                lift(on, held[-1])
+                add_pluck(e.time, held[-1]["x1"], e.force, PLUCK_STYLES["finger"][0])
+        elif isinstance(e, Harmonic):
+            x = preset.fret_x_m(e.fret) if e.fret is not None else e.position * length_m
+            off = step(e.release) if e.release is not None else NEVER
+            last = max(last, on if off == NEVER else off)
+            dampers.append((on, off, HARMONIC_DAMPING * impedance, [(x, 1.0)]))
+        elif isinstance(e, Mute):
+            off = step(e.release) if e.release is not None else NEVER
+            last = max(last, on if off == NEVER else off)
+            centre = e.position * length_m
+            xs = centre + np.linspace(-0.5, 0.5, 5) * PALM_WIDTH_M
+            dampers.append((on, off, e.amount * PALM_DAMPING * impedance,
+                            [(float(xv), 0.2) for xv in xs]))
+        elif isinstance(e, Bend):
+            r = ratio_for_cents(100.0 * e.semitones)
+            up = max(step(e.duration), 1)
+            bends += [(on, 1.0), (on + up, r)]
+            end = on + up
+            if e.release is not None:
+                rel = max(step(e.release), on + up)
+                bends += [(rel, r), (rel + up, 1.0)]
+                end = rel + up
+            last = max(last, end)
+        elif isinstance(e, Vibrato):
+            cycles = e.rate_hz * e.duration
+            npts = max(int(math.ceil(cycles * VIBRATO_POINTS_PER_CYCLE)), 2)
+            ts = np.linspace(0.0, e.duration, npts + 1)
+            for t in ts:
+                cents = e.depth_cents * math.sin(2.0 * math.pi * e.rate_hz * t)
+                bends.append((step(e.time + t), ratio_for_cents(cents)))
+            last = max(last, step(e.time + e.duration))
+    return StringControls(_arrays(plucks, slots, dampers, bends, h, n), last,
+                          max((abs(p[2]) for p in plucks), default=0.0))
+
+
+def _arrays(plucks, slots, dampers, bends, h, n) -> Controls:
     i64 = np.int64
-    return StringControls(
+    pl = np.array(plucks, dtype=float).reshape(-1, 6)
+    dp_ptr = [0]
+    dp_idx: list[int] = []
+    dp_w: list[float] = []
+    for _on, _off, _r, points in dampers:
+        spread: dict[int, float] = {}
+        for x, weight in points:
+            p, w0, w1 = interp(x, h, n)
+            spread[p] = spread.get(p, 0.0) + weight * w0
+            spread[p + 1] = spread.get(p + 1, 0.0) + weight * w1
+        for p, w in sorted(spread.items()):
+            if w != 0.0:
+                dp_idx.append(p)
+                dp_w.append(w)
+        dp_ptr.append(len(dp_idx))
+    bends = sorted(bends, key=lambda b: b[0])
+    return Controls(
         pl_start=pl[:, 0].astype(i64),
         pl_len=pl[:, 1].astype(i64),
         pl_amp=pl[:, 2].copy(),
@@ -107,12 +240,19 @@ def string_controls(scene: Scene, preset: Preset, string: int, h: float, n: int,
         pl_w1=pl[:, 5].copy(),
         fs_on=np.array([s["on"] for s in slots], i64),
         fs_rel=np.array([s["rel"] for s in slots], i64),
-        fs_x0=np.array([s["x"] for s in slots], float),
-        fs_x1=np.array([s["x"] for s in slots], float),
-        fs_ms=np.zeros(len(slots), i64),
-        fs_me=np.zeros(len(slots), i64),
+        fs_x0=np.array([s["x0"] for s in slots], float),
+        fs_x1=np.array([s["x1"] for s in slots], float),
+        fs_ms=np.array([s["ms"] for s in slots], i64),
+        fs_me=np.array([s["me"] for s in slots], i64),
         fs_force=np.array([s["force"] for s in slots], float),
         fs_v0=np.array([s["v0"] for s in slots], float),
         fs_gap=np.array([s["gap"] for s in slots], float),
-        last_step=last,
+        dp_on=np.array([d[0] for d in dampers], i64),
+        dp_off=np.array([d[1] for d in dampers], i64),
+        dp_r=np.array([d[2] for d in dampers], float),
+        dp_ptr=np.array(dp_ptr, i64),
+        dp_idx=np.array(dp_idx, i64),
+        dp_w=np.array(dp_w, float),
+        tb_step=np.array([b[0] for b in bends], i64),
+        tb_ratio=np.array([b[1] for b in bends], float),
     )

@@ -20,27 +20,29 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 from scipy import signal
 
 from . import kernels
-from .controls import NEVER, StringControls, string_controls
+from .controls import NEVER, StringControls, events_on, max_tension_ratio, string_controls
+from .output import Body, default_pan, pan_gains
 from .presets import Preset
 from .scene import Scene
 from .string import (
     FRET_PENALTY,
     FRET_RIGID,
-    Geometry,
     StringModel,
     coefficients,
     dispersion_cents,
     fret_margin,
     geometry,
+    tension_ratio_for_cents,
     tune,
 )
 
-FINGER_EVENTS = ("fret", "tap")
+FINGER_EVENTS = ("fret", "tap", "hammer_on", "slide")
 
 # Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.  A 2 N
 # strum of the six open strings peaks near 0.26 and an 8 N one near 0.8 (benchmarks/skips.py prints
@@ -82,12 +84,12 @@ class RenderOptions:
     block_frames: int = 2048
 
 
-def oversample_for(spec, length: float, rate: float, q: Quality) -> int:
+def oversample_for(spec, length: float, rate: float, q: Quality, max_ratio: float = 1.0) -> int:
     """Smallest factor (at most q.max_oversample) whose stable grid has h <= q.max_h_m (contacts
     resolved finely enough for fretted pitch) and whose partials 1-10 lie within
     q.max_dispersion_cents of the stiff-string frequencies (the scheme's dispersion error)."""
     for os_ in range(1, q.max_oversample + 1):
-        m = tune(spec, length, rate * os_, q.grid_scale)
+        m = tune(spec, length, rate * os_, q.grid_scale, max_tension_ratio=max_ratio)
         if m.h <= q.max_h_m and dispersion_cents(m) <= q.max_dispersion_cents:
             return os_
     return q.max_oversample
@@ -125,8 +127,9 @@ class Voice:
     index: int  # 1-based string number
     model: StringModel
     coefs: kernels.Coefs
-    geom: Geometry
+    geom: kernels.Geo
     ctl: StringControls
+    pickup_gains: np.ndarray
     oversample: int
     decimator: Decimator
     diagnostics: bool
@@ -134,48 +137,43 @@ class Voice:
     decay_velocity: float
     step: int = 0
     stopped: bool = False
-    u: np.ndarray = field(init=False)
-    u1: np.ndarray = field(init=False)
     energy_h: list = field(default_factory=list)
     energy_q: list = field(default_factory=list)
     energy_p: list = field(default_factory=list)
 
     def __post_init__(self):
         n = self.coefs.n
-        nslot = len(self.ctl.fs_on)
-        self.u = np.zeros(n + 3)
-        self.u1 = np.zeros(n + 3)
-        self.uf = np.zeros(n + 3)
-        self.q = np.zeros(n - 1)
-        self.psi = np.zeros(2)
-        self.gprev_b = np.zeros(n + 3)
-        self.gprev_f = np.zeros(n + 3)
-        self.has_gprev = np.zeros(2, np.int64)
-        self.fret_active = np.zeros(len(self.geom.fret_p), np.int64)
-        self.f_state = np.zeros(nslot, np.int64)
-        self.f_w = np.zeros(nslot)
-        self.f_w1 = np.zeros(nslot)
-        self.f_psi = np.zeros(nslot)
-        self.f_bprev = np.zeros(nslot)
+        nslot = len(self.ctl.arrays.fs_on)
+        self.state = kernels.State(
+            u=np.zeros(n + 3), u1=np.zeros(n + 3), uf=np.zeros(n + 3), q=np.zeros(n - 1),
+            psi=np.zeros(2), gprev_b=np.zeros(n + 3), gprev_f=np.zeros(n + 3),
+            has_gprev=np.zeros(2, np.int64),
+            fret_active=np.zeros(len(self.geom.fret_p), np.int64),
+            f_state=np.zeros(nslot, np.int64), f_w=np.zeros(nslot), f_w1=np.zeros(nslot),
+            f_psi=np.zeros(nslot), f_bprev=np.zeros(nslot), tens=np.zeros(2),
+        )
         self.h_start = 0.0  # H^(-1/2): the string starts at rest
 
+    @property
+    def u(self) -> np.ndarray:
+        return self.state.u
+
+    @property
+    def u1(self) -> np.ndarray:
+        return self.state.u1
+
     def run(self, nsteps: int) -> np.ndarray:
-        """Advance nsteps internal steps; return the pickup velocity at the internal rate."""
-        out = np.zeros(nsteps)
+        """Advance nsteps internal steps; return the pickup mix at the internal rate."""
         if self.stopped or nsteps == 0:
             self.step += nsteps
-            return out
+            return np.zeros(nsteps)
+        out = np.zeros((len(self.pickup_gains), nsteps))
         d = self.diagnostics
         e_h = np.empty(nsteps if d else 0)
         e_q = np.empty(nsteps if d else 0)
         e_p = np.empty(nsteps if d else 0)
-        g = self.geom
-        status = kernels.step_block(
-            self.coefs, self.u, self.u1, self.uf, self.q, g.board, g.near, self.psi, self.gprev_b,
-            self.gprev_f, self.has_gprev, g.fret_p, g.fret_w0, g.fret_w1, g.fret_m0,
-            self.fret_active, *self.ctl.kernel_args(), self.f_state, self.f_w, self.f_w1,
-            self.f_psi, self.f_bprev, self.step, nsteps, out, d, e_h, e_q, e_p,
-        )
+        status = kernels.step_block(self.coefs, self.geom, self.ctl.arrays, self.state,
+                                    self.step, nsteps, out, d, e_h, e_q, e_p)
         if status != kernels.OK:
             raise FloatingPointError(f"string {self.index}: the simulation became non-finite")
         self.step += nsteps
@@ -183,21 +181,23 @@ class Voice:
             self.energy_h.append(e_h)
             self.energy_q.append(e_q)
             self.energy_p.append(e_p)
+        mix = self.pickup_gains @ out
         if self.skip_decayed and not d and self.step > self.ctl.last_step:
             self._maybe_stop(out)
-        return out
+        return mix
 
     def _maybe_stop(self, out: np.ndarray) -> None:
         # Nothing will act on the string again (no event pending; a finger still on the string
-        # holds still), so stop once every node, every finger and the pickup move slower than
+        # holds still), so stop once every node, every finger and the pickups move slower than
         # decay_velocity.  A finger with a release still to come keeps the string running.
-        active = self.f_state == kernels.ACTIVE
-        if np.any(self.ctl.fs_rel[active] < NEVER):
+        st = self.state
+        active = st.f_state == kernels.ACTIVE
+        if np.any(self.ctl.arrays.fs_rel[active] < NEVER):
             return
         k = self.coefs.k
-        vmax = np.max(np.abs(self.u - self.u1)) / k
+        vmax = np.max(np.abs(st.u - st.u1)) / k
         if np.any(active):
-            vmax = max(vmax, float(np.max(np.abs(self.f_w[active] - self.f_w1[active]))) / k)
+            vmax = max(vmax, float(np.max(np.abs(st.f_w[active] - st.f_w1[active]))) / k)
         if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
             self.stopped = True
 
@@ -230,23 +230,32 @@ class Engine:
     voices: list[Voice]
     options: RenderOptions
     frames: int
+    channels: int
+    pans: dict[int, tuple[float, float]]
+    body: Body | None
     frame: int = 0
 
     def blocks(self, block_frames: int | None = None):
-        """Yield the mono mix (pickup velocity, m/s, output rate) block by block."""
+        """Yield the mix (pickup velocity, m/s, at the output rate; shape (m,) for mono and
+        (m, 2) for stereo) block by block, through the body response if there is one."""
         bf = block_frames or self.options.block_frames
         while self.frame < self.frames:
             m = min(bf, self.frames - self.frame)
             yield self.render_frames(m)
 
     def render_frames(self, m: int) -> np.ndarray:
-        mix = np.zeros(m)
+        mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
         for v in self.voices:
             target = (self.frame + m) * v.oversample
             y = v.decimator(v.run(target - v.step))
-            mix += y
+            if self.channels == 2:
+                gl, gr = self.pans[v.index]
+                mix[:, 0] += gl * y
+                mix[:, 1] += gr * y
+            else:
+                mix += y
         self.frame += m
-        return mix
+        return self.body(mix) if self.body is not None else mix
 
     def energy_error(self) -> float:
         return max((v.energy_error() for v in self.voices), default=0.0)
@@ -258,29 +267,43 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     q = opts.quality or QUALITY[scene.quality]
     preset = scene.preset()
     rate = float(scene.sample_rate)
-    pickup = scene.output.pickup_position or preset.pickup_position
+    out = scene.output
+    if out.pickups:
+        pickups = [p.position for p in out.pickups]
+        gains = np.array([p.gain for p in out.pickups])
+    else:
+        pickups = [out.pickup_position or preset.pickup_position]
+        gains = np.ones(1)
+    nstr = preset.n_strings
     voices = []
     for i, spec in enumerate(preset.strings, start=1):
-        if opts.skip_silent and not any(e.string == i for e in scene.events):
+        events = events_on(scene, nstr, i)
+        if opts.skip_silent and not events:
             continue
         L = preset.string_length_m(i)
+        probe = tune(spec, L, rate, q.grid_scale)
+        rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
         # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
         # finger touches in this scene needs only the dispersion criterion.
-        fingered = any(e.string == i and e.type in FINGER_EVENTS for e in scene.events)
+        fingered = any(e.type in FINGER_EVENTS for e in events)
         q_string = q if fingered else replace(q, max_h_m=math.inf)
-        os_ = opts.oversample or oversample_for(spec, L, rate, q_string)
-        model = tune(spec, L, rate * os_, q.grid_scale)
+        os_ = opts.oversample or oversample_for(spec, L, rate, q_string, rmax)
+        model = tune(spec, L, rate * os_, q.grid_scale, max_tension_ratio=rmax)
         fret_mode = q.fret_mode if opts.frets else 0
-        coefs = coefficients(model, preset, fret_mode, pickup, opts.kirchhoff_carrier,
-                             opts.fretboard)
-        plucks = [e.force for e in scene.events if e.string == i and e.type == "pluck"]
-        margin = fret_margin(model, max(plucks, default=0.0)) if opts.skip_contacts else 1.0
-        geom = geometry(model, preset, with_frets=fret_mode != 0, margin=margin)
-        ctl = string_controls(scene, preset, i, model.h, model.n, rate * os_)
-        voices.append(Voice(i, model, coefs, geom, ctl, os_, Decimator(os_, rate),
+        coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
+        impedance = math.sqrt(model.tension_n * model.rho_a)
+        ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
+                              partial(tension_ratio_for_cents, model))
+        margin = fret_margin(model, ctl.max_pluck_force) if opts.skip_contacts else 1.0
+        geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin)
+        voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
     frames = int(round(scene.duration * rate))
-    return Engine(scene, preset, voices, opts, frames)
+    pan = out.pan or default_pan(nstr)
+    body_name = out.body or preset.body
+    body = Body(body_name, rate, out.channels) if body_name != "none" else None
+    return Engine(scene, preset, voices, opts, frames, out.channels,
+                  {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
 
 
 __all__ = ["Engine", "FIXED_GAIN", "QUALITY", "Quality", "RenderOptions", "prepare",

@@ -43,7 +43,7 @@ from .config import JIT
 EPS = 2.220446049250313e-16  # the gauge constant epsilon of eq. (54)
 
 # column kinds
-KC, BOARD, FRETPEN, FINGER, RIGID = 0, 1, 2, 3, 4
+KC, BOARD, FRETPEN, FINGER, RIGID, DAMPER = 0, 1, 2, 3, 4, 5
 # finger slot states
 IDLE, ACTIVE, GONE = 0, 1, 2
 # status codes
@@ -79,9 +79,70 @@ class Coefs(NamedTuple):
     fg_alpha: float
     fg_r: float  # finger contact damping, N s / m
     fg_lift: float  # finger is removed once this far above the string, m
-    out_p: int  # pickup interpolant: left node's padded index and weights
-    out_w0: float
-    out_w1: float
+    lam2: float  # T0 k^2 / (rho A h^2): the tension's share of B, for bends
+    den: float  # 1 + sigma0 k
+
+
+class Geo(NamedTuple):
+    """Static geometry on the grid: fretboard, frets, pickups (built by ``engine.string``)."""
+
+    board: np.ndarray  # b at nodes 1..N-1 (array index = node - 1)
+    near: np.ndarray  # per node: level below which a rigid fret may be reached this step
+    fret_p: np.ndarray  # per fret: padded index of the interpolant's left node
+    fret_w0: np.ndarray
+    fret_w1: np.ndarray
+    fret_m0: np.ndarray  # fret tip heights m0 (<= 0)
+    out_p: np.ndarray  # per pickup: interpolant
+    out_w0: np.ndarray
+    out_w1: np.ndarray
+
+
+class Controls(NamedTuple):
+    """What the player does, as step-indexed arrays (built by ``engine.controls``)."""
+
+    pl_start: np.ndarray  # plucks: first step, length in steps, signed peak force, interpolant
+    pl_len: np.ndarray
+    pl_amp: np.ndarray
+    pl_p: np.ndarray
+    pl_w0: np.ndarray
+    pl_w1: np.ndarray
+    fs_on: np.ndarray  # finger slots: put down, lifted, position x0 -> x1 over steps ms..me,
+    fs_rel: np.ndarray  # pressing force, initial speed towards the board, initial gap
+    fs_x0: np.ndarray
+    fs_x1: np.ndarray
+    fs_ms: np.ndarray
+    fs_me: np.ndarray
+    fs_force: np.ndarray
+    fs_v0: np.ndarray
+    fs_gap: np.ndarray
+    dp_on: np.ndarray  # dampers (light touch, palm): active steps, damping N s/m, spread
+    dp_off: np.ndarray
+    dp_r: np.ndarray
+    dp_ptr: np.ndarray  # entries dp_ptr[d] .. dp_ptr[d+1] of dp_idx (padded index) / dp_w
+    dp_idx: np.ndarray
+    dp_w: np.ndarray
+    tb_step: np.ndarray  # tension T0 * ratio, piecewise linear between breakpoints
+    tb_ratio: np.ndarray
+
+
+class State(NamedTuple):
+    """Everything that survives from one block to the next."""
+
+    u: np.ndarray  # u^n (padded)
+    u1: np.ndarray  # u^(n-1)
+    uf: np.ndarray  # scratch
+    q: np.ndarray  # scratch: D u^n
+    psi: np.ndarray  # [fretboard, penalty frets]
+    gprev_b: np.ndarray  # last contact gradients (for the out-of-contact rule)
+    gprev_f: np.ndarray
+    has_gprev: np.ndarray
+    fret_active: np.ndarray  # rigid frets' active set
+    f_state: np.ndarray  # finger slots: IDLE, ACTIVE, GONE
+    f_w: np.ndarray  # w^n
+    f_w1: np.ndarray  # w^(n-1)
+    f_psi: np.ndarray
+    f_bprev: np.ndarray
+    tens: np.ndarray  # [T^(n-1), W^(n-1/2)] for the work done by a changing tension
 
 
 @njit(**JIT)
@@ -108,7 +169,7 @@ def interp(x: float, h: float, n: int):
 
 
 @njit(**JIT)
-def _linear_pass_kc(c, U0, U1, UF, Q, board, near):
+def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), nodes below the board."""
     n = c.n
     qq = 0.0
@@ -123,7 +184,7 @@ def _linear_pass_kc(c, U0, U1, UF, Q, board, near):
         d = U0[j + 3]
         e = U0[j + 4]
         u1 = U1[j + 2]
-        uf = c.b0 * m + c.b1 * (b + d) + c.b2 * (a + e) + c.c0 * u1 + c.c1 * (U1[j + 1] + U1[j + 3])
+        uf = b0 * m + b1 * (b + d) + c.b2 * (a + e) + c.c0 * u1 + c.c1 * (U1[j + 1] + U1[j + 3])
         UF[j + 2] = uf
         qv = (b - 2.0 * m + d) * c.ih2
         Q[j] = qv
@@ -136,7 +197,7 @@ def _linear_pass_kc(c, U0, U1, UF, Q, board, near):
 
 
 @njit(**JIT)
-def _linear_pass(c, U0, U1, UF, board, near):
+def _linear_pass(c, b0, b1, U0, U1, UF, board, near):
     """a) without Kirchhoff-Carrier: u_free and the count of nodes below the board."""
     n = c.n
     below = 0
@@ -144,8 +205,8 @@ def _linear_pass(c, U0, U1, UF, board, near):
     for j in range(n - 1):
         m = U0[j + 2]
         UF[j + 2] = (
-            c.b0 * m
-            + c.b1 * (U0[j + 1] + U0[j + 3])
+            b0 * m
+            + b1 * (U0[j + 1] + U0[j + 3])
             + c.b2 * (U0[j] + U0[j + 4])
             + c.c0 * U1[j + 2]
             + c.c1 * (U1[j + 1] + U1[j + 3])
@@ -220,66 +281,35 @@ def _gamma(psi, xi, s, in_contact):
 
 
 @njit(**JIT)
-def step_block(
-    c,
-    U0,
-    U1,
-    UF,
-    Q,
-    board,
-    near,
-    psi,
-    gprev_b,
-    gprev_f,
-    has_gprev,
-    fret_p,
-    fret_w0,
-    fret_w1,
-    fret_m0,
-    fret_active,
-    pl_start,
-    pl_len,
-    pl_amp,
-    pl_p,
-    pl_w0,
-    pl_w1,
-    fs_on,
-    fs_rel,
-    fs_x0,
-    fs_x1,
-    fs_ms,
-    fs_me,
-    fs_force,
-    fs_v0,
-    fs_gap,
-    f_state,
-    f_w,
-    f_w1,
-    f_psi,
-    f_bprev,
-    step0,
-    nsteps,
-    out,
-    diag,
-    e_h,
-    e_q,
-    e_p,
-):
-    """Advance one string by ``nsteps`` steps from global step ``step0``; fill ``out`` (pickup
-    velocity, m/s) and, when ``diag``, the energy series e_h = H^(n+1/2), e_q = k Q^n and
-    e_p = k P^n (+ energy injected or removed with fingers).  Returns a status code.
+def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
+    """Advance one string by ``nsteps`` steps from global step ``step0``.
 
-    U0, U1 hold u^n, u^(n-1) on entry and on exit; UF, Q are scratch.  psi, gprev_*, has_gprev,
-    fret_active and the f_* arrays are the persistent contact state.
+    Fills ``out[pickup, step]`` (string velocity at each pickup, m/s) and, when ``diag``, the
+    energy series e_h = H^(n+1/2), e_q = k Q^n and e_p = k P^n, where P also carries the energy a
+    finger brings or takes away when it is put down or removed and the work of a changing tension.
+    Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit.
     """
+    U0, U1, UF, Q = st.u, st.u1, st.uf, st.q
+    psi, gprev_b, gprev_f, has_gprev = st.psi, st.gprev_b, st.gprev_f, st.has_gprev
+    fret_active, f_state, f_w, f_w1, f_psi, f_bprev = (
+        st.fret_active, st.f_state, st.f_w, st.f_w1, st.f_psi, st.f_bprev)
+    board, near = geo.board, geo.near
+    fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
+    pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
+        ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
+    fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, fs_force, fs_v0, fs_gap = (
+        ctl.fs_on, ctl.fs_rel, ctl.fs_x0, ctl.fs_x1, ctl.fs_ms, ctl.fs_me, ctl.fs_force,
+        ctl.fs_v0, ctl.fs_gap)
+    ndamp = ctl.dp_on.shape[0]
+    npk = geo.out_p.shape[0]
     n = c.n
     k = c.k
     lam = c.lam
     nfret = fret_p.shape[0]
     nslot = fs_on.shape[0]
     npl = pl_start.shape[0]
-    ncap = 3 + nslot + nfret
-    cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + 8
+    ncap = 3 + nslot + nfret + ndamp
+    cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + ctl.dp_idx.shape[0] + 8
     kind = np.empty(ncap, np.int64)
     cstart = np.empty(ncap + 1, np.int64)
     cslot = np.empty(ncap, np.int64)  # finger slot of the column (-1: none)
@@ -305,20 +335,29 @@ def step_block(
     fbeta = np.zeros(nslot)
     fcol = np.full(nslot, -1, np.int64)
     lam_f = k * k / c.fg_mass
+    tb_n = ctl.tb_step.shape[0]
     status = OK
 
+    b0 = c.b0
+    b1 = c.b1
+    ratio = 1.0
     for it in range(nsteps):
         step = step0 + it
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
+        if tb_n > 0:  # bends and vibrato: T^n = T0 * ratio(step) enters B of eq. (50a)
+            ratio = _tension_ratio(ctl.tb_step, ctl.tb_ratio, step)
+            dl = (ratio - 1.0) * c.lam2
+            b0 = c.b0 - 2.0 * dl / c.den
+            b1 = c.b1 + dl / c.den
         # ---- a) linear update (+ KC vector, + board gap) -------------------------------------
         if c.kc > 0.0:
-            qq, quf, qu1, below, close = _linear_pass_kc(c, U0, U1, UF, Q, board, near)
+            qq, quf, qu1, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near)
         else:
             qq = 0.0
             quf = 0.0
             qu1 = 0.0
-            below, close = _linear_pass(c, U0, U1, UF, board, near)
+            below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         for e in range(npl):
@@ -431,6 +470,28 @@ def step_block(
             cval[nent + 1] = fw1[s]
             nent += 2
             fcol[s] = nc
+            nc += 1
+            cstart[nc] = nent
+        # dampers: a light touch or a palm, f = -R d/dt (v^T u) (bilateral, lossy), counted in Q
+        for d in range(ndamp):
+            if step < ctl.dp_on[d] or step >= ctl.dp_off[d]:
+                continue
+            cr = ctl.dp_r[d] / (2.0 * k)
+            sf = 0.0
+            s1 = 0.0
+            for e in range(ctl.dp_ptr[d], ctl.dp_ptr[d + 1]):
+                pi_ = ctl.dp_idx[e]
+                cidx[nent] = pi_
+                cval[nent] = ctl.dp_w[e]
+                sf += ctl.dp_w[e] * UF[pi_]
+                s1 += ctl.dp_w[e] * U1[pi_]
+                nent += 1
+            kind[nc] = DAMPER
+            cslot[nc] = -1
+            ca[nc] = -cr * s1
+            cc[nc] = cr
+            vfree[nc] = sf
+            v1[nc] = s1
             nc += 1
             cstart[nc] = nent
         # SAV columns' row data (board / penalty frets): x + 1/4 g.z^(n+1) = -(psi - 1/4 g.z^(n-1))
@@ -560,15 +621,21 @@ def step_block(
                 for e in range(cstart[ci], cstart[ci + 1]):
                     sn += cval[e] * UF[cidx[e]]
                 psi[kd - 1] += 0.5 * (sn - v1[ci])
+            elif kd == DAMPER and diag:
+                sn = 0.0
+                for e in range(cstart[ci], cstart[ci + 1]):
+                    sn += cval[e] * UF[cidx[e]]
+                qloss -= x[ci] * (sn - v1[ci]) * 0.5  # = R (D. v^T u)^2 k
             elif kd == RIGID and diag:
                 p_ = fret_p[cfret[ci]]
                 sn = fret_w0[cfret[ci]] * UF[p_] + fret_w1[cfret[ci]] * UF[p_ + 1]
                 qloss -= x[ci] * (sn - v1[ci]) * 0.5  # reaction's work, booked as loss
         # ---- output: velocity at the pickup ---------------------------------------------------
-        po = c.out_p
-        out[it] = (
-            c.out_w0 * (UF[po] - U0[po]) + c.out_w1 * (UF[po + 1] - U0[po + 1])
-        ) / k
+        for pk in range(npk):
+            po = geo.out_p[pk]
+            out[pk, it] = (
+                geo.out_w0[pk] * (UF[po] - U0[po]) + geo.out_w1[pk] * (UF[po + 1] - U0[po + 1])
+            ) / k
         if diag:
             for e in range(npl):
                 m = step - pl_start[e]
@@ -578,10 +645,17 @@ def step_block(
                     p_ = pl_p[e]
                     dv = pl_w0[e] * (UF[p_] - U1[p_]) + pl_w1[e] * (UF[p_ + 1] - U1[p_ + 1])
                     pin += f * dv * 0.5
-            h_, ql = _energy(c, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1)
+            h_, ql, w_half = _energy(c, c.t0 * ratio, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1)
+            # a tension that changes from T^(n-1) to T^n does work (T^n - T^(n-1)) W^(n-1/2)
+            # on the string, where V_L = T^n W^(n+1/2) + ... (see _energy)
+            if it == 0 and step0 == 0:
+                st.tens[0] = c.t0 * ratio
+            ptens = (c.t0 * ratio - st.tens[0]) * st.tens[1]
+            st.tens[0] = c.t0 * ratio
+            st.tens[1] = w_half
             e_h[it] = h_
             e_q[it] = ql + qloss
-            e_p[it] = pin + inject
+            e_p[it] = pin + inject + ptens
         # ---- rotate: u^(n-1) <- u^n <- u^(n+1) ----------------------------------------------------
         T = U1
         U1 = U0
@@ -591,10 +665,30 @@ def step_block(
     if nsteps % 3 != 0:
         _restore(U0, U1, UF, nsteps % 3)
     for it in range(nsteps):
-        if not math.isfinite(out[it]):
+        if npk > 0 and not math.isfinite(out[0, it]):
             status = NONFINITE
             break
     return status
+
+
+@njit(**JIT)
+def _tension_ratio(tb_step, tb_ratio, step):
+    """Piecewise-linear T / T0 between breakpoints (constant outside)."""
+    m = tb_step.shape[0]
+    if step <= tb_step[0]:
+        return tb_ratio[0]
+    if step >= tb_step[m - 1]:
+        return tb_ratio[m - 1]
+    lo = 0
+    hi = m - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if tb_step[mid] <= step:
+            lo = mid
+        else:
+            hi = mid
+    a = (step - tb_step[lo]) / (tb_step[hi] - tb_step[lo])
+    return tb_ratio[lo] + a * (tb_ratio[hi] - tb_ratio[lo])
 
 
 @njit(**JIT)
@@ -818,8 +912,9 @@ def _unscatter(nc, cstart, cidx, du):
 
 
 @njit(**JIT)
-def _energy(c, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
-    """H^(n+1/2) of eqs. (43)-(45) and k Q^n of eq. (46a) for the string (and fingers' H)."""
+def _energy(c, tension, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
+    """H^(n+1/2) of eqs. (43)-(45), k Q^n of eq. (46a) (string and fingers), and
+    W^(n+1/2) = -(h/2) u^(n+1)^T D u^n, so that V_L = T^n W^(n+1/2) + (h/2) E I (D u^n).(D u^(n+1))."""
     n = c.n
     k = c.k
     ih2 = c.ih2
@@ -850,7 +945,8 @@ def _energy(c, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
         lo0 += b * b
     h = c.h
     tl = 0.5 * c.rho_a_h / (k * k) * (kin - c.sigma1 * k * ih2 * kin_d)
-    vl = 0.5 * h * (c.t0 * vt * ih2 + c.ei * vs)
+    w_half = 0.5 * h * vt * ih2
+    vl = tension * w_half + 0.5 * h * c.ei * vs
     vkc = 0.5 * c.kc * kcd * kcd
     hh = tl + vl + vkc + 0.5 * psi[0] * psi[0] + 0.5 * psi[1] * psi[1]
     for s in range(f_state.shape[0]):
@@ -858,7 +954,7 @@ def _energy(c, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
             v = (f_w[s] - f_w1[s]) / k
             hh += 0.5 * c.fg_mass * v * v + 0.5 * f_psi[s] * f_psi[s]
     q = 2.0 * c.rho_a_h * (c.sigma0 * lo0 + c.sigma1 * ih2 * lo1) / (4.0 * k * k) * k
-    return hh, q
+    return hh, q, w_half
 
 
 @njit(**JIT)

@@ -109,6 +109,7 @@ class Preset:
     fret_alpha: float = 1.5
     finger: FingerSpec = field(default_factory=FingerSpec)
     pickup_position: float = 0.92  # output point, fraction of the length from the nut
+    body: str = "none"  # built-in body response (engine.output.BODIES) or "none"
 
     @property
     def n_strings(self) -> int:
@@ -167,6 +168,7 @@ STEEL_ACOUSTIC = Preset(
     frets=20,
     action_nut_m=0.25e-3,
     action_12th_m=2.0e-3,
+    body="acoustic",
 )
 
 _NYLON_SCALE = 0.650
@@ -186,6 +188,7 @@ NYLON_CLASSICAL = Preset(
     action_nut_m=0.35e-3,
     action_12th_m=3.2e-3,
     fret_height_m=1.1e-3,
+    body="classical",
 )
 # The nylon basses' cores are multifilament nylon: their bending stiffness is that of a nylon rod
 # of the core's size, not steel.
@@ -205,7 +208,59 @@ NYLON_CLASSICAL = replace(
                            (1.80e-3, 3.50e-3, 5.70e-3, 0.85e-3, 1.20e-3, 1.90e-3)),
 )
 
-PRESETS: dict[str, Preset] = {p.name: p for p in (STEEL_ACOUSTIC, NYLON_CLASSICAL)}
+# Electric: 648 mm (25.5") scale, nickel-wound .010-.046 set (tensions from the maker's charts),
+# low action, 22 medium-jumbo frets, bridge pickup about 40 mm from the saddle, no body (solid).
+# Decays are long (a solid body takes little energy from the strings).
+_ELECTRIC_SCALE = 0.648
+ELECTRIC = Preset(
+    name="electric",
+    description="Solid-body electric, 648 mm scale, .010-.046 nickel set, bridge pickup",
+    scale_length_m=_ELECTRIC_SCALE,
+    strings=_with_setbacks(
+        (
+            _plain("E4", 0.010, STEEL_DENSITY, STEEL_E, 6.0, 1.5),
+            _plain("B3", 0.013, STEEL_DENSITY, STEEL_E, 7.0, 1.5),
+            _plain("G3", 0.017, STEEL_DENSITY, STEEL_E, 8.0, 1.4),
+            _wound("D3", 0.026, 0.0130, 82.0, _ELECTRIC_SCALE, 9.0, 1.2),
+            _wound("A2", 0.036, 0.0160, 87.0, _ELECTRIC_SCALE, 10.0, 1.1),
+            _wound("E2", 0.046, 0.0190, 78.0, _ELECTRIC_SCALE, 11.0, 1.0),
+        ),
+        (2.0e-3, 3.0e-3, 4.0e-3, 1.5e-3, 2.0e-3, 3.0e-3),  # a typical factory intonation
+    ),
+    frets=22,
+    action_nut_m=0.2e-3,
+    action_12th_m=1.6e-3,
+    fret_height_m=1.2e-3,
+    pickup_position=0.94,
+    body="none",
+)
+
+# Bass: 864 mm (34") scale, E1 A1 D2 G2 roundwound .045-.105, higher action; the strings are
+# heavy enough that slaps and pops make them rattle on the frets (waveguide paper sec. IV-C).
+_BASS_SCALE = 0.864
+BASS = Preset(
+    name="bass",
+    description="Four-string electric bass, 864 mm scale, .045-.105 roundwound, E1 A1 D2 G2",
+    scale_length_m=_BASS_SCALE,
+    strings=_with_setbacks(
+        (
+            _wound("G2", 0.045, 0.0220, 178.0, _BASS_SCALE, 8.0, 0.6),
+            _wound("D2", 0.065, 0.0280, 200.0, _BASS_SCALE, 9.0, 0.5),
+            _wound("A1", 0.080, 0.0330, 196.0, _BASS_SCALE, 10.0, 0.45),
+            _wound("E1", 0.105, 0.0400, 190.0, _BASS_SCALE, 11.0, 0.4),
+        ),
+        (2.0e-3, 2.5e-3, 3.0e-3, 3.5e-3),
+    ),
+    frets=20,
+    action_nut_m=0.4e-3,
+    action_12th_m=2.5e-3,
+    fret_height_m=1.2e-3,
+    fretboard_stiffness=1.0e10,
+    pickup_position=0.9,
+    body="none",
+)
+
+PRESETS: dict[str, Preset] = {p.name: p for p in (STEEL_ACOUSTIC, NYLON_CLASSICAL, ELECTRIC, BASS)}
 DEFAULT_PRESET = STEEL_ACOUSTIC.name
 
 

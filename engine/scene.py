@@ -7,7 +7,6 @@ Every limit below is a documented range, and every violation is reported with th
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -22,6 +21,7 @@ MAX_FINGER_FORCE_N = 10.0
 # be pushed below the line from the next fret to the bridge; benchmarks/intonation.py uses it too).
 FINGER_FORCE_N = 3.0
 MAX_TAP_VELOCITY_M_S = 5.0
+MAX_BEND_SEMITONES = 3.0  # the grid is made stable for the highest tension a scene reaches
 SAMPLE_RATE_MIN = 22050
 SAMPLE_RATE_MAX = 96000
 
@@ -38,13 +38,24 @@ class _Event(_Model):
     string: int = Field(ge=1, le=12, description="1 = highest string")
 
 
+PluckStyle = Literal["finger", "pick", "slap", "pop"]
+
+
 class Pluck(_Event):
-    """A raised-sine force pulse f_e(t) of eq. (5) at ``position`` (paper sec. 2.1)."""
+    """A raised-sine force pulse f_e(t) of eq. (5) at ``position`` (paper sec. 2.1).
+
+    ``style`` changes the pulse (``engine.controls.PLUCK_STYLES``): ``finger`` as given; ``pick``
+    a 0.3 ms pulse (a plectrum releases the string faster); ``slap`` a 0.5 ms pulse towards the
+    fretboard; ``pop`` a 2 ms pull away from it (the string snaps back onto the frets).
+    """
 
     type: Literal["pluck"] = "pluck"
     position: float = Field(0.8, ge=0.02, le=0.98, description="x_e / L")
     force: float = Field(2.0, gt=0.0, le=MAX_PLUCK_FORCE_N, description="peak force f_amp, N")
-    duration: float = Field(0.001, ge=1e-4, le=0.05, description="pulse length Delta, s")
+    duration: float | None = Field(
+        None, ge=1e-4, le=0.05, description="pulse length Delta, s (default: the style's)"
+    )
+    style: PluckStyle = "finger"
 
     model_config = ConfigDict(
         json_schema_extra={
@@ -54,7 +65,11 @@ class Pluck(_Event):
 
 
 class Fret(_Event):
-    """A finger pressed behind fret ``fret`` with ``force`` towards the fretboard (sec. 2.5)."""
+    """A finger pressed behind fret ``fret`` with ``force`` towards the fretboard (sec. 2.5).
+
+    A small force (below about 0.3 N) leaves the finger resting on the string without seating it
+    on the fret: a dead note.
+    """
 
     type: Literal["fret"] = "fret"
     fret: int = Field(ge=0, le=24, description="0 lifts the finger")
@@ -86,7 +101,144 @@ class Tap(_Event):
     )
 
 
-Event = Annotated[Pluck | Fret | Tap, Field(discriminator="type")]
+class HammerOn(Tap):
+    """A tap on a sounding string that leaves any other finger on the string where it is."""
+
+    type: Literal["hammer_on"] = "hammer_on"
+    velocity: float = Field(
+        2.0, gt=0.0, le=MAX_TAP_VELOCITY_M_S, description="speed towards the fretboard, m/s"
+    )
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "hammer_on", "time": 0.5, "string": 3, "fret": 7}]}
+    )
+
+
+class PullOff(_Event):
+    """The finger on ``fret`` leaves the string, plucking it with ``force`` as it goes; any lower
+    fret still held (or the open string) sounds."""
+
+    type: Literal["pull_off"] = "pull_off"
+    fret: int = Field(ge=1, le=24)
+    force: float = Field(1.0, gt=0.0, le=MAX_PLUCK_FORCE_N, description="pluck as it leaves, N")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "pull_off", "time": 1.0, "string": 3, "fret": 7}]}
+    )
+
+
+class Slide(_Event):
+    """The fretting finger glides from ``from_fret`` to ``to_fret`` over ``duration`` while
+    pressing with ``force`` (the finger position x_FG moves, paper sec. 2.5)."""
+
+    type: Literal["slide"] = "slide"
+    from_fret: int = Field(ge=1, le=24)
+    to_fret: int = Field(ge=1, le=24)
+    duration: float = Field(0.15, gt=0.0, le=10.0, description="glide time, s")
+    force: float = Field(
+        FINGER_FORCE_N, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N"
+    )
+    release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "slide", "time": 0.5, "string": 3,
+                                         "from_fret": 5, "to_fret": 7, "duration": 0.2}]}
+    )
+
+
+class Bend(_Event):
+    """Raise the pitch by ``semitones`` over ``duration`` (by raising the tension), hold it until
+    ``release``, then return over ``duration``."""
+
+    type: Literal["bend"] = "bend"
+    semitones: float = Field(gt=0.0, le=MAX_BEND_SEMITONES, description="pitch rise")
+    duration: float = Field(0.15, gt=0.0, le=10.0, description="rise (and return) time, s")
+    release: float | None = Field(None, gt=0.0, description="time the bend starts back, s")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "bend", "time": 0.3, "string": 2,
+                                         "semitones": 2.0, "duration": 0.2}]}
+    )
+
+
+class Vibrato(_Event):
+    """Pitch oscillation of ``depth_cents`` (peak) at ``rate_hz`` for ``duration`` seconds."""
+
+    type: Literal["vibrato"] = "vibrato"
+    depth_cents: float = Field(20.0, gt=0.0, le=100.0)
+    rate_hz: float = Field(5.5, ge=0.5, le=15.0)
+    duration: float = Field(1.0, gt=0.0, le=MAX_DURATION_S)
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "vibrato", "time": 0.5, "string": 1,
+                                         "depth_cents": 25, "rate_hz": 5.5, "duration": 1.0}]}
+    )
+
+
+class Harmonic(_Event):
+    """A light, lossy touch (no pressing force) at ``fret`` or ``position``: with a pluck it
+    sounds the natural harmonic whose node is at the touch point."""
+
+    type: Literal["harmonic"] = "harmonic"
+    fret: int | None = Field(None, ge=1, le=24, description="touch over this fret")
+    position: float | None = Field(None, gt=0.02, lt=0.98, description="or at x / L")
+    release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "harmonic", "time": 0.0, "string": 1,
+                                         "fret": 12, "release": 0.3}]}
+    )
+
+    @model_validator(mode="after")
+    def _one_place(self) -> Harmonic:
+        if (self.fret is None) == (self.position is None):
+            raise ValueError("harmonic: give exactly one of fret or position")
+        return self
+
+
+class Mute(_Model):
+    """A palm resting near the bridge: lossy contact over a few centimetres."""
+
+    type: Literal["mute"] = "mute"
+    time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")
+    string: int | None = Field(None, ge=1, le=12, description="omit to mute every string")
+    position: float = Field(0.96, ge=0.7, le=0.99, description="palm centre, x / L")
+    amount: float = Field(0.7, ge=0.0, le=1.0, description="0 barely touching .. 1 firm")
+    release: float | None = Field(None, gt=0.0, description="time the palm lifts, s")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "mute", "time": 0.0, "amount": 0.8}]}
+    )
+
+
+class Strum(_Model):
+    """Plucks across ``strings`` (default all), low to high for ``down``, spread over ``spread``."""
+
+    type: Literal["strum"] = "strum"
+    time: float = Field(ge=0.0, description="first pluck, s (>= 0, < duration)")
+    strings: list[int] | None = Field(None, description="default: all strings")
+    direction: Literal["down", "up"] = "down"
+    spread: float = Field(0.03, ge=0.0, le=1.0, description="first to last pluck, s")
+    force: float = Field(2.0, gt=0.0, le=MAX_PLUCK_FORCE_N, description="peak force, N")
+    position: float = Field(0.8, ge=0.02, le=0.98, description="x / L")
+    style: PluckStyle = "finger"
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "strum", "time": 0.0, "direction": "down"}]}
+    )
+
+    @field_validator("strings")
+    @classmethod
+    def _strings(cls, v: list[int] | None) -> list[int] | None:
+        if v is not None and (not v or any(not 1 <= s <= 12 for s in v)):
+            raise ValueError("strings: a non-empty list of string numbers 1..12")
+        return v
+
+
+Event = Annotated[
+    Pluck | Fret | Tap | HammerOn | PullOff | Slide | Bend | Vibrato | Harmonic | Mute | Strum,
+    Field(discriminator="type"),
+]
 
 
 class StringOverride(_Model):
@@ -143,6 +295,11 @@ class Guitar(_Model):
         return v
 
 
+class Pickup(_Model):
+    position: float = Field(gt=0.02, lt=0.98, description="x / L")
+    gain: float = Field(1.0, ge=0.0, le=10.0)
+
+
 class Output(_Model):
     format: Literal["wav", "flac", "ogg"] = "wav"
     subtype: Literal["PCM_16", "PCM_24", "FLOAT"] = "PCM_16"
@@ -150,6 +307,24 @@ class Output(_Model):
     pickup_position: float | None = Field(
         None, gt=0.02, lt=0.98, description="where the output is read, x / L (preset default)"
     )
+    pickups: list[Pickup] | None = Field(
+        None, min_length=1, max_length=4,
+        description="several pickups mixed (overrides pickup_position)",
+    )
+    channels: Literal[1, 2] = Field(1, description="2: stereo, each string panned")
+    pan: list[float] | None = Field(
+        None, description="per string, -1 left .. 1 right (default: low strings left)"
+    )
+    body: Literal["none", "acoustic", "classical"] | None = Field(
+        None, description="body response (default: the preset's)"
+    )
+
+    @field_validator("pan")
+    @classmethod
+    def _pan(cls, v: list[float] | None) -> list[float] | None:
+        if v is not None and any(not -1.0 <= p <= 1.0 for p in v):
+            raise ValueError("pan: values in -1..1")
+        return v
 
 
 class Scene(_Model):
@@ -190,20 +365,24 @@ class Scene(_Model):
                 raise ValueError(f"guitar.strings: string {s.string} outside 1..{n}")
         preset = self.preset()
         frets = preset.frets
+        if self.output.pan is not None and len(self.output.pan) != n:
+            raise ValueError(f"output.pan: {n} values expected for {preset.name}")
         for i, ev in enumerate(self.events):
             where = f"events[{i}]"
-            if ev.string > n:
-                raise ValueError(f"{where}.string: {ev.string} outside 1..{n} for {preset.name}")
+            strings = getattr(ev, "strings", None) or []
+            single = getattr(ev, "string", None)
+            for st in strings + ([single] if single is not None else []):
+                if st > n:
+                    raise ValueError(f"{where}.string: {st} outside 1..{n} for {preset.name}")
             if not ev.time < self.duration:
                 raise ValueError(f"{where}.time: {ev.time} outside 0 <= time < {self.duration}")
-            fret = getattr(ev, "fret", None)
-            if fret is not None and fret > frets:
-                raise ValueError(f"{where}.fret: {fret} outside 0..{frets} for {preset.name}")
+            for name in ("fret", "from_fret", "to_fret"):
+                fret = getattr(ev, name, None)
+                if fret is not None and fret > frets:
+                    raise ValueError(f"{where}.{name}: {fret} outside 0..{frets} for {preset.name}")
             release = getattr(ev, "release", None)
             if release is not None and not release > ev.time:
                 raise ValueError(f"{where}.release: {release} must be after time {ev.time}")
-            if isinstance(ev, Pluck) and not math.isfinite(ev.time + ev.duration):
-                raise ValueError(f"{where}.duration: not finite")
         return self
 
     def preset(self) -> Preset:

@@ -18,7 +18,7 @@ from functools import partial
 
 import numpy as np
 
-from .kernels import Coefs, interp
+from .kernels import Coefs, Geo, interp
 from .presets import Preset, StringSpec
 
 # 60 dB of amplitude: exp(-sigma T60) = 1e-3, so sigma = 3 ln(10) / T60.  (Bilbao 2009 writes
@@ -116,6 +116,17 @@ class StringModel:
         return mode * f0 * math.sqrt(1.0 + self.inharmonicity() * mode * mode)
 
 
+def tension_ratio_for_cents(model: StringModel, cents: float) -> float:
+    """T'/T that moves the fundamental by ``cents``: f1^2 = (T + pi^2 E I / L^2) / (4 L^2 rho A)
+    for the stiff string, so T(f) = 4 L^2 rho A f^2 - pi^2 E I / L^2."""
+    L, ra = model.length_m, model.rho_a
+    stiff = math.pi**2 * model.ei_physical / L**2
+    f = model.spec.frequency_hz
+    t0 = 4.0 * L * L * ra * f * f - stiff
+    f1 = f * 2.0 ** (cents / 1200.0)
+    return (4.0 * L * L * ra * f1 * f1 - stiff) / t0
+
+
 def dispersion_cents(model: StringModel, partials: int = 10) -> float:
     """Largest |cents| between the scheme's modes 1..partials and the continuous stiff string's
     f_n at the model's tension."""
@@ -127,7 +138,7 @@ PINNED_PARTIAL = 10
 
 
 def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float = 1.0,
-         compensate: bool = True) -> StringModel:
+         compensate: bool = True, max_tension_ratio: float = 1.0) -> StringModel:
     """Build the string at internal rate ``sample_rate``, tuned so mode 1 sounds at spec's pitch.
 
     The explicit scheme's numerical dispersion flattens the upper partials (by about 1.5 cents at the
@@ -137,6 +148,7 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     land on the continuous string's frequencies (physical E I); the partials between follow within
     a fraction of a cent (tests/engine/test_string.py).  ``grid_scale`` >= 1 makes the grid coarser
     than the stability bound (h = grid_scale * h_min), a knob of the accuracy/cost study.
+    ``max_tension_ratio`` > 1 keeps the grid stable up to that multiple of the tension (bends).
     """
     k = 1.0 / sample_rate
     rho_a = spec.linear_density_kg_m
@@ -145,7 +157,8 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     tension = rho_a * (2.0 * length * f0) ** 2
     sigma0, sigma1 = loss_coefficients(spec, tension)
     scale = 1.0
-    n = max(int(length / (grid_scale * h_min(k, tension, rho_a, ei_phys, sigma1))), 4)
+    n = max(int(length / (grid_scale * h_min(k, tension * max_tension_ratio, rho_a, ei_phys,
+                                               sigma1))), 4)
     for _ in range(60):
         for _ in range(8):  # alternate: tension for mode 1, stiffness for the pinned mode
             sigma0, sigma1 = loss_coefficients(spec, tension)
@@ -158,7 +171,8 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
             scale = _secant(partial(_mode_error, PINNED_PARTIAL, target, args, ei_phys, tension),
                             scale)
         model = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale)
-        if length / n >= h_min(k, tension, rho_a, model.ei, sigma1) * (1.0 + 1e-12):
+        bound = h_min(k, tension * max_tension_ratio, rho_a, model.ei, sigma1)
+        if length / n >= bound * (1.0 + 1e-12):
             return model
         n -= 1
     raise ValueError(f"cannot place a stable grid on string {spec.note}")
@@ -188,7 +202,7 @@ def _secant(err, x0: float) -> float:
     return x1
 
 
-def coefficients(model: StringModel, preset: Preset, fret_mode: int, pickup: float,
+def coefficients(model: StringModel, preset: Preset, fret_mode: int,
                  kirchhoff_carrier: bool = True, fretboard: bool = True) -> Coefs:
     """The kernel's constants, eqs. (50a)-(52) written as stencils."""
     k, h, n = model.k, model.h, model.n
@@ -198,7 +212,6 @@ def coefficients(model: StringModel, preset: Preset, fret_mode: int, pickup: flo
     lam2 = model.tension_n * k * k / (rho_a * h * h)
     mu2 = model.ei * k * k / (rho_a * h**4)
     sg = 2.0 * s1 * k / (h * h)
-    p, w0, w1 = interp(pickup * model.length_m, h, n)
     finger = preset.finger
     return Coefs(
         n=n,
@@ -227,22 +240,10 @@ def coefficients(model: StringModel, preset: Preset, fret_mode: int, pickup: flo
         fg_alpha=finger.alpha,
         fg_r=finger.damping_n_s_m,
         fg_lift=3e-3,
-        out_p=p,
-        out_w0=w0,
-        out_w1=w1,
+        lam2=lam2,
+        den=den,
     )
 
-
-@dataclass(frozen=True)
-class Geometry:
-    """Fret tips and fretboard on the string's grid (arrays the kernel reads)."""
-
-    fret_p: np.ndarray
-    fret_w0: np.ndarray
-    fret_w1: np.ndarray
-    fret_m0: np.ndarray
-    board: np.ndarray  # b at interior nodes 1..N-1 (very low where there is no fretboard)
-    near: np.ndarray  # per node: a level below which a rigid fret may be reached this step
 
 NO_BOARD = -1.0  # a "fretboard" a metre below the string: unreachable
 
@@ -259,8 +260,8 @@ def fret_margin(model: StringModel, max_pluck_force: float) -> float:
 
 
 
-def geometry(model: StringModel, preset: Preset, with_frets: bool = True,
-             margin: float = math.inf) -> Geometry:
+def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
+             margin: float = math.inf) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12."""
     h, n = model.h, model.n
@@ -281,4 +282,6 @@ def geometry(model: StringModel, preset: Preset, with_frets: bool = True,
         for node, w in ((p[i] - 1, w0[i]), (p[i], w1[i])):  # padded index -> node -> array index
             if w > 0.0:
                 near[node - 1] = max(near[node - 1], m0[i] + margin)
-    return Geometry(p, w0, w1, m0, board, near)
+    pk = [interp(x * model.length_m, h, n) for x in pickups]
+    return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
+               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]))

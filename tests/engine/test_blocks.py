@@ -24,8 +24,14 @@ def test_blocks_equal_one_shot(block):
     assert np.array_equal(one, _blocks(block))
 
 
-def test_stream_blocks_equal_render_with_fixed_gain():
-    sc = {**SCENE, "output": {"normalize": False}}
+@pytest.mark.parametrize("output", [
+    {"normalize": False},
+    {"normalize": False, "body": "acoustic", "channels": 2},
+    {"normalize": False, "pickups": [{"position": 0.9}, {"position": 0.75, "gain": 0.5}]},
+])
+def test_stream_blocks_equal_render_with_fixed_gain(output):
+    """engine.blocks (what a stream sends) = render with normalize false, body and stereo too."""
+    sc = {**SCENE, "output": output}
     whole = engine.render(sc)
-    streamed = np.concatenate(list(engine.blocks(SCENE, block_frames=777)))
+    streamed = np.concatenate(list(engine.blocks(sc, block_frames=777)))
     assert np.array_equal(whole, streamed)

@@ -14,12 +14,14 @@ from engine.string import h_min, tune
 
 from .conftest import SR, pluck, scene
 
-CASES = [(p, s) for p in sorted(PRESETS) for s in range(1, 7)]
+CASES = [(p, s) for p in sorted(PRESETS) for s in range(1, PRESETS[p].n_strings + 1)]
 
 
 def _open_pluck(preset, string, force=0.2, duration=2.0):
+    # pluck and pickup away from the nodes of partials 1-10 (0.83 n, 0.913 n not integers)
     sc = Scene.model_validate(scene([pluck(string, force=force, position=0.83)],
-                                    duration=duration, guitar={"preset": preset}))
+                                    duration=duration, guitar={"preset": preset},
+                                    output={"body": "none", "pickup_position": 0.913}))
     model = prepare(sc).voices[0].model
     return engine.render(sc), model
 

@@ -55,3 +55,13 @@ def band_level_db(x: np.ndarray, sr: float, f: float, rel_width: float = 0.03) -
     freqs = np.fft.rfftfreq(4 * n, 1.0 / sr)
     sel = (freqs > f * (1 - rel_width)) & (freqs < f * (1 + rel_width))
     return float(20.0 * np.log10(spec[sel].max() + 1e-300))
+
+
+def pitch_track(x: np.ndarray, sr: float, f_guess: float, window_s: float = 0.06,
+                hop_s: float = 0.005, rel_width: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Times (window centres, s) and frequencies of the peak near f_guess in short windows."""
+    w = int(window_s * sr)
+    hop = int(hop_s * sr)
+    starts = np.arange(0, len(x) - w, hop)
+    f = np.array([spectrum_peak(x[s : s + w], sr, f_guess, rel_width) for s in starts])
+    return (starts + w / 2) / sr, f

@@ -19,7 +19,7 @@ How each event acts on the physics
 * ``harmonic``: a light touch, modelled as a point damper R (d/dt) u(x) with R matched to the
   string's wave impedance 2 sqrt(T rho A) (the value that absorbs most of a wave passing the point),
   with no pressing force: modes with a node at the touch point pass, the others are damped.
-* ``mute``: a palm near the bridge, a damper spread over ``PALM_WIDTH_M`` with R = amount * 4
+* ``mute``: a palm near the bridge, a damper spread over ``PALM_WIDTH_M`` with R = amount * 0.8
   sqrt(T rho A): shorter decay, duller tone.
 * ``bend``/``vibrato``: the tension T(t) = T0 * ratio(t), piecewise linear between breakpoints; the
   ratio for a pitch change is solved from the scheme's dispersion relation.  The grid is built for
@@ -55,7 +55,7 @@ TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
 NEVER = np.iinfo(np.int64).max // 4
 PALM_WIDTH_M = 0.02
 HARMONIC_DAMPING = 2.0  # x sqrt(T rho A)
-PALM_DAMPING = 4.0  # x sqrt(T rho A) at amount 1
+PALM_DAMPING = 0.8  # x sqrt(T rho A) at amount 1
 VIBRATO_POINTS_PER_CYCLE = 32
 
 # style -> (pulse length s, direction): a pick releases faster than a fingertip; a slap drives

@@ -13,15 +13,31 @@ SCENE = scene([fret(2, 5), pluck(2, time=0.01, force=8.0), tap(3, 7, time=0.05),
                pluck(6, time=0.02, force=4.0), fret(2, 0, time=0.12)], duration=0.2)
 
 
-def _blocks(block):
-    eng = prepare(Scene.model_validate(SCENE))
+ARTICULATIONS = scene([
+    fret(3, 5), pluck(3, time=0.005), {"type": "slide", "time": 0.03, "string": 3,
+                                       "from_fret": 5, "to_fret": 7, "duration": 0.05},
+    {"type": "hammer_on", "time": 0.1, "string": 3, "fret": 9},
+    {"type": "pull_off", "time": 0.15, "string": 3, "fret": 9},
+    pluck(2, style="pick"), {"type": "bend", "time": 0.02, "string": 2, "semitones": 1.5,
+                             "duration": 0.05, "release": 0.12},
+    pluck(1, style="pop"), {"type": "vibrato", "time": 0.01, "string": 1, "depth_cents": 40,
+                            "rate_hz": 9, "duration": 0.15},
+    {"type": "harmonic", "time": 0.0, "string": 4, "fret": 12, "release": 0.05}, pluck(4),
+    {"type": "mute", "time": 0.0, "string": 6, "amount": 0.5}, pluck(6, style="slap"),
+    {"type": "strum", "time": 0.1, "strings": [5, 4], "direction": "up"},
+], duration=0.2)
+
+
+def _blocks(block, sc=SCENE):
+    eng = prepare(Scene.model_validate(sc))
     return np.concatenate(list(eng.blocks(block)))
 
 
 @pytest.mark.parametrize("block", [1, 37, 1000, 4096])
-def test_blocks_equal_one_shot(block):
-    one = _blocks(10**9)
-    assert np.array_equal(one, _blocks(block))
+@pytest.mark.parametrize("sc", [SCENE, ARTICULATIONS], ids=["contacts", "articulations"])
+def test_blocks_equal_one_shot(block, sc):
+    one = _blocks(10**9, sc)
+    assert np.array_equal(one, _blocks(block, sc))
 
 
 @pytest.mark.parametrize("output", [

@@ -28,7 +28,6 @@ from engine.guitar import QUALITY, Quality, RenderOptions
 from engine.presets import get_preset
 
 FRETS = tuple(range(1, 13))
-FORCE = 3.0  # N: enough to seat every string on every fret 1-12 of the presets
 SR = 44100
 
 
@@ -44,7 +43,7 @@ def fretted_cents(args) -> tuple[int, int, float]:
         "guitar": guitar,
         "output": {"body": "none"},
         "events": [
-            {"type": "fret", "time": 0.0, "string": string, "fret": fret, "force": FORCE},
+            {"type": "fret", "time": 0.0, "string": string, "fret": fret},  # preset's force
             {"type": "pluck", "time": 0.05, "string": string, "force": 1.0, "position": 0.8},
         ],
     }
@@ -80,7 +79,7 @@ def setback_effect(scale: float, setback: float) -> np.ndarray:
 
 
 def fit_setbacks(err: np.ndarray, scale: float) -> list[float]:
-    grid = np.arange(0.0, 8e-3, 5e-5)
+    grid = np.arange(0.0, 20e-3, 5e-5)
     best = []
     for row in err:
         worst = [np.max(np.abs(row + setback_effect(scale, d))) for d in grid]
@@ -99,7 +98,7 @@ def main() -> None:
     with Pool(2) as pool:
         raw = table(args.preset, reference, True, pool)
         print_table(f"{args.preset}: no compensation, reference grid h <= 1.5 mm, "
-                    f"finger {FORCE} N (cents from 12-TET)", raw)
+                    f"finger {preset.finger.press_force_n} N (cents from 12-TET)", raw)
         fit = fit_setbacks(raw, preset.scale_length_m)
         print("\nsaddle setback that minimises the worst error (mm): "
               + ", ".join(f"string {s}: {d * 1e3:.2f}" for s, d in enumerate(fit, start=1)))

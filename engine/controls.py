@@ -172,7 +172,8 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 x0 = x1 = finger_x_m(preset, e.fret)
                 ms = me = 0
             fret = e.to_fret if isinstance(e, Slide) else e.fret
-            slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=e.force, v0=v0,
+            force = e.force if e.force is not None else preset.finger.press_force_n
+            slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
                               gap=v0 * TAP_GAP_S, fret=fret))
         elif isinstance(e, PullOff):
             held = [s for s in slots if s["fret"] == e.fret and s["on"] <= on < s["rel"]]

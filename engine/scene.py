@@ -17,9 +17,6 @@ MAX_DURATION_S = 120.0
 MAX_EVENTS = 2000
 MAX_PLUCK_FORCE_N = 20.0
 MAX_FINGER_FORCE_N = 10.0
-# Default pressing force: enough to seat every string of the presets on frets 1-12 (the string must
-# be pushed below the line from the next fret to the bridge; benchmarks/intonation.py uses it too).
-FINGER_FORCE_N = 3.0
 MAX_TAP_VELOCITY_M_S = 5.0
 MAX_BEND_SEMITONES = 3.0  # the grid is made stable for the highest tension a scene reaches
 SAMPLE_RATE_MIN = 22050
@@ -73,8 +70,9 @@ class Fret(_Event):
 
     type: Literal["fret"] = "fret"
     fret: int = Field(ge=0, le=24, description="0 lifts the finger")
-    force: float = Field(
-        FINGER_FORCE_N, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N"
+    force: float | None = Field(
+        None, gt=0.0, le=MAX_FINGER_FORCE_N,
+        description="pressing force, N (default: the preset's, enough to seat the string)",
     )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
 
@@ -88,8 +86,9 @@ class Tap(_Event):
 
     type: Literal["tap"] = "tap"
     fret: int = Field(ge=1, le=24)
-    force: float = Field(
-        FINGER_FORCE_N, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N"
+    force: float | None = Field(
+        None, gt=0.0, le=MAX_FINGER_FORCE_N,
+        description="pressing force, N (default: the preset's, enough to seat the string)",
     )
     velocity: float = Field(
         1.0, gt=0.0, le=MAX_TAP_VELOCITY_M_S, description="speed towards the fretboard, m/s"
@@ -135,8 +134,9 @@ class Slide(_Event):
     from_fret: int = Field(ge=1, le=24)
     to_fret: int = Field(ge=1, le=24)
     duration: float = Field(0.15, gt=0.0, le=10.0, description="glide time, s")
-    force: float = Field(
-        FINGER_FORCE_N, gt=0.0, le=MAX_FINGER_FORCE_N, description="pressing force, N"
+    force: float | None = Field(
+        None, gt=0.0, le=MAX_FINGER_FORCE_N,
+        description="pressing force, N (default: the preset's, enough to seat the string)",
     )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
 
@@ -252,7 +252,7 @@ class StringOverride(_Model):
     t60_fundamental_s: float | None = Field(None, ge=0.05, le=60.0)
     t60_2khz_s: float | None = Field(None, ge=0.02, le=60.0)
     saddle_setback_m: float | None = Field(
-        None, ge=0.0, le=0.01, description="intonation compensation: length beyond the scale, m"
+        None, ge=0.0, le=0.02, description="intonation compensation: length beyond the scale, m"
     )
 
     @field_validator("note")

@@ -325,7 +325,6 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     x = np.empty(ncap)
     scr = np.zeros(n + 3)
     du = np.zeros(n + 3)
-    touched = np.empty(cap, np.int64)
     wfree = np.empty(nslot)
     fext = np.zeros(nslot)
     fp = np.zeros(nslot, np.int64)
@@ -558,7 +557,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                                  vfree, v1)
                 nent = cstart[nc]
                 continue
-            xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du, touched)
+            xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
             add = -1
             wval = -1e-12
             for q in range(nfret):
@@ -893,7 +892,7 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
 
 
 @njit(**JIT)
-def _scatter(nc, kind, cstart, cidx, cval, x, lam, du, touched):
+def _scatter(nc, kind, cstart, cidx, cval, x, lam, du):
     """du = Lambda * sum of the sparse columns' forces; returns the KC multiplier."""
     xk = 0.0
     for ci in range(nc):

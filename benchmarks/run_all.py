@@ -3,7 +3,9 @@
     python -m benchmarks.run_all        # or: make bench
 
 Each script prints its own table; this runs them in turn and writes the output to
-benchmarks/out/<name>.txt as well as to the terminal.
+benchmarks/out/<name>.txt as well as to the terminal.  ``pareto`` and ``soak`` also rewrite their
+sections of docs/accuracy.md and docs/img/pareto.png; the outputs named in ``DOCS`` are copied
+into docs/accuracy.md as printed.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import pathlib
 import sys
 import time
 
-from benchmarks import accuracy, intonation, skips, speed
+from benchmarks import accuracy, intonation, pareto, skips, soak, speed
 
 OUT = pathlib.Path(__file__).parent / "out"
 
@@ -25,11 +27,16 @@ RUNS = [
     ("accuracy", accuracy.main, []),
     ("intonation_steel", intonation.main, ["--preset", "steel-acoustic"]),
     ("intonation_nylon", intonation.main, ["--preset", "nylon-classical"]),
+    ("pareto", pareto.main, []),
+    ("soak", soak.main, ["--minutes", "3"]),
 ]
+# outputs copied verbatim into docs/accuracy.md (marker name -> section title)
+DOCS = {"skips": "Skips: speed-up and largest output difference"}
 
 
 def main() -> None:
     OUT.mkdir(exist_ok=True)
+    t0 = time.perf_counter()
     for name, fn, argv in RUNS:
         t = time.perf_counter()
         buf = io.StringIO()
@@ -38,7 +45,11 @@ def main() -> None:
             fn()
         text = buf.getvalue()
         (OUT / f"{name}.txt").write_text(text)
+        if name in DOCS:
+            pareto.write_docs(DOCS[name], name, f"Printed by `python -m benchmarks.{name}`.\n\n"
+                              f"```text\n{text.rstrip()}\n```")
         print(f"===== {name} ({time.perf_counter() - t:.0f} s)\n{text}", flush=True)
+    print(f"===== all benchmarks: {time.perf_counter() - t0:.0f} s")
 
 
 if __name__ == "__main__":

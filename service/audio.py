@@ -1,4 +1,4 @@
-"""Encoding samples to bytes: WAV by hand, FLAC and Ogg Vorbis through soundfile (libsndfile).
+"""Encoding samples (mono or stereo) to bytes: WAV by hand, FLAC and Ogg Vorbis through soundfile.
 
 WAV is written here rather than by libsndfile for two reasons:
 * a stream must send its header before any sample exists, and ``/render`` must produce the very same
@@ -34,7 +34,8 @@ def clip(x: np.ndarray) -> np.ndarray:
 
 
 def pcm_bytes(x: np.ndarray, subtype: str) -> bytes:
-    """Little-endian sample bytes of a mono block for a WAV ``data`` chunk."""
+    """Little-endian sample bytes of a block, shape (frames,) or (frames, channels), for a WAV
+    ``data`` chunk (row-major order interleaves the channels as WAV wants)."""
     x = clip(np.asarray(x, dtype=np.float64))
     if subtype == "FLOAT":
         return x.astype("<f4").tobytes()
@@ -48,18 +49,19 @@ def pcm_bytes(x: np.ndarray, subtype: str) -> bytes:
     raise ValueError(f"unsupported WAV subtype {subtype!r}")
 
 
-def wav_header(frames: int, sample_rate: int, subtype: str) -> bytes:
-    """RIFF/WAVE header of a mono file of ``frames`` frames (known before any sample is computed)."""
+def wav_header(frames: int, sample_rate: int, subtype: str, channels: int = 1) -> bytes:
+    """RIFF/WAVE header of a file of ``frames`` frames (known before any sample is computed)."""
     width = BYTES_PER_SAMPLE[subtype]
-    data_bytes = frames * width
+    block_align = width * channels
+    data_bytes = frames * block_align
     is_float = subtype == "FLOAT"
     fmt = struct.pack(
         "<HHIIHH",
         _WAVE_FORMAT_IEEE_FLOAT if is_float else _WAVE_FORMAT_PCM,
-        1,  # channels
+        channels,
         sample_rate,
-        sample_rate * width,  # byte rate
-        width,  # block align
+        sample_rate * block_align,  # byte rate
+        block_align,
         8 * width,  # bits per sample
     )
     chunks = b"fmt " + struct.pack("<I", len(fmt)) + fmt
@@ -69,8 +71,17 @@ def wav_header(frames: int, sample_rate: int, subtype: str) -> bytes:
     return b"RIFF" + struct.pack("<I", 4 + len(chunks) + data_bytes) + b"WAVE" + chunks
 
 
-def wav_size(frames: int, subtype: str) -> int:
-    return len(wav_header(frames, 44100, subtype)) + frames * BYTES_PER_SAMPLE[subtype]
+def wav_size(frames: int, subtype: str, channels: int = 1) -> int:
+    header = wav_header(frames, 44100, subtype, channels)
+    return len(header) + frames * channels * BYTES_PER_SAMPLE[subtype]
+
+
+def as_frames(x: np.ndarray, channels: int) -> np.ndarray:
+    """Samples as (frames,) for mono or (frames, channels), whatever shape an empty render has."""
+    x = np.asarray(x, dtype=np.float64)
+    if channels == 1:
+        return x.reshape(-1)
+    return x.reshape(-1, channels)
 
 
 def _soundfile_bytes(x: np.ndarray, sample_rate: int, fmt: str, subtype: str) -> bytes:
@@ -79,14 +90,17 @@ def _soundfile_bytes(x: np.ndarray, sample_rate: int, fmt: str, subtype: str) ->
     return buf.getvalue()
 
 
-def encode(x: np.ndarray, sample_rate: int, fmt: str = "wav", subtype: str = "PCM_16") -> bytes:
-    """A whole mono signal as a file: ``wav`` (subtype PCM_16/PCM_24/FLOAT), ``flac`` or ``ogg``.
+def encode(x: np.ndarray, sample_rate: int, fmt: str = "wav", subtype: str = "PCM_16",
+           channels: int = 1) -> bytes:
+    """A whole signal, shape (frames,) or (frames, channels), as a file: ``wav`` (subtype
+    PCM_16/PCM_24/FLOAT), ``flac`` or ``ogg``.
 
     ``subtype`` is a WAV option (API.md); FLAC keeps 24 bits when PCM_24 or FLOAT is asked for and
     16 otherwise, Ogg is always Vorbis.
     """
+    x = as_frames(x, channels)
     if fmt == "wav":
-        return wav_header(len(x), sample_rate, subtype) + pcm_bytes(x, subtype)
+        return wav_header(len(x), sample_rate, subtype, channels) + pcm_bytes(x, subtype)
     if fmt == "flac":
         return _soundfile_bytes(x, sample_rate, "flac", "PCM_16" if subtype == "PCM_16" else "PCM_24")
     if fmt == "ogg":

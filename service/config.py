@@ -6,11 +6,15 @@ are the tighter limits a public server puts on top of them.  ``docs/service.md``
 from __future__ import annotations
 
 import os
+
 from pydantic import Field, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 
 def _default_workers() -> int:
+    # The CPUs this process may run on (a container's cpuset), not every CPU of the host.
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
     return max(1, os.cpu_count() or 1)
 
 

@@ -18,11 +18,12 @@ import logging
 import re
 from typing import Any
 
-import engine
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+
+import engine
 
 from .pool import PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
 

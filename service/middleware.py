@@ -81,7 +81,12 @@ class RequestContextMiddleware:
                 # the connection, which is how a client learns that the stream is incomplete.
                 self._log(scope, state, info, t0, str(exc))
                 return
+            if info["status"] is None:
+                info["status"] = 500  # the server's error middleware answers it
+            self._log(scope, state, info, t0, f"{type(exc).__name__}: {exc}")
             raise
+        if not info["logged"]:
+            self._log(scope, state, info, t0, "response not completed (client disconnected)")
 
     @staticmethod
     def _log(scope: Scope, state: dict[str, Any], info: dict[str, Any], t0: float,
@@ -104,7 +109,7 @@ class RequestContextMiddleware:
         audio_s = state.get("audio_seconds")
         if render_s is not None:
             fields["render_seconds"] = round(render_s, 4)
-        if audio_s is not None:
+        if audio_s is not None and not error:
             fields["audio_seconds"] = audio_s
             if render_s:
                 fields["realtime_factor"] = round(audio_s / render_s, 2)

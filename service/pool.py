@@ -23,7 +23,7 @@ import logging
 import multiprocessing as mp
 import threading
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -82,6 +82,7 @@ class _Job:
     worker: _Worker | None = None
     timer: asyncio.TimerHandle | None = None
     finished: bool = False
+    on_finish: Callable[[], None] | None = None  # frees the admission slot of a render
 
 
 class _Worker:
@@ -228,6 +229,7 @@ class WorkerPool:
                 self._idle.put_nowait(w)
 
     def _on_exit(self, w: _Worker, exitcode: int | None) -> None:
+        was_ready = w.ready
         w.alive = False
         w.ready = False
         if w in self._workers:
@@ -242,13 +244,13 @@ class WorkerPool:
             "worker": w.number, "pid": w.pid, "exitcode": exitcode,
             "during_job": job is not None}})
         self.replaced += 1
-        self._respawn_later(w)
+        self._respawn_later(w, was_ready)
 
-    def _respawn_later(self, w: _Worker) -> None:
+    def _respawn_later(self, w: _Worker, was_ready: bool) -> None:
         # A worker that dies before it was ever ready (broken install, engine import error) would
         # otherwise be restarted in a tight loop.
         delay = 0.0
-        if not w.ready and w.jobs_done == 0 and time.monotonic() - w.started < 60.0:
+        if not was_ready and w.jobs_done == 0 and time.monotonic() - w.started < 60.0:
             self._failed_starts += 1
             delay = min(_RESPAWN_BACKOFF_MAX_S, 0.5 * 2 ** (self._failed_starts - 1))
         self.loop.call_later(delay, self._respawn)
@@ -260,16 +262,20 @@ class WorkerPool:
     # ---- jobs -------------------------------------------------------------------------------
 
     def _finish(self, job: _Job) -> None:
+        if job.finished:
+            return
         job.finished = True
         if job.timer is not None:
             job.timer.cancel()
             job.timer = None
+        if job.on_finish is not None:
+            job.on_finish()
 
-    def _on_deadline(self, job: _Job) -> None:
+    def _on_deadline(self, job: _Job, reason: str = "render past its time limit") -> None:
         w = job.worker
         if job.finished or w is None:
             return
-        log.warning("render past its time limit; killing worker",
+        log.warning(f"{reason}; killing worker",
                     extra={"fields": {"worker": w.number, "pid": w.pid, "job": job.id}})
         job.messages.put_nowait(("timeout", job.id))
         self._finish(job)
@@ -299,11 +305,12 @@ class WorkerPool:
             if w.alive and w.ready and w.job is None:
                 return w
 
-    async def _dispatch(self, kind: str, payload: dict[str, Any], time_limit_s: float) -> _Job:
+    async def _dispatch(self, kind: str, payload: dict[str, Any], time_limit_s: float,
+                        on_finish: Callable[[], None] | None = None) -> _Job:
         """Hand a job to an idle worker and arm its deadline."""
         while True:
             w = await self._acquire()
-            job = _Job(next(self._job_ids), kind)
+            job = _Job(next(self._job_ids), kind, on_finish=on_finish)
             job.worker = w
             w.job = job
             try:
@@ -330,14 +337,15 @@ class WorkerPool:
         """Render a whole scene in a worker; ``payload`` is what ``worker._render`` reads."""
         self._admit()
         try:
-            job = await self._dispatch("render", payload, time_limit_s)
-            msg = await job.messages.get()
-            self._raise_for(msg, time_limit_s)
-            meta = msg[3]
-            return RenderOutput(msg[2], meta["render_seconds"], meta["frames"],
-                                meta["energy_error"])
-        finally:
+            # The slot is held until the worker is done, even if this request goes away first.
+            job = await self._dispatch("render", payload, time_limit_s, on_finish=self._release)
+        except BaseException:
             self._release()
+            raise
+        msg = await job.messages.get()
+        self._raise_for(msg, time_limit_s)
+        meta = msg[3]
+        return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"])
 
     async def stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
         """Start a streamed render; returns once the first block exists (or fails before)."""
@@ -363,7 +371,8 @@ class WorkerPool:
         except OSError:
             return
         # A worker stuck inside one long block would ignore the cancel until the block is done.
-        self.loop.call_later(_CANCEL_GRACE_S, self._on_deadline, job)
+        self.loop.call_later(_CANCEL_GRACE_S, self._on_deadline, job,
+                             "cancelled stream still running")
 
 
 class StreamAborted(Exception):

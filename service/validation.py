@@ -14,10 +14,11 @@ import json
 from collections.abc import Callable, Coroutine, Iterator
 from typing import Any
 
-import engine
 from fastapi import Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
+
+import engine
 
 from .config import Settings
 

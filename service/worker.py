@@ -100,10 +100,11 @@ def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any])
     seconds = time.perf_counter() - t0
     samples = result.audio if payload["diagnostics"] else result
     _check_finite(samples)
-    data = audio.encode(samples, payload["sample_rate"], payload["format"], payload["subtype"])
+    data = audio.encode(samples, payload["sample_rate"], payload["format"], payload["subtype"],
+                        payload["channels"])
     meta = {
         "render_seconds": seconds,
-        "frames": int(len(samples)),
+        "frames": int(audio.as_frames(samples, payload["channels"]).shape[0]),
         "energy_error": float(result.energy_error) if payload["diagnostics"] else None,
     }
     conn.send(("done", job_id, data, meta))
@@ -122,9 +123,10 @@ def _cancel_requested(conn: Connection, job_id: int) -> bool:
 def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
             block_frames: int) -> None:
     t0 = time.perf_counter()
-    frames, subtype = payload["frames"], payload["subtype"]
+    frames, subtype, channels = payload["frames"], payload["subtype"], payload["channels"]
     sent = 0
     for block in engine.blocks(payload["scene"], block_frames=block_frames):
+        block = audio.as_frames(block, channels)
         _check_finite(block)
         # The header announced ``frames``: never send more than that.
         block = block[: frames - sent]
@@ -136,6 +138,6 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
             return
     if sent < frames:
         # Keep the file valid if the engine ever renders fewer frames than round(duration*rate).
-        conn.send(("block", job_id, audio.pcm_bytes(np.zeros(frames - sent), subtype),
-                   time.perf_counter() - t0))
+        silence = audio.as_frames(np.zeros((frames - sent) * channels), channels)
+        conn.send(("block", job_id, audio.pcm_bytes(silence, subtype), time.perf_counter() - t0))
     conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent}))

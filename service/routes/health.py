@@ -13,7 +13,8 @@ router = APIRouter(tags=["service"])
 @router.get("/health", response_model=Health,
             responses={503: {"model": Health, "description": "workers still warming up"}})
 async def health(request: Request) -> JSONResponse:
-    """200 once every render worker has warmed up (compiled or loaded its kernels), else 503."""
+    """200 once every render worker has warmed up (compiled or loaded its kernels), and from then on
+    while at least one worker is ready (a replacement warms up in the background); else 503."""
     pool = request.state.pool
     ready = pool.ready
     body = Health(status="ok" if ready else "starting", ready=ready,

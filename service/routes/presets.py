@@ -5,9 +5,10 @@ from __future__ import annotations
 from dataclasses import asdict
 from functools import cache
 
+from fastapi import APIRouter
+
 import engine
 from engine.string import tune
-from fastapi import APIRouter
 
 from ..schemas import FingerInfo, PresetInfo, Presets, StringInfo
 

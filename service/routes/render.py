@@ -9,11 +9,12 @@ from __future__ import annotations
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
-import engine
 from fastapi import APIRouter, Body, Request, Response
 from fastapi.responses import StreamingResponse
 from starlette.requests import ClientDisconnect
 from starlette.types import Receive, Scope, Send
+
+import engine
 
 from .. import audio
 from ..examples import scene_examples, stream_examples
@@ -29,6 +30,11 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
     503: {"description": "all workers busy and the queue full (see Retry-After)"},
     504: {"description": "the render ran past its time limit and was stopped"},
 }
+
+
+def channels_of(scene: engine.Scene) -> int:
+    """1 (mono) or 2 (stereo: ``output.channels``, where the engine's schema has it)."""
+    return int(getattr(scene.output, "channels", 1))
 
 
 def _seconds(x: float) -> str:
@@ -64,6 +70,7 @@ async def render(
             "sample_rate": scene.sample_rate,
             "format": scene.output.format,
             "subtype": scene.output.subtype,
+            "channels": channels_of(scene),
         },
         settings.time_limit_s(scene.duration),
     )
@@ -119,13 +126,14 @@ async def render_stream(
     settings, pool = request.state.settings, request.state.pool
     check_limits(scene, settings)
     check_streamable(scene)
-    rate, subtype = scene.sample_rate, scene.output.subtype
+    rate, subtype, channels = scene.sample_rate, scene.output.subtype, channels_of(scene)
     frames = audio.frame_count(scene.duration, rate)
-    header = audio.wav_header(frames, rate, subtype)
+    header = audio.wav_header(frames, rate, subtype, channels)
     scene_json = scene.model_dump(mode="json")
     scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them
-    stream = await pool.stream({"scene": scene_json, "frames": frames, "subtype": subtype},
-                               settings.time_limit_s(scene.duration))
+    stream = await pool.stream(
+        {"scene": scene_json, "frames": frames, "subtype": subtype, "channels": channels},
+        settings.time_limit_s(scene.duration))
     audio_s = frames / rate
     request.state.audio_seconds = audio_s
 
@@ -142,7 +150,7 @@ async def render_stream(
         on_close=stream.close,
         media_type="audio/wav",
         headers={
-            "Content-Length": str(len(header) + frames * audio.BYTES_PER_SAMPLE[subtype]),
+            "Content-Length": str(audio.wav_size(frames, subtype, channels)),
             "X-Render-Seconds": _seconds(stream.first_block_seconds),
             "Content-Disposition": 'inline; filename="guitar.wav"',
         },

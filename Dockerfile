@@ -1,0 +1,52 @@
+# The guitar synthesis service: uvicorn serving service.app:app on port 8000.
+#
+# BASE_IMAGE is any image with Python 3.11 and the venv module. Docker users keep the default;
+# scripts/docker-check passes a Debian bookworm image it builds itself (python3, python3-venv).
+ARG BASE_IMAGE=python:3.11-slim
+FROM ${BASE_IMAGE}
+
+ENV PYTHONDONTWRITEBYTECODE=1 \
+    PYTHONUNBUFFERED=1 \
+    PIP_NO_CACHE_DIR=1 \
+    PIP_DISABLE_PIP_VERSION_CHECK=1 \
+    VIRTUAL_ENV=/opt/venv \
+    PATH=/opt/venv/bin:$PATH \
+    PYTHONPATH=/app \
+    NUMBA_CACHE_DIR=/var/cache/guitar/numba
+
+# A fixed numeric id, so that USER resolves without the image's passwd file.
+RUN groupadd --system --gid 10001 app \
+    && useradd --system --uid 10001 --gid 10001 --home-dir /app --no-create-home \
+       --shell /usr/sbin/nologin app \
+    && mkdir -p /app "$NUMBA_CACHE_DIR" \
+    && chown 10001:10001 "$NUMBA_CACHE_DIR"
+
+WORKDIR /app
+
+# Dependencies first, from pyproject.toml alone, so code changes do not reinstall them.
+# (The wheels bring their own libsndfile and LLVM: no apt packages are needed.)
+COPY pyproject.toml ./
+RUN python3 -m venv "$VIRTUAL_ENV" \
+    && python -c "import tomllib; print('\n'.join(tomllib.load(open('pyproject.toml', 'rb'))['project']['dependencies']))" > /tmp/requirements.txt \
+    && pip install --no-cache-dir -r /tmp/requirements.txt \
+    && rm /tmp/requirements.txt
+
+COPY engine/ engine/
+COPY service/ service/
+COPY static/ static/
+
+USER 10001:10001
+
+# Compile the numba kernels now, into NUMBA_CACHE_DIR, so that workers start in about a second
+# instead of compiling for 10-15 s each. (The cache is keyed to this CPU's features; on another
+# CPU model the workers compile once at start-up and write the cache again: it stays writable.)
+RUN python -c "import engine; from service.worker import _warm_up; _warm_up(engine)"
+
+EXPOSE 8000
+
+# Workers warm up at start-up; /health answers 200 only once every one of them is ready.
+HEALTHCHECK --interval=30s --timeout=5s --start-period=120s --retries=3 \
+    CMD ["python", "-c", "import sys, urllib.request; sys.exit(urllib.request.urlopen('http://127.0.0.1:8000/health', timeout=4).status != 200)"]
+
+# The service writes its own JSON access log; uvicorn's would duplicate it.
+CMD ["uvicorn", "service.app:app", "--host", "0.0.0.0", "--port", "8000", "--no-access-log"]

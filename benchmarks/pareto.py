@@ -1,0 +1,712 @@
+"""Run time against error: every knob that trades cost for accuracy, measured on this machine.
+
+    python -m benchmarks.pareto [--jobs 2] [--repeat 3] [--quick] [--no-docs]
+
+For each configuration (the three quality levels, and one knob at a time around them: internal
+oversampling, the contact-resolution rule, grid spacing relative to the stability bound, the contact
+formulation, the gamma rule of the DAFx24 paper's sec. 4.7, dispersion pre-compensation,
+Kirchhoff-Carrier tension modulation) it measures, on the steel-acoustic preset at 44.1 kHz with no
+body response (the strings' own sound):
+
+cost   ms of compute per second of audio: per string (a finger at fret 5 and an 8 N pluck, the
+       ``benchmarks.speed`` scene) and for a six-string scene (an F barre chord, strummed);
+       CPU time of the rendering thread (other processes on the machine barely change it), best
+       of ``--repeat`` rounds, simulation only, one core.
+errors each against an exact or converged reference:
+  * partials 1-20 of each open string against the stiff-string formula f_n = n f0 sqrt(1 + B n^2):
+    from the scheme's own dispersion relation (exact for the linear scheme), worst over strings;
+    and partials 1-10 and the fundamental measured on rendered audio (0.2 N pluck);
+  * fretted pitch, all six strings, frets 1-12 (the ``benchmarks.intonation`` scene), cents;
+  * sink: how far a string goes below a fret tip and below the fretboard (um), sampled at every
+    output sample, in pressed notes (3 N at frets 5 and 12), slams (10 N taps at 5 m/s) and a
+    fret-buzz scene;
+  * rendered signal against a reference render of the same scene at 16x oversampling: relative
+    error of the STFT magnitude (2048-sample Hann frames, 20 Hz - 14 kHz, where the decimation
+    filter is flat), dB, for a hard pluck, a fretted note, a tap and a fret-buzz scene;
+  * energy balance (paper sec. 6.1) on a scene with every nonlinearity.
+
+It prints the tables, draws the Pareto fronts to docs/img/pareto.png and rewrites the generated
+section of docs/accuracy.md (between the ``pareto:begin`` / ``pareto:end`` markers).
+
+Variants the engine has no ``RenderOptions`` switch for (the gamma rule, dispersion compensation)
+are built here: a private copy of ``engine/kernels.py`` with ``_gamma`` replaced, or
+``engine.string.tune(..., compensate=False)``, swapped into ``engine.guitar`` while a scene is
+prepared and rendered (``variant``).  Nothing under ``engine/`` is modified.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib.util
+import inspect
+import math
+import pathlib
+import re
+import sys
+import time
+from dataclasses import dataclass, replace
+from functools import partial
+from multiprocessing import Pool
+from unittest import mock
+
+import numpy as np
+from scipy import signal
+
+import engine
+import engine.guitar
+import engine.kernels
+import engine.string
+from benchmarks.accuracy import ENERGY_SCENES
+from benchmarks.intonation import FRETS
+from engine.analysis import cents, partials, spectrum_peak
+from engine.guitar import FRET_PENALTY, QUALITY, Quality, RenderOptions, prepare
+from engine.presets import get_preset
+from engine.scene import Scene
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+OUT = pathlib.Path(__file__).parent / "out"
+DOCS = ROOT / "docs" / "accuracy.md"
+IMG = ROOT / "docs" / "img"
+SR = 44100
+PRESET = "steel-acoustic"
+STRINGS = tuple(range(1, 7))
+BAND_HZ = (20.0, 14000.0)
+
+# ------------------------------------------------------------------------------------------------
+# variants without a RenderOptions switch
+
+GAMMA_RULES = {
+    "paper": '''@njit(**JIT)
+def _gamma(psi, xi, s, in_contact):
+    """DAFx24 eq. (61) as printed (benchmark variant, benchmarks/pareto.py)."""
+    if in_contact:
+        if 4.0 * psi + xi < 0.0 and xi != 0.0:
+            return -4.0 * psi / xi
+        return 1.0
+    if xi == 0.0:
+        return 0.0
+    g = -4.0 * psi / xi
+    return (0.5 if g < 0.0 else 1.5) * g
+''',
+    "one": '''@njit(**JIT)
+def _gamma(psi, xi, s, in_contact):
+    """No gradient correction (benchmark variant, benchmarks/pareto.py)."""
+    return 1.0 if in_contact else 0.0
+''',
+}
+_variant_modules: dict[str, object] = {}
+
+
+def gamma_kernels(rule: str):
+    """``engine.kernels`` with ``_gamma`` replaced by ``GAMMA_RULES[rule]`` (a file under
+    benchmarks/out/variants/, compiled and cached by numba like the original)."""
+    if rule == "engine":
+        return engine.kernels
+    if rule in _variant_modules:
+        return _variant_modules[rule]
+    src = inspect.getsource(engine.kernels)
+    m = re.search(r"@njit\(\*\*JIT\)\ndef _gamma\(.*?(?=\n@njit)", src, re.S)
+    if m is None or "from .config import JIT" not in src:
+        raise RuntimeError("engine/kernels.py changed shape: cannot build the gamma variant")
+    src = src[:m.start()] + GAMMA_RULES[rule] + "\n" + src[m.end():]
+    src = src.replace("from .config import JIT", "from engine.config import JIT")
+    folder = OUT / "variants"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"kernels_gamma_{rule}.py"
+    if not path.exists() or path.read_text() != src:
+        path.write_text(src)
+    name = f"benchmarks_kernels_gamma_{rule}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    # Share the engine's NamedTuple types: a second set of classes with the same names makes
+    # numba's dispatch of the *original* kernels slow (about 0.4 ms per call) for the rest of
+    # the process.
+    for cname, obj in vars(engine.kernels).items():
+        if isinstance(obj, type) and issubclass(obj, tuple) and hasattr(obj, "_fields"):
+            setattr(mod, cname, obj)
+    _variant_modules[rule] = mod
+    return mod
+
+
+@contextlib.contextmanager
+def variant(gamma: str = "engine", compensate: bool = True):
+    """Prepare and render inside this block to use a variant of the engine."""
+    with contextlib.ExitStack() as stack:
+        if gamma != "engine":
+            stack.enter_context(mock.patch.object(engine.guitar, "kernels", gamma_kernels(gamma)))
+        if not compensate:
+            stack.enter_context(mock.patch.object(
+                engine.guitar, "tune", partial(engine.string.tune, compensate=False)))
+        yield
+
+
+# ------------------------------------------------------------------------------------------------
+# configurations
+
+
+@dataclass(frozen=True)
+class Config:
+    name: str
+    knob: str
+    quality: str | Quality = "standard"  # a QUALITY key (read at run time) or a Quality
+    oversample: int | None = None  # force this factor on every string
+    fret_mode: int | None = None
+    kirchhoff_carrier: bool = True
+    gamma: str = "engine"
+    compensate: bool = True
+
+    def options(self, **kw) -> RenderOptions:
+        q = QUALITY[self.quality] if isinstance(self.quality, str) else self.quality
+        if self.fret_mode is not None:
+            q = replace(q, fret_mode=self.fret_mode)
+        return RenderOptions(quality=q, oversample=self.oversample,
+                             kirchhoff_carrier=self.kirchhoff_carrier, **kw)
+
+    def variant(self):
+        return variant(self.gamma, self.compensate)
+
+
+def _forced(os_: int, grid_scale: float = 1.0, **kw) -> Quality:
+    return Quality(max_h_m=1.0, max_oversample=os_, grid_scale=grid_scale, **kw)
+
+
+LEVEL = "quality level"
+CONFIGS = [
+    Config("draft", LEVEL, "draft"),
+    Config("standard", LEVEL, "standard"),
+    Config("high", LEVEL, "high"),
+    *[Config(f"x{k} everywhere", "oversampling", _forced(k), oversample=k) for k in (2, 3, 4, 6, 8)],
+    *[Config(f"fingered h <= {h:g} mm", "contact grid rule",
+             Quality(max_h_m=h * 1e-3, max_dispersion_cents=0.8)) for h in (7.0, 4.5, 3.5)],
+    Config("high, open strings too (dispersion <= 0.004 c)", "dispersion bound",
+           Quality(max_h_m=2.5e-3, max_dispersion_cents=0.004, max_oversample=16)),
+    Config("x1, h = 1.25 h_min", "grid spacing", _forced(1, 1.25), oversample=1),
+    Config("x2, h = 1.5 h_min", "grid spacing", _forced(2, 1.5), oversample=2),
+    Config("x4, h = 2 h_min", "grid spacing", _forced(4, 2.0), oversample=4),
+    Config("standard, penalty frets", "contact formulation", fret_mode=FRET_PENALTY),
+    Config("standard, penalty frets + eq. 61", "contact formulation", fret_mode=FRET_PENALTY,
+           gamma="paper"),
+    Config("x4, penalty frets", "contact formulation", _forced(4), oversample=4,
+           fret_mode=FRET_PENALTY),
+    Config("standard, gamma eq. 61 (lambda)", "gamma rule (sec. 4.7)", gamma="paper"),
+    Config("standard, gamma = 1", "gamma rule (sec. 4.7)", gamma="one"),
+    Config("standard, uncompensated", "dispersion compensation", compensate=False),
+    Config("standard, no Kirchhoff-Carrier", "tension modulation", kirchhoff_carrier=False),
+]
+QUICK = ("draft", "standard", "high", "x4 everywhere", "standard, gamma = 1",
+         "standard, penalty frets")
+REFERENCE = Config("reference x16", "reference", _forced(16), oversample=16)
+FINE = "x8 everywhere"  # the converged reference for fretted pitch (x16 would cost 4x more)
+BY_NAME = {c.name: c for c in [*CONFIGS, REFERENCE]}
+
+# ------------------------------------------------------------------------------------------------
+# scenes
+
+
+def scene(events: list, duration: float, guitar: dict | None = None) -> dict:
+    return {"duration": duration, "sample_rate": SR, "guitar": {"preset": PRESET, **(guitar or {})},
+            "output": {"body": "none", "normalize": False}, "events": events}
+
+
+def pluck(s, t=0.0, force=2.0, position=0.8):
+    return {"type": "pluck", "time": t, "string": s, "force": force, "position": position}
+
+
+def fret(s, q, t=0.0, force=None):
+    """A finger behind fret q; the preset's pressing force unless ``force`` is given."""
+    ev = {"type": "fret", "time": t, "string": s, "fret": q}
+    return ev if force is None else {**ev, "force": force}
+
+
+def tap(s, q, t=0.0, force=3.0, velocity=1.5):
+    return {"type": "tap", "time": t, "string": s, "fret": q, "force": force, "velocity": velocity}
+
+
+LOW_ACTION = {"action_nut_m": 1e-4, "action_12th_m": 5e-4}
+F_BARRE = {6: 1, 5: 3, 4: 3, 3: 2, 2: 1, 1: 1}
+SIX_STRING = scene([fret(s, q) for s, q in F_BARRE.items()]
+                   + [pluck(7 - i, 0.05 + 0.02 * i) for i in range(1, 7)], 1.0)
+SPECTRAL = {
+    "hard pluck": scene([pluck(6, force=10.0, position=0.9)], 0.5),
+    "fretted note": scene([fret(2, 5), pluck(2, 0.05)], 0.5),
+    "tap": scene([tap(3, 7)], 0.5),
+    "fret buzz": scene([fret(5, 2), pluck(5, 0.02, force=12.0, position=0.85)], 0.5, LOW_ACTION),
+}
+SINK = {
+    **{f"pressed s{s} f{q}": scene([fret(s, q), pluck(s, 0.05)], 0.2)
+       for s in STRINGS for q in (5, 12)},
+    **{f"slam s{s}": scene([tap(s, 5, force=10.0, velocity=5.0)], 0.1) for s in (1, 3, 6)},
+    "fret buzz": SPECTRAL["fret buzz"],
+}
+ENERGY = scene(ENERGY_SCENES["fret + 8 N pluck + tap (every nonlinearity)"], 0.5)
+
+
+def per_string_scene(s: int) -> dict:
+    """benchmarks.speed's full-model scene: a finger at fret 5 and an 8 N pluck."""
+    return scene([fret(s, 5), pluck(s, 0.05, force=8.0)], 1.0)
+
+
+def decimator_delay(oversample: int) -> int:
+    """Output samples of delay of the engine's linear-phase decimation filter (24 f + 1 taps)."""
+    return 12 if oversample > 1 else 0
+
+
+# ------------------------------------------------------------------------------------------------
+# measurements (each one a pool job)
+
+
+def render(cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
+    with cfg.variant():
+        s = Scene.model_validate({**sc, "diagnostics": diagnostics})
+        eng = prepare(s, cfg.options(skip_decayed=False))
+        parts = []
+        for block in eng.blocks(1 if probe else None):
+            parts.append(block)
+            if probe:
+                probe(eng)
+    return np.concatenate(parts), eng
+
+
+def job_fretted(name: str, s: int, q: int):
+    """The benchmarks.intonation scene: finger pressed behind fret q, pluck, pitch from 0.2 s."""
+    cfg = BY_NAME[name]
+    audio, _ = render(cfg, scene([fret(s, q), pluck(s, 0.05, force=1.0)], 1.2))
+    target = get_preset(PRESET).strings[s - 1].frequency_hz * 2 ** (q / 12)
+    f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
+    return ("fretted", name, (s, q)), float(cents(f, target))
+
+
+def job_open(name: str, s: int):
+    """Open string, 0.2 N pluck (benchmarks.accuracy's scene): the fundamental against nominal and
+    partials 1-10 measured; partials 1-20 from the scheme's dispersion relation."""
+    cfg = BY_NAME[name]
+    sc = scene([{**pluck(s, force=0.2, position=0.83)}], 2.0)
+    sc["output"]["pickup_position"] = 0.913
+    audio, eng = render(cfg, sc)
+    m = eng.voices[0].model
+    x = audio[int(0.05 * SR):]
+    f0 = m.spec.frequency_hz
+    meas = partials(x, SR, f0, 10, m.inharmonicity())
+    want = np.array([m.target_frequency(i) for i in range(1, 11)])
+    exact = np.array([cents(m.frequency(i), m.target_frequency(i)) for i in range(1, 21)])
+    return ("open", name, s), {
+        "f0": float(cents(spectrum_peak(x, SR, f0), f0)),
+        "p10_measured": float(np.max(np.abs(cents(meas, want)))),
+        "p10": float(np.max(np.abs(exact[:10]))),
+        "p20": float(np.max(np.abs(exact))),
+        "oversample": eng.voices[0].oversample,
+        "n": eng.voices[0].coefs.n,
+    }
+
+
+class SinkProbe:
+    """Largest depth of any node below the fretboard and of any fret interpolant below its tip."""
+
+    def __init__(self):
+        self.fret = 0.0
+        self.board = 0.0
+
+    def __call__(self, eng):
+        for v in eng.voices:
+            g, u, n = v.geom, v.state.u, v.coefs.n
+            if len(g.fret_p):
+                pos = g.fret_w0 * u[g.fret_p] + g.fret_w1 * u[g.fret_p + 1]
+                self.fret = max(self.fret, float(np.max(g.fret_m0 - pos)))
+            self.board = max(self.board, float(np.max(g.board - u[2:n + 1])))
+
+
+def job_sink(name: str, key: str):
+    probe = SinkProbe()
+    render(BY_NAME[name], SINK[key], probe=probe)
+    return ("sink", name, key), (probe.fret * 1e6, probe.board * 1e6)
+
+
+def job_spectral(name: str, key: str):
+    audio, eng = render(BY_NAME[name], SPECTRAL[key])
+    return ("audio", name, key), (audio, eng.voices[0].oversample)
+
+
+def job_energy(name: str):
+    r = None
+    with BY_NAME[name].variant():
+        r = engine.render(ENERGY, diagnostics=True, options=BY_NAME[name].options())
+    return ("energy", name, None), r.energy_error
+
+
+def _run(job):
+    fn, args = job
+    return fn(*args)
+
+
+def spectral_error_db(x: np.ndarray, ref: np.ndarray) -> float:
+    """20 log10 of || |X| - |R| || / || |R| || over STFT frames, BAND_HZ only."""
+    f, _, X = signal.stft(x, SR, nperseg=2048, noverlap=1536)
+    _, _, R = signal.stft(ref, SR, nperseg=2048, noverlap=1536)
+    band = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
+    num = np.linalg.norm(np.abs(X[band]) - np.abs(R[band]))
+    return float(20.0 * np.log10(num / np.linalg.norm(np.abs(R[band])) + 1e-300))
+
+
+def align(x: np.ndarray, oversample: int, ref_oversample: int) -> np.ndarray:
+    d = decimator_delay(ref_oversample) - decimator_delay(oversample)
+    if d > 0:
+        return np.concatenate((np.zeros(d), x[:-d]))
+    if d < 0:
+        return np.concatenate((x[-d:], np.zeros(-d)))
+    return x
+
+
+def cpu_time(sc: dict, options: RenderOptions) -> tuple[float, object]:
+    """CPU seconds of the rendering thread for one render (scene preparation excluded).  CPU time
+    rather than wall time: other processes on the machine then barely change it."""
+    eng = prepare(Scene.model_validate(sc), options)
+    t = time.thread_time()
+    for _block in eng.blocks():
+        pass
+    return time.thread_time() - t, eng
+
+
+def costs(configs: list[Config], repeat: int, seconds: float) -> dict:
+    """ms of compute per second of audio, per string (``per_string_scene``) and for the six-string
+    scene; the best of ``repeat`` rounds, each round timing every configuration once."""
+    scenes = [(s, {**per_string_scene(s), "duration": seconds}) for s in STRINGS]
+    scenes.append(("six", {**SIX_STRING, "duration": seconds}))
+    res = {c.name: {key: math.inf for key, _ in scenes} for c in configs}
+    for c in configs:
+        res[c.name]["six_rounds"] = []
+    for _ in range(repeat):
+        for c in configs:
+            with c.variant():
+                for key, sc in scenes:
+                    t, eng = cpu_time(sc, c.options(skip_decayed=False))
+                    res[c.name][key] = min(res[c.name][key], t / seconds * 1e3)
+                    if key == "six":
+                        res[c.name]["os"] = {v.index: v.oversample for v in eng.voices}
+                        res[c.name]["six_rounds"].append(t / seconds * 1e3)
+    return res
+
+
+def timing_noise(cost: dict) -> float:
+    """Median over configurations of (second best - best) / best of the six-string timings: how
+    far two measurements of the same work differ in this run."""
+    spread = [sorted(v["six_rounds"])[1] / min(v["six_rounds"]) - 1.0
+              for v in cost.values() if len(v["six_rounds"]) > 1]
+    return float(np.median(spread)) if spread else 0.0
+
+
+# ------------------------------------------------------------------------------------------------
+# analysis
+
+
+METRICS = [  # key, label, tolerance below which two values count as equal
+    ("fretted", "fretted pitch vs 12-TET, worst |cents|", 0.05),
+    ("fretted_vs_fine", "fretted pitch vs x8, worst |cents|", 0.05),
+    ("p20", "partials 1-20, worst |cents|", 0.005),
+    ("spectral", "spectral error, mean of 4 scenes (dB)", 0.1),
+    ("fret_sink", "sink below a fret tip, playing (um)", 0.5),
+    ("board_sink", "sink below the fretboard, playing (um)", 0.5),
+]
+SLAM = [("slam_fret_sink", "sink below a fret tip, 5 m/s taps (um)", 0.5),
+        ("slam_board_sink", "sink below the fretboard, 5 m/s taps (um)", 0.5)]
+
+
+def fretted_table(res, name) -> np.ndarray:
+    return np.array([[res["fretted", name, (s, q)] for q in FRETS] for s in STRINGS])
+
+
+def summarise(names, res, cost) -> dict:
+    rows = {}
+    fine = fretted_table(res, FINE)
+    for name in names:
+        fr = fretted_table(res, name)
+        op = [res["open", name, s] for s in STRINGS]
+        sinks = [res["sink", name, k] for k in SINK if not k.startswith("slam")]
+        slams = [res["sink", name, k] for k in SINK if k.startswith("slam")]
+        spec = {k: res["spectral", name, k] for k in SPECTRAL}
+        rows[name] = {
+            "cost_six": cost[name]["six"],
+            "cost_string": float(np.mean([cost[name][s] for s in STRINGS])),
+            "cost_strings": [cost[name][s] for s in STRINGS],
+            "os": cost[name]["os"],
+            "fretted_table": fr,
+            "fretted": float(np.max(np.abs(fr))),
+            "fretted_rms": float(np.sqrt(np.mean(fr**2))),
+            "fretted_vs_fine": float(np.max(np.abs(fr - fine))),
+            "f0": max(abs(o["f0"]) for o in op),
+            "p10_measured": max(o["p10_measured"] for o in op),
+            "p10": max(o["p10"] for o in op),
+            "p20": max(o["p20"] for o in op),
+            "fret_sink": max(s[0] for s in sinks),
+            "board_sink": max(s[1] for s in sinks),
+            "slam_fret_sink": max(s[0] for s in slams),
+            "slam_board_sink": max(s[1] for s in slams),
+            "spectral_scenes": spec,
+            "spectral": float(np.mean(list(spec.values()))),
+            "energy": res["energy", name, None],
+        }
+    return rows
+
+
+FASTER = 0.05  # "faster" means cheaper by more than this fraction, or by twice the timing noise
+
+
+def dominates(a: dict, b: dict, margin: float, metrics=METRICS) -> bool:
+    """a is faster than b (cheaper by more than ``margin``, a fraction) and more accurate: no error
+    larger and at least one smaller, each beyond its tolerance."""
+    if not a["cost_six"] < (1.0 - margin) * b["cost_six"]:
+        return False
+    return (all(a[k] <= b[k] + tol for k, _, tol in metrics)
+            and any(a[k] < b[k] - tol for k, _, tol in metrics))
+
+
+def front(rows: dict, key: str) -> list[str]:
+    """Configurations on the (cost_six, key) Pareto front, cheapest first."""
+    out, best = [], math.inf
+    for name in sorted(rows, key=lambda n: (rows[n]["cost_six"], rows[n][key])):
+        if rows[name][key] < best:
+            out.append(name)
+            best = rows[name][key]
+    return out
+
+
+def fmt_sink(x: float) -> str:
+    return "0" if x < 1e-3 else f"{x:.1f}" if x < 100 else f"{x:.0f}"
+
+
+def md_table(head: list[str], rows: list[list[str]]) -> str:
+    return "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+                     + ["| " + " | ".join(r) + " |" for r in rows])
+
+
+def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> str:
+    """The markdown tables and the conclusions about standard (printed and written to docs)."""
+    out = []
+    head = ["configuration", "knob", "x per string (fingered)", "ms/s per string",
+            "ms/s six strings", "partials 1-20 (c)", "partials 1-10 meas. (c)", "open f0 (c)",
+            "fretted vs 12-TET (c)", "fretted rms (c)", "fretted vs x8 (c)", "spectral (dB)",
+            "fret sink (um)", "board sink (um)", "slam: fret sink (um)", "slam: board sink (um)",
+            "energy"]
+    body = []
+    for c in configs:
+        r = rows[c.name]
+        body.append([
+            c.name, c.knob, ",".join(str(r["os"].get(s, "-")) for s in STRINGS),
+            f"{r['cost_string']:.1f}", f"{r['cost_six']:.1f}", f"{r['p20']:.3f}",
+            f"{r['p10_measured']:.3f}", f"{r['f0']:.3f}", f"{r['fretted']:.2f}",
+            f"{r['fretted_rms']:.2f}", f"{r['fretted_vs_fine']:.2f}", f"{r['spectral']:.1f}",
+            fmt_sink(r["fret_sink"]), fmt_sink(r["board_sink"]), fmt_sink(r["slam_fret_sink"]),
+            fmt_sink(r["slam_board_sink"]), f"{r['energy']:.1e}"])
+    out += ["### All configurations", md_table(head, body)]
+
+    levels = []
+    for c in [c for c in configs if c.knob == LEVEL]:
+        r, q = rows[c.name], QUALITY[c.name]
+        params = (f"max_h_m {q.max_h_m:g}, max_dispersion_cents {q.max_dispersion_cents:g}, "
+                  f"max_oversample {q.max_oversample}, fret_mode {q.fret_mode}, "
+                  f"grid_scale {q.grid_scale:g}")
+        levels.append([c.name, params, ",".join(str(r["os"].get(s, "-")) for s in STRINGS),
+                       f"{r['cost_six']:.1f}", f"{r['cost_string']:.1f}", f"{r['f0']:.3f}",
+                       f"{r['p10']:.3f} / {r['p10_measured']:.3f}", f"{r['p20']:.3f}",
+                       f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}", f"{r['spectral']:.1f}",
+                       f"{r['energy']:.1e}"])
+    out += ["### Quality levels (the scene's `quality`; `engine.guitar.QUALITY`)",
+            md_table(["level", "Quality", "x per string (fingered)", "ms/s six strings",
+                      "ms/s per string", "open f0 (c)", "partials 1-10 exact / measured (c)",
+                      "partials 1-20 (c)", "fretted vs 12-TET (c)", "fretted vs x8 (c)",
+                      "spectral (dB)", "energy"], levels)]
+    if "standard" in rows:
+        r = rows["standard"]
+        targets = [("open strings within +-1 cent", r["f0"], 1.0),
+                   ("partials 1-10 within 1 cent of the stiff-string formula",
+                    max(r["p10"], r["p10_measured"]), 1.0),
+                   ("fretted notes, frets 1-12, all six strings, within +-5 cents", r["fretted"], 5.0),
+                   ("energy balance <= 1e-11", r["energy"], 1e-11)]
+        out += ["Engine targets at the standard level (steel-acoustic):",
+                md_table(["target", "measured", "limit", "met"],
+                         [[t, f"{v:.3g}", f"{lim:g}", "yes" if v <= lim else "NO"]
+                          for t, v, lim in targets])]
+
+    out += ["### Cost per string (ms per second of audio; finger at fret 5, 8 N pluck)",
+            md_table(["configuration", *[f"string {s}" for s in STRINGS]],
+                     [[c.name, *[f"{x:.1f}" for x in rows[c.name]["cost_strings"]]]
+                      for c in configs])]
+
+    spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in SPECTRAL]]
+            for c in configs]
+    spec.append([f"*reference check: {FINE} against x16*", *[f"{ref_check[k]:.1f}"
+                                                            for k in SPECTRAL]])
+    out += ["### Spectral error against the x16 reference, per scene (dB)",
+            md_table(["configuration", *SPECTRAL], spec)]
+
+    fr = []
+    for c in [c for c in configs if c.knob == LEVEL]:
+        for s in STRINGS:
+            row = rows[c.name]["fretted_table"][s - 1]
+            fr.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
+                       f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    out += ["### Fretted pitch per string and fret, quality levels (cents from 12-TET)",
+            md_table(["level", "string", *[f"fret {q}" for q in FRETS], "worst"], fr)]
+
+    out += ["### Pareto fronts (six-string cost against each error, cheapest first)",
+            md_table(["error", "configurations on the front"],
+                     [[label, " -> ".join(front(rows, key))] for key, label, _ in METRICS + SLAM])]
+
+    margin = max(FASTER, 2.0 * noise)
+    notes = [f"timing noise in this run: two measurements of the same work differ by "
+             f"{100 * noise:.1f} % (median); 'faster' below means cheaper by more than "
+             f"{100 * margin:.0f} %, 'more accurate' no error larger and one smaller (beyond "
+             f"the tolerances: 0.05 cents for fretted pitch, 0.005 cents for partials, 0.1 dB, "
+             "0.5 um)."]
+    std = rows.get("standard")
+    if std is not None:
+        notes.append(
+            f"standard: {std['cost_six']:.1f} ms per second of audio for the six-string scene, "
+            f"{std['cost_string']:.1f} per fingered string; fretted notes within "
+            f"{std['fretted']:.2f} cents of 12-TET ({std['fretted_vs_fine']:.2f} from {FINE}), "
+            f"partials 1-20 within {std['p20']:.3f} cents (1-10: {std['p10']:.3f} exact, "
+            f"{std['p10_measured']:.3f} measured), open strings within {std['f0']:.3f} cents, "
+            f"spectral error {std['spectral']:.1f} dB, sink {fmt_sink(std['fret_sink'])} um at "
+            f"the frets and {fmt_sink(std['board_sink'])} um at the fretboard in playing scenes "
+            f"({fmt_sink(std['slam_fret_sink'])} and {fmt_sink(std['slam_board_sink'])} um in "
+            f"5 m/s taps), energy balance {std['energy']:.1e}.")
+        for label, metrics in (("the errors above except the 5 m/s taps", METRICS),
+                               ("the errors above including the 5 m/s taps", METRICS + SLAM)):
+            doms = [c.name for c in configs
+                    if c.name != "standard" and dominates(rows[c.name], std, margin, metrics)]
+            notes.append(f"configurations both faster and more accurate than standard on {label}: "
+                         f"{', '.join(doms) if doms else 'none'}.")
+        cheaper = [c.name for c in configs
+                   if c.name != "standard" and dominates(rows[c.name], std, 0.0)]
+        notes.append("configurations cheaper than standard by any amount and more accurate "
+                     f"(5 m/s taps excluded): {', '.join(cheaper) if cheaper else 'none'}.")
+        for c in configs:
+            by = [d.name for d in configs
+                  if d.name != c.name and dominates(rows[d.name], rows[c.name], margin)]
+            if by:
+                notes.append(f"{c.name} is dominated by {', '.join(by)} (5 m/s taps excluded).")
+    out += ["### Conclusions printed by the script", "\n".join(f"* {x}" for x in notes)]
+    return "\n\n".join(out) + "\n"
+
+
+def plot(rows: dict, configs: list[Config], path: pathlib.Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    panels = [("fretted", "fretted pitch vs 12-TET, worst |cents|", "linear"),
+              ("fretted_vs_fine", f"fretted pitch vs {FINE}, worst |cents|", "linear"),
+              ("p20", "partials 1-20 vs stiff string, worst |cents|", "log"),
+              ("spectral", "spectral error vs x16, mean of 4 scenes (dB)", "linear"),
+              ("fret_sink", "sink below a fret tip, playing (um)", "symlog"),
+              ("board_sink", "sink below the fretboard, playing (um)", "symlog"),
+              ("slam_fret_sink", "sink below a fret tip, 5 m/s taps (um)", "symlog"),
+              ("slam_board_sink", "sink below the fretboard, 5 m/s taps (um)", "symlog")]
+    knobs = list(dict.fromkeys(c.knob for c in configs))
+    colours = dict(zip(knobs, plt.rcParams["axes.prop_cycle"].by_key()["color"] * 2, strict=False))
+    fig, axes = plt.subplots(2, 4, figsize=(20, 9))
+    for ax, (key, label, scale) in zip(axes.flat, panels, strict=True):
+        for c in configs:
+            r = rows[c.name]
+            y = max(r[key], 1e-16) if scale == "log" else r[key]
+            lvl = c.knob == LEVEL
+            ax.scatter(r["cost_six"], y, color=colours[c.knob], s=90 if lvl else 30,
+                       marker="*" if lvl else "o", zorder=3,
+                       label=c.knob if c.name == next(d.name for d in configs if d.knob == c.knob)
+                       else None)
+            if lvl:
+                ax.annotate(c.name, (r["cost_six"], y), textcoords="offset points", xytext=(5, 5))
+        fr = front(rows, key)
+        ax.step([rows[n]["cost_six"] for n in fr], [rows[n][key] for n in fr], where="post",
+                color="k", lw=0.8, alpha=0.6)
+        ax.set_xscale("log")
+        if scale == "symlog":
+            ax.set_yscale("symlog", linthresh=1.0)
+            ax.set_ylim(0.0, 3.0 * max(rows[c.name][key] for c in configs) + 1.0)
+        else:
+            ax.set_yscale(scale)
+        ax.set_xlabel("ms of compute per second of audio (six-string scene)")
+        ax.set_title(label)
+        ax.grid(True, which="both", alpha=0.3)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle("Run time against error (steel-acoustic, 44.1 kHz; black: Pareto front)")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def write_docs(section: str, marker: str, text: str) -> None:
+    """Replace the text between <!-- {marker}:begin --> and <!-- {marker}:end --> in DOCS."""
+    begin, end = f"<!-- {marker}:begin -->", f"<!-- {marker}:end -->"
+    doc = DOCS.read_text() if DOCS.exists() else "# Accuracy and cost\n"
+    block = f"{begin}\n{text.rstrip()}\n{end}"
+    if begin in doc and end in doc:
+        doc = doc[:doc.index(begin)] + block + doc[doc.index(end) + len(end):]
+    else:
+        doc = doc.rstrip() + f"\n\n## {section}\n\n{block}\n"
+    DOCS.write_text(doc)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--repeat", type=int, default=3, help="timing: best of this many runs")
+    ap.add_argument("--seconds", type=float, default=1.0, help="timing: seconds of audio")
+    ap.add_argument("--quick", action="store_true", help="a few configurations only")
+    ap.add_argument("--no-docs", action="store_true", help="print only; leave docs/ alone")
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    configs = [c for c in CONFIGS if not args.quick or c.name in QUICK]
+    names = [c.name for c in configs]
+    for rule in {c.gamma for c in configs} - {"engine"}:  # compile once, before forking
+        with variant(rule):
+            engine.render(scene([tap(1, 5)], 0.01), options=RenderOptions(quality=_forced(1)))
+    jobs = [(job_spectral, (REFERENCE.name, k)) for k in SPECTRAL]
+    if FINE not in names:  # the fine configuration is the fretted reference and the x16 check
+        jobs += [(job_spectral, (FINE, k)) for k in SPECTRAL]
+        jobs += [(job_fretted, (FINE, s, q)) for s in STRINGS for q in FRETS]
+    for n in names:
+        jobs += [(job_fretted, (n, s, q)) for s in STRINGS for q in FRETS]
+        jobs += [(job_open, (n, s)) for s in STRINGS]
+        jobs += [(job_sink, (n, k)) for k in SINK]
+        jobs += [(job_spectral, (n, k)) for k in SPECTRAL]
+        jobs += [(job_energy, (n,))]
+    jobs.sort(key=lambda j: 0 if BY_NAME[j[1][0]].oversample in (8, 16) else 1)  # long ones first
+    res = {}
+    with Pool(args.jobs) as pool:
+        for key, value in pool.imap_unordered(_run, jobs):
+            res[key] = value
+    t_acc = time.perf_counter() - t0
+    for n in [*names, FINE]:
+        for k in SPECTRAL:
+            if ("audio", n, k) not in res:
+                continue
+            x, os_ = res["audio", n, k]
+            ref, ros = res["audio", REFERENCE.name, k]
+            res["spectral", n, k] = spectral_error_db(align(x, os_, ros), ref)
+    ref_check = {k: res["spectral", FINE, k] for k in SPECTRAL}
+    cost = costs(configs, args.repeat, args.seconds)
+    rows = summarise(names, res, cost)
+    body = tables(rows, configs, ref_check, timing_noise(cost))
+    print(f"steel-acoustic, 44.1 kHz, no body; {len(configs)} configurations; costs are the CPU "
+          f"time of the rendering thread, best of {args.repeat} rounds on this machine "
+          f"({args.seconds:g} s of audio)\n")
+    print(body)
+    elapsed = time.perf_counter() - t0
+    print(f"\n({t_acc:.0f} s of error measurements on {args.jobs} processes, "
+          f"{elapsed - t_acc:.0f} s of timing, {elapsed:.0f} s in all)")
+    if not args.no_docs:
+        plot(rows, configs, IMG / "pareto.png")
+        write_docs("Measured: run time against error", "pareto",
+                   f"Printed by `python -m benchmarks.pareto` ({len(configs)} configurations, "
+                   f"costs: CPU time, best of {args.repeat} rounds; {elapsed:.0f} s on this "
+                   "machine).\n\n"
+                   "![Pareto fronts](img/pareto.png)\n\n" + body)
+
+
+if __name__ == "__main__":
+    main()

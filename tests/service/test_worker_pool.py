@@ -1,0 +1,132 @@
+"""The worker pool under load and failure: concurrency, 503 when full, 504 past the time limit,
+recovery after a worker is killed mid-render."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import time
+
+from svc_helpers import brief, chord_scene, decode, heavy_scene, pluck_scene, same_bytes
+
+
+def wait_for(check, timeout: float = 30.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not check():
+        if time.monotonic() > deadline:
+            raise TimeoutError("condition not met")
+        time.sleep(0.02)
+
+
+def test_concurrent_requests_all_succeed_and_agree(harness) -> None:
+    scenes = [chord_scene(0.2), pluck_scene(0.2, string=6)] * 4
+
+    async def many():
+        return await asyncio.gather(*(harness.client.post("/render", json=s) for s in scenes))
+
+    responses = harness.run(many())
+    assert [r.status_code for r in responses] == [200] * len(scenes)
+    # Deterministic whichever worker rendered it.
+    assert len({r.content for r in responses[0::2]}) == 1
+    assert len({r.content for r in responses[1::2]}) == 1
+    assert not same_bytes(responses[0].content, responses[1].content)
+
+
+def test_renders_run_in_worker_processes(harness) -> None:
+    pids = harness.pool.pids()
+    assert len(pids) == 2 and os.getpid() not in pids
+
+
+def test_overload_is_answered_503_with_retry_after(tiny_harness) -> None:
+    h = tiny_harness  # one worker, no queue
+
+    async def overload():
+        first = asyncio.ensure_future(h.client.post("/render", json=heavy_scene(1.0)))
+        while not h.pool.busy_pids():  # the only worker has taken the first render
+            await asyncio.sleep(0.01)
+        second = await h.client.post("/render", json=pluck_scene(0.05))
+        return second, await first
+
+    second, first = h.run(overload())
+    assert second.status_code == 503
+    assert second.headers["retry-after"] == "3"
+    assert "busy" in second.json()["detail"]
+    assert first.status_code in (200, 504)  # admitted: served or stopped by the time limit
+    # Capacity is back once the first one is done.
+    assert h.post("/render", json=pluck_scene(0.05)).status_code == 200
+
+
+def test_time_limit_gives_504_and_the_pool_recovers(tiny_harness) -> None:
+    h = tiny_harness  # time limit 0.5 s
+    replaced = h.pool.status()["replaced"]
+    old_pid = h.pool.pids()[0]
+    t0 = time.monotonic()
+    r = h.post("/render", json=heavy_scene(3.0))  # several seconds of work
+    elapsed = time.monotonic() - t0
+    assert r.status_code == 504, brief(r)
+    assert "time limit" in r.json()["detail"]
+    assert elapsed < 3.0  # stopped at the limit, not run to the end
+    # The killed worker is replaced; the next render succeeds on the new one.
+    wait_for(lambda: h.get("/health").status_code == 200)
+    ok = h.post("/render", json=pluck_scene(0.05))
+    assert ok.status_code == 200
+    assert h.pool.status()["replaced"] == replaced + 1
+    assert h.pool.pids()[0] != old_pid
+
+
+def test_stream_past_its_time_limit_before_its_first_block_gives_504(tiny_harness) -> None:
+    # tiny_harness streams in blocks of 2^20 frames: the first block is the whole render, which
+    # cannot finish in 0.5 s, so the failure comes before any header and can still be a status.
+    h = tiny_harness
+    wait_for(lambda: h.get("/health").status_code == 200)
+    r = h.post("/render/stream", json=heavy_scene(3.0))
+    assert r.status_code == 504, brief(r)
+    assert "time limit" in r.json()["detail"]
+    wait_for(lambda: h.get("/health").status_code == 200)
+    assert h.post("/render/stream", json=pluck_scene(0.05)).status_code == 200
+
+
+def test_killed_worker_gives_502_others_unaffected_pool_recovers(harness) -> None:
+    h = harness
+    wait_for(lambda: h.pool.status()["workers_ready"] == 2)
+    replaced = h.pool.status()["replaced"]
+
+    async def kill_one_of_two():
+        a = asyncio.ensure_future(h.client.post("/render", json=heavy_scene(1.5)))
+        b = asyncio.ensure_future(h.client.post("/render", json=heavy_scene(1.5)))
+        while len(h.pool.busy_pids()) < 2:
+            await asyncio.sleep(0.01)
+        victim = h.pool.busy_pids()[0]
+        os.kill(victim, signal.SIGKILL)
+        return victim, await a, await b
+
+    victim, a, b = h.run(kill_one_of_two())
+    statuses = sorted([a.status_code, b.status_code])
+    assert statuses == [200, 502], (brief(a), brief(b))
+    failed = a if a.status_code == 502 else b
+    assert "worker died" in failed.json()["detail"]
+    ok = b if failed is a else a
+    x, _, _ = decode(ok.content)
+    assert len(x) == round(1.5 * 96000)
+    # The pool replaces the worker by itself; a later request succeeds.
+    wait_for(lambda: h.pool.status()["workers_ready"] == 2)
+    assert victim not in h.pool.pids()
+    assert h.pool.status()["replaced"] == replaced + 1
+    assert h.post("/render", json=pluck_scene(0.1)).status_code == 200
+
+
+def test_idle_worker_killed_is_replaced(harness) -> None:
+    h = harness
+    wait_for(lambda: h.pool.status()["workers_ready"] == 2)
+    victim = h.pool.pids()[0]
+    os.kill(victim, signal.SIGKILL)
+    wait_for(lambda: victim not in h.pool.pids() and h.pool.status()["workers_ready"] == 2)
+    responses = [h.post("/render", json=pluck_scene(0.05)) for _ in range(4)]
+    assert all(r.status_code == 200 for r in responses)
+
+
+def test_health_reports_pool_state(harness) -> None:
+    body = harness.get("/health").json()
+    assert body["status"] == "ok" and body["ready"] is True
+    assert body["pool"]["workers"] == 2 and body["pool"]["capacity"] == 10

@@ -323,6 +323,10 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     G = np.empty((ncap, ncap))
     A = np.empty((ncap, ncap))
     x = np.empty(ncap)
+    cgam = np.empty(ncap)  # gamma of an SAV or finger column (sec. 4.7)
+    cs = np.empty(ncap)  # its s~ = v~^T Lambda v~ (unscaled gradient)
+    cbt = np.empty(ncap)  # a finger column's unscaled beta~
+    ccon = np.zeros(ncap, np.bool_)  # in contact at u^n
     scr = np.zeros(n + 3)
     du = np.zeros(n + 3)
     wfree = np.empty(nslot)
@@ -399,6 +403,31 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             else:
                 fext[s] = -fs_force[s]  # pressing towards the board
             wfree[s] = 2.0 * f_w[s] - f_w1[s] + lam_f * fext[s]
+        # ---- is more than one force acting together with an SAV contact? -------------------------
+        # Then the gradient correction is decided on the joint solution (see ``_joint_gamma``):
+        # contact columns enter with gamma = 1 and are corrected afterwards only if needed.
+        coupled = False
+        if nslot > 0 or ndamp > 0 or (c.fret_mode == 1 and close > 0):
+            npot = 0
+            nsav = 0
+            if c.board_k > 0.0 and (below > 0 or psi[0] != 0.0):
+                npot += 1
+                nsav += 1
+            if c.fret_mode == 2:
+                npot += 1
+                nsav += 1
+            elif c.fret_mode == 1 and close > 0:
+                npot += 1
+            for s in range(nslot):
+                if f_state[s] == ACTIVE:
+                    p_ = fp[s]
+                    if f_psi[s] != 0.0 or fw0[s] * U0[p_] + fw1[s] * U0[p_ + 1] > f_w[s]:
+                        npot += 1
+                        nsav += 1
+            for d in range(ndamp):
+                if step >= ctl.dp_on[d] and step < ctl.dp_off[d]:
+                    npot += 1
+            coupled = nsav > 0 and npot > 1
         # ---- assemble the columns --------------------------------------------------------------
         nc = 0
         nent = 0
@@ -414,20 +443,24 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             cstart[nc] = nent
         # c) fretboard, eq. (24a), (55a)
         if c.board_k > 0.0 and (below > 0 or psi[0] != 0.0):
-            nent, used = _sav_board(c, U0, U1, UF, board, psi, gprev_b, has_gprev, below > 0,
-                                    cidx, cval, nent, scr)
+            nent, used, cgam[nc], cs[nc] = _sav_board(c, U0, U1, UF, board, psi, gprev_b,
+                                                      has_gprev, below > 0, coupled, cidx, cval,
+                                                      nent, scr)
             if used:
                 kind[nc] = BOARD
                 cslot[nc] = -1
+                ccon[nc] = below > 0
                 nc += 1
                 cstart[nc] = nent
         # d) frets as penalty, eq. (24b), (55b)
         if c.fret_mode == 2:
-            nent, used = _sav_frets(c, U0, U1, UF, psi, gprev_f, has_gprev, fret_p, fret_w0,
-                                    fret_w1, fret_m0, cidx, cval, nent, scr)
+            nent, used, cgam[nc], cs[nc], fcon = _sav_frets(
+                c, U0, U1, UF, psi, gprev_f, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
+                coupled, cidx, cval, nent, scr)
             if used:
                 kind[nc] = FRETPEN
                 cslot[nc] = -1
+                ccon[nc] = fcon
                 nc += 1
                 cstart[nc] = nent
         # e) fingers, eqs. (25)-(27), (55c-d), with contact damping
@@ -450,7 +483,14 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             else:
                 continue
             vlv = lam * (fw0[s] * fw0[s] + fw1[s] * fw1[s]) + lam_f
-            gm = _gamma(f_psi[s], bt * (etaf - eta1), bt * bt * vlv, contact)
+            cbt[nc] = bt
+            cs[nc] = bt * bt * vlv
+            if coupled and contact:
+                gm = 1.0
+            else:
+                gm = _gamma(f_psi[s], bt * (etaf - eta1), bt * bt * vlv, contact)
+            cgam[nc] = gm
+            ccon[nc] = contact
             bt *= gm
             if bt == 0.0 and not contact:
                 continue
@@ -517,69 +557,77 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                     nent = _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent,
                                       fret_p, fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                     nc += 1
-        for _attempt in range(2 * nfret + 4):
-            if nc == 1 and kind[0] == KC:
-                # Kirchhoff-Carrier alone (the common free-vibration step): a 1x1 system
-                x[0] = -c.kc * (qu1 + quf) / (1.0 + c.kc * lam * qq)
-            elif nc > 0:
-                _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
-                for i in range(nc):
-                    for j in range(nc):
+        for gpass in range(2):
+            for _attempt in range(2 * nfret + 4):
+                if nc == 1 and kind[0] == KC:
+                    # Kirchhoff-Carrier alone (the common free-vibration step): a 1x1 system
+                    x[0] = -c.kc * (qu1 + quf) / (1.0 + c.kc * lam * qq)
+                elif nc > 0:
+                    _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
+                    for i in range(nc):
+                        for j in range(nc):
+                            if kind[i] == RIGID:
+                                A[i, j] = G[i, j]
+                            else:
+                                A[i, j] = cc[i] * G[i, j]
                         if kind[i] == RIGID:
-                            A[i, j] = G[i, j]
+                            x[i] = ca[i] - vfree[i]
                         else:
-                            A[i, j] = cc[i] * G[i, j]
-                    if kind[i] == RIGID:
-                        x[i] = ca[i] - vfree[i]
-                    else:
-                        A[i, i] += 1.0
-                        x[i] = -ca[i] - cc[i] * vfree[i]
-                if not _solve(A, x, nc):
-                    if nc > nbase:  # drop the newest rigid constraint and try again
-                        fret_active[cfret[nc - 1]] = 0
-                        nc -= 1
-                        nent = cstart[nc]
-                        continue
-                    status = NONFINITE
+                            A[i, i] += 1.0
+                            x[i] = -ca[i] - cc[i] * vfree[i]
+                    if not _solve(A, x, nc):
+                        if nc > nbase:  # drop the newest rigid constraint and try again
+                            fret_active[cfret[nc - 1]] = 0
+                            nc -= 1
+                            nent = cstart[nc]
+                            continue
+                        status = NONFINITE
+                        break
+                if not rigid:
                     break
-            if not rigid:
-                break
-            # check the rigid frets: reactions >= 0, no fret penetrated
-            worst = -1
-            wval = 0.0
-            for i in range(nbase, nc):
-                if x[i] < wval:
-                    wval = x[i]
-                    worst = i
-            if worst >= 0:
-                fret_active[cfret[worst]] = 0
-                nc = _remove_col(worst, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
-                                 vfree, v1)
-                nent = cstart[nc]
-                continue
-            xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-            add = -1
-            wval = -1e-12
-            for q in range(nfret):
-                if fret_active[q]:
+                # check the rigid frets: reactions >= 0, no fret penetrated
+                worst = -1
+                wval = 0.0
+                for i in range(nbase, nc):
+                    if x[i] < wval:
+                        wval = x[i]
+                        worst = i
+                if worst >= 0:
+                    fret_active[cfret[worst]] = 0
+                    nc = _remove_col(worst, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
+                                     vfree, v1)
+                    nent = cstart[nc]
                     continue
-                p_ = fret_p[q]
-                if U0[p_] >= near[p_ - 2] and U0[p_ + 1] >= near[p_ - 1]:
-                    continue  # out of reach this step (see string.fret_margin)
-                pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
-                if c.kc > 0.0:
-                    pv += lam * xk * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
-                viol = pv - fret_m0[q]
-                if viol < wval:
-                    wval = viol
-                    add = q
-            _unscatter(nc, cstart, cidx, du)
-            if add < 0:
+                xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
+                add = -1
+                wval = -1e-12
+                for q in range(nfret):
+                    if fret_active[q]:
+                        continue
+                    p_ = fret_p[q]
+                    if U0[p_] >= near[p_ - 2] and U0[p_ + 1] >= near[p_ - 1]:
+                        continue  # out of reach this step (see string.fret_margin)
+                    pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
+                    if c.kc > 0.0:
+                        pv += lam * xk * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
+                    viol = pv - fret_m0[q]
+                    if viol < wval:
+                        wval = viol
+                        add = q
+                _unscatter(nc, cstart, cidx, du)
+                if add < 0:
+                    break
+                fret_active[add] = 1
+                nent = _add_rigid(add, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p,
+                                  fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
+                nc += 1
+            # gamma of the coupled contact columns from the joint solution, sec. 4.7 (one
+            # correction at most: a second solve, never an iteration)
+            if gpass == 1 or not coupled or status != OK:
                 break
-            fret_active[add] = 1
-            nent = _add_rigid(add, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p,
-                              fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
-            nc += 1
+            if not _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam,
+                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, c.fg_r / (2.0 * k), nc):
+                break
         # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
         xk = 0.0
         for ci in range(nc):
@@ -720,8 +768,10 @@ def _finger_x(x0, x1, ms, me, step):
 
 
 @njit(**JIT)
-def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, cidx, cval, nent, scr):
-    """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used)."""
+def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, coupled, cidx, cval, nent,
+               scr):
+    """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used, gamma,
+    s~) (see ``_apply_gamma``)."""
     n = c.n
     start = nent
     if contact:
@@ -744,19 +794,20 @@ def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, cidx, cval,
         has_gprev[0] = 1
     else:
         if not has_gprev[0]:
-            return nent, False
+            return nent, False, 0.0, 0.0
         for j in range(n - 1):
             if gprev[j + 2] != 0.0:
                 cidx[nent] = j + 2
                 cval[nent] = gprev[j + 2]
                 nent += 1
-    return _apply_gamma(c, UF, U1, psi, 0, contact, cidx, cval, start, nent)
+    return _apply_gamma(c, UF, U1, psi, 0, contact, coupled, cidx, cval, start, nent)
 
 
 @njit(**JIT)
 def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
-               cidx, cval, nent, scr):
-    """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used)."""
+               coupled, cidx, cval, nent, scr):
+    """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used,
+    gamma, s~, contact)."""
     start = nent
     vpot = 0.0
     nf = fret_p.shape[0]
@@ -789,7 +840,7 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
         has_gprev[1] = 1
     else:
         if psi[1] == 0.0 or not has_gprev[1]:
-            return nent, False
+            return nent, False, 0.0, 0.0, False
         for q in range(nf):
             p_ = fret_p[q]
             for pp in (p_, p_ + 1):
@@ -800,23 +851,96 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
                     nent += 1
         for e in range(start, nent):
             scr[cidx[e]] = 0.0
-    return _apply_gamma(c, UF, U1, psi, 1, contact, cidx, cval, start, nent)
+    nent, used, gm, s = _apply_gamma(c, UF, U1, psi, 1, contact, coupled, cidx, cval, start, nent)
+    return nent, used, gm, s, contact
 
 
 @njit(**JIT)
-def _apply_gamma(c, UF, U1, psi, which, contact, cidx, cval, start, nent):
+def _apply_gamma(c, UF, U1, psi, which, contact, coupled, cidx, cval, start, nent):
+    """Scale the SAV column g~ in cval[start:nent] by its gamma; returns (nent, used, gamma, s~).
+
+    Alone, gamma follows ``_gamma`` on this column's own prediction.  A contact column that acts
+    together with other forces (``coupled``) enters with gamma = 1; ``_joint_gamma`` corrects it
+    after the solve if the joint solution needs it.
+    """
     xi = 0.0
     s = 0.0
     for e in range(start, nent):
         xi += cval[e] * (UF[cidx[e]] - U1[cidx[e]])
         s += cval[e] * cval[e]
     s *= c.lam
-    gm = _gamma(psi[which], xi, s, contact)
+    if coupled and contact:
+        gm = 1.0
+    else:
+        gm = _gamma(psi[which], xi, s, contact)
     if gm == 0.0 or nent == start:
-        return start, False
-    for e in range(start, nent):
-        cval[e] *= gm
-    return nent, True
+        return start, False, 0.0, s
+    if gm != 1.0:
+        for e in range(start, nent):
+            cval[e] *= gm
+    return nent, True, gm, s
+
+
+@njit(**JIT)
+def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs, cbt, ccon,
+                 psi, f_psi, fbeta, fchi, rdamp, nc):
+    """The gradient correction of sec. 4.7 for columns that act together; True if any changed.
+
+    ``_gamma`` predicts a column's psi from the free motion and its own force alone.  When a finger
+    presses the string onto the fretboard, or two fingers share nodes, that prediction leaves out
+    the other forces and can be badly wrong (the board's column dropped while the finger drives the
+    string through it).  Coupled contact columns therefore enter the first solve with gamma = 1;
+    here each one's predicted mean psi is read off that joint solution, and where it would pull
+    (mean < 0 in contact) or leave a residual (out of contact), gamma is recomputed by the same
+    rule with the prediction that includes every other column's force from the first solve.  The
+    caller then solves once more.  Any gamma keeps the energy balance exact.
+    """
+    changed = False
+    for i in range(nbase):
+        kd = kind[i]
+        if kd != BOARD and kd != FRETPEN and kd != FINGER:
+            continue
+        gold = cgam[i]
+        # v_i^T (z^(n+1) - z^(n-1)) in the first solve, and the part of it the column moved itself
+        dz = vfree[i] - v1[i]
+        for j in range(nc):
+            dz += G[i, j] * x[j]
+        own = G[i, i] * x[i]
+        s_ = cslot[i]
+        if kd == FINGER:
+            ps = f_psi[s_]
+            mean = ps + 0.25 * fbeta[s_] * dz
+            xi = cbt[i] * (dz - own)
+        else:
+            ps = psi[kd - 1]
+            mean = -x[i]  # x = -(psi^(n+1/2) + psi^(n-1/2)) / 2
+            xi = (dz - own) / gold
+        if ccon[i]:
+            if mean >= 0.0:
+                continue
+            gnew = _gamma(ps, xi, cs[i], True)
+            if gnew >= gold:
+                continue
+        else:
+            gnew = _gamma(ps, xi, cs[i], False)
+            if abs(gnew - gold) <= 1e-9 * abs(gold):
+                continue
+        changed = True
+        cgam[i] = gnew
+        if kd == FINGER:
+            bt = gnew * cbt[i]
+            fbeta[s_] = bt
+            cf = 0.25 * bt * bt + fchi[s_] * rdamp
+            cc[i] = cf
+            ca[i] = bt * ps - cf * v1[i]
+        else:
+            f = gnew / gold
+            for e in range(cstart[i], cstart[i + 1]):
+                cval[e] *= f
+            vfree[i] *= f
+            v1[i] *= f
+            ca[i] = ps - 0.25 * v1[i]
+    return changed
 
 
 @njit(**JIT)

@@ -69,7 +69,8 @@ def pending(sc: dict) -> str | None:
     return None
 
 
-@settings(max_examples=100, deadline=None,
+# derandomize: CI must be reproducible; the soak (benchmarks/soak.py) explores new cases
+@settings(max_examples=100, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(data=st.data())
 def test_random_valid_scenes_are_stable(data):
@@ -142,19 +143,42 @@ def test_finger_psi_returns_to_zero_after_the_finger_bounces_off():
 # ---- reproducers of defects (see the module docstring) ------------------------------------------
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="engine: the gamma rule drops the fretboard column when "
-                   "psi_B = 0 and the board-only prediction moves up (the finger's force is not "
-                   "in the prediction), so a finger drives the string through the fretboard")
-def test_fretboard_stops_a_string_slammed_by_a_finger():
-    sc = Scene.model_validate(scene([tap(1, 12, force=MAX_FINGER_FORCE_N,
-                                         velocity=MAX_TAP_VELOCITY_M_S)], duration=0.02))
-    eng = prepare(sc)
+def _board_slam(velocity: float, oversample: int):
+    """A tap at the top of the force range on string 1: per output frame, the deepest node below
+    the fretboard and the board's Hertz potential V_B(u^n) of eq. (7); and the string's stored
+    energy H^(n+1/2) of eq. (42) over the scene."""
+    sc = Scene.model_validate({**scene([tap(1, 12, force=MAX_FINGER_FORCE_N, velocity=velocity)],
+                                       duration=0.015), "diagnostics": True})
+    eng = prepare(sc, RenderOptions(oversample=oversample))
     v = eng.voices[0]
-    deepest = 0.0
+    c = v.coefs
+    depth, v_board = [], []
     for _ in eng.blocks(1):
-        deepest = max(deepest, float(np.max(v.geom.board - v.state.u[2:v.coefs.n + 1])))
-    assert deepest < 1e-4  # a tenth of the fret height
+        pen = np.maximum(v.geom.board - v.state.u[2:c.n + 1], 0.0)
+        depth.append(float(pen.max()))
+        a = c.board_alpha
+        v_board.append(c.h * c.board_k / (a + 1.0) * float(np.sum(pen ** (a + 1.0))))
+    return max(depth), max(v_board), float(np.concatenate(v.energy_h).max()), c
+
+
+@pytest.mark.parametrize("oversample", [2, 4, 8])
+def test_fretboard_stops_a_string_tapped_hard(oversample):
+    """The gamma rule of sec. 4.7 decided on the board's own prediction dropped the board's force
+    while the finger drove the string into it (the string went 130 um deep at x4).  With the
+    joint rule the string sinks no deeper than 1.5x the static penetration of the whole finger
+    force resting on one grid cell, (F / (K_B h))^(1/alpha)."""
+    deepest, _, _, c = _board_slam(1.0, oversample)
+    static = (MAX_FINGER_FORCE_N / (c.board_k * c.h)) ** (1.0 / c.board_alpha)
+    assert deepest < 1.5 * static
+
+
+@pytest.mark.parametrize("oversample", [2, 8])
+def test_fretboard_potential_stays_within_the_stored_energy(oversample):
+    """A 5 m/s slam: the board's potential at the string's actual position cannot exceed the energy
+    the string holds (H includes psi_B^2 / 2, the SAV's stand-in for it).  When the board's column
+    was dropped the string went 0.8 mm deep and V_B(u) reached three times H."""
+    _, v_board, h_max, _ = _board_slam(MAX_TAP_VELOCITY_M_S, oversample)
+    assert v_board < h_max
 
 
 @pytest.mark.xfail(strict=True, raises=AssertionError,
@@ -169,10 +193,8 @@ def test_unreachable_fret_skip_is_exact_for_fast_taps():
     assert np.array_equal(a, b)
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="engine: a finger's psi is driven to zero with a "
-                   "prediction that leaves out the other finger on the same nodes")
 def test_finger_psi_returns_to_zero_when_another_finger_takes_its_place():
+    """Two fingers on the same nodes: each one's gamma is decided on the joint solution."""
     sc = {**scene([{"type": "hammer_on", "time": 0.0, "string": 4, "fret": 13, "force": 7.4,
                     "velocity": 0.01}, fret(4, 13, time=0.034, force=10.0)], duration=0.1,
                   sample_rate=48000, guitar={"preset": "nylon-classical"})}

@@ -40,7 +40,7 @@ USER 10001:10001
 # Compile the numba kernels now, into NUMBA_CACHE_DIR, so that workers start in about a second
 # instead of compiling for 10-15 s each. (The cache is keyed to this CPU's features; on another
 # CPU model the workers compile once at start-up and write the cache again: it stays writable.)
-RUN python -c "import engine; from service.worker import _warm_up; _warm_up(engine)"
+RUN python -c "import engine; engine.warmup()"
 
 EXPOSE 8000
 

@@ -5,11 +5,22 @@ BIN := $(VENV)/bin
 # numba writes its compiled kernels here (one cache for the tests, the service and its workers)
 export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 
-.PHONY: install serve test lint browser bench bench-quick clean
+# Debian packages, installed only when we are root and they are missing (a fresh machine or CI).
+APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq
+IS_ROOT = [ "$$(id -u)" = 0 ]
+
+.PHONY: install venv-support serve test lint browser docker-check docker-tools bench bench-service \
+        clean
 
 install: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
+# Debian's python3 leaves ensurepip (hence `python3 -m venv`) to the python3-venv package.
+venv-support:
+	@$(PY) -c 'import ensurepip' 2>/dev/null || { $(IS_ROOT) && \
+	  $(APT_INSTALL) python3-venv >/dev/null ; } || \
+	  { echo "$(PY) cannot create a venv: apt-get install python3-venv" >&2; exit 1; }
+
+$(VENV)/.installed: pyproject.toml | venv-support
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
@@ -21,18 +32,34 @@ serve: install
 # Debian's chromium drives the demo-page test (PyPI's playwright talks to it; never `playwright
 # install`).  Installed when we are root and it is missing; without it that one test is skipped.
 browser:
-	@command -v chromium >/dev/null 2>&1 || { [ "$$(id -u)" = 0 ] && \
-	  (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) ; } || \
+	@command -v chromium >/dev/null 2>&1 || { $(IS_ROOT) && \
+	  $(APT_INSTALL) chromium >/dev/null ; } || \
 	  echo "chromium is not installed: the browser test will be skipped"
 
 lint: install
 	$(BIN)/ruff check .
+	$(BIN)/hadolint Dockerfile
 
 test: install browser lint
 	$(BIN)/pytest -q
 
+# Builds the Docker image without a Docker engine (podman/buildah, chroot isolation) and checks
+# /health and a render inside it; needs root.  See scripts/docker-check.
+docker-tools:
+	@command -v podman >/dev/null 2>&1 && command -v buildah >/dev/null 2>&1 && \
+	  command -v debootstrap >/dev/null 2>&1 || { $(IS_ROOT) && \
+	  $(APT_INSTALL) podman buildah debootstrap >/dev/null ; } || \
+	  { echo "docker-check needs root and: apt-get install podman buildah debootstrap" >&2; exit 2; }
+
+docker-check: docker-tools
+	scripts/docker-check
+
 bench: install
 	$(BIN)/python -m benchmarks.run_all
+
+# Latency, time to first byte and throughput of the service over real HTTP (uvicorn on a free port).
+bench-service: install
+	$(BIN)/python benchmarks/service_bench.py
 
 clean:
 	rm -rf $(VENV) .numba_cache .pytest_cache .ruff_cache

@@ -22,7 +22,8 @@ from .pool import WorkerPool
 from .routes import health, pages, presets, render
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
-timed pluck, fret and tap events), get audio back. The scene schema is the engine's own
+timed events: pluck, fret, tap and the articulations hammer-on, pull-off, slide, bend, vibrato,
+harmonic, mute and strum), get audio back. The scene schema is the engine's own
 (`engine.Scene`); this server adds limits on body size, duration, events and sample rate
 (see `GET /limits`), a pool of render worker processes and streaming."""
 

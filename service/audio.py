@@ -24,11 +24,6 @@ _WAVE_FORMAT_PCM = 1
 _WAVE_FORMAT_IEEE_FLOAT = 3
 
 
-def frame_count(duration_s: float, sample_rate: int) -> int:
-    """Frames the engine renders for a scene (``engine.guitar.prepare``: round(duration * rate))."""
-    return int(round(duration_s * sample_rate))
-
-
 def clip(x: np.ndarray) -> np.ndarray:
     return np.clip(x, -1.0, 1.0)
 

@@ -50,6 +50,8 @@ class PresetInfo(BaseModel):
     action_12th_m: float
     fret_height_m: float
     pickup_position: float = Field(description="default output point, x / L")
+    body: str = Field(description="built-in body response used when the scene's output names none "
+                      "(`none`: a solid body)")
     tuning: list[str] = Field(description="open-string notes, string 1 first")
     strings: list[StringInfo]
     finger: FingerInfo

@@ -1,7 +1,7 @@
 """The render worker: the code that runs inside each worker process of ``service.pool``.
 
-A worker owns one end of a duplex pipe.  It warms up (the first render in a fresh process compiles
-or loads the numba kernels), says ``ready``, then serves one job at a time:
+A worker owns one end of a duplex pipe.  It warms up (``engine.warmup()`` compiles or loads every
+numba kernel, so no real render pays for that), says ``ready``, then serves one job at a time:
 
     parent -> worker   ("render", job_id, payload) | ("stream", job_id, payload)
                        | ("cancel", job_id) | None (stop)
@@ -26,16 +26,6 @@ import numpy as np
 
 from . import audio
 
-# Short, but it touches every kernel path: a fretting finger, a pluck, a tap and the energy terms.
-WARMUP_SCENE: dict[str, Any] = {
-    "duration": 0.05,
-    "events": [
-        {"type": "fret", "time": 0.0, "string": 5, "fret": 3},
-        {"type": "pluck", "time": 0.001, "string": 5},
-        {"type": "tap", "time": 0.01, "string": 3, "fret": 7},
-    ],
-}
-
 
 def main(conn: Connection, warmup: bool, block_frames: int) -> None:
     """Entry point of a worker process."""
@@ -45,18 +35,14 @@ def main(conn: Connection, warmup: bool, block_frames: int) -> None:
 
     t0 = time.perf_counter()
     if warmup:
-        _warm_up(engine)
+        engine.warmup()  # every numba kernel path, compiled or loaded from NUMBA_CACHE_DIR
+        for fmt in ("wav", "flac", "ogg"):  # and libsndfile with its codecs
+            audio.encode(np.zeros(64), 44100, fmt)
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0))
         _serve(conn, engine, block_frames)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass  # the parent has gone away
-
-
-def _warm_up(engine: Any) -> None:
-    result = engine.render(WARMUP_SCENE, diagnostics=True)
-    for fmt in ("wav", "flac", "ogg"):
-        audio.encode(result.audio, result.sample_rate, fmt)
 
 
 def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
@@ -137,7 +123,7 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
             conn.send(("cancelled", job_id))
             return
     if sent < frames:
-        # Keep the file valid if the engine ever renders fewer frames than round(duration*rate).
+        # Keep the file valid if the blocks ever fall short of engine.frame_count (the header's).
         silence = audio.as_frames(np.zeros((frames - sent) * channels), channels)
         conn.send(("block", job_id, audio.pcm_bytes(silence, subtype), time.perf_counter() - t0))
     conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent}))

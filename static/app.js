@@ -2,65 +2,128 @@
 "use strict";
 
 const $ = (sel) => document.querySelector(sel);
-const FIELDS = {  // which event fields each type takes (the rest are disabled in its row)
-  pluck: ["time", "string", "force", "position"],
-  fret: ["time", "string", "fret", "force", "release"],
-  tap: ["time", "string", "fret", "force", "release"],
-};
-const DEFAULTS = {
-  pluck: { string: 1, force: 2, position: 0.8 },
-  fret: { string: 1, fret: 3, force: 2 },
-  tap: { string: 3, fret: 7, force: 0.9 },
-};
-const COLUMNS = ["time", "string", "fret", "force", "position", "release"];
 
-let presets = [];
-let events = [];
-let objectUrl = null;
-
-// ---- examples ----------------------------------------------------------------------------
-function strum(t0, strings, gap, force, position) {
-  return strings.map((s, i) => ({ type: "pluck", time: +(t0 + i * gap).toFixed(3), string: s, force, position }));
-}
-
-const EXAMPLES = {
-  strum: {
-    preset: "steel-acoustic", duration: 2.5,
-    events: strum(0.0, [6, 5, 4, 3, 2, 1], 0.02, 1.5, 0.85),
+// ---- event types ---------------------------------------------------------------------------
+// Each event type with exactly the fields the API takes (API.md; engine/scene.py), in the order
+// the editor shows them, and the values a newly added event starts from. A field left empty is
+// not sent, so the API's default applies; `empty` says what that default is where it is not a
+// plain value.
+const EVENTS = {
+  pluck: {
+    fields: ["time", "string", "style", "position", "force", "duration"],
+    start: { string: 1, style: "finger", position: 0.8, force: 2 },
+    empty: { duration: "style's" },
   },
-  melody: {
-    preset: "steel-acoustic", duration: 3.0,
-    events: [[0, 0.0], [3, 0.4], [5, 0.8], [7, 1.2], [5, 1.6], [3, 2.0]].flatMap(([fret, t]) => [
-      { type: "fret", time: t, string: 2, fret, force: 2 },
-      { type: "pluck", time: +(t + 0.02).toFixed(3), string: 2, force: 2, position: 0.8 },
-    ]),
+  fret: {
+    fields: ["time", "string", "fret", "force", "release"],
+    start: { string: 1, fret: 3, force: 2 },
   },
   tap: {
-    preset: "steel-acoustic", duration: 2.5,
-    events: [
-      { type: "tap", time: 0.0, string: 3, fret: 7, force: 0.9, release: 0.55 },
-      { type: "tap", time: 0.6, string: 3, fret: 9, force: 0.9, release: 1.15 },
-      { type: "tap", time: 1.2, string: 2, fret: 8, force: 0.9 },
-    ],
+    fields: ["time", "string", "fret", "force", "velocity", "release"],
+    start: { string: 3, fret: 7, force: 0.9 },
   },
-  chord: {
-    preset: "steel-acoustic", duration: 2.5,
-    events: [
-      { type: "fret", time: 0, string: 5, fret: 3, force: 2 },
-      { type: "fret", time: 0, string: 4, fret: 2, force: 2 },
-      { type: "fret", time: 0, string: 2, fret: 1, force: 2 },
-      ...strum(0.02, [5, 4, 3, 2, 1], 0.025, 1.8, 0.82),
-    ],
+  hammer_on: {
+    fields: ["time", "string", "fret", "force", "velocity", "release"],
+    start: { string: 3, fret: 7 },
+  },
+  pull_off: {
+    fields: ["time", "string", "fret", "force"],
+    start: { string: 3, fret: 7, force: 1 },
+  },
+  slide: {
+    fields: ["time", "string", "from_fret", "to_fret", "duration", "force", "release"],
+    start: { string: 3, from_fret: 5, to_fret: 7, duration: 0.2 },
+  },
+  bend: {
+    fields: ["time", "string", "semitones", "duration", "release"],
+    start: { string: 2, semitones: 2, duration: 0.25 },
+  },
+  vibrato: {
+    fields: ["time", "string", "depth_cents", "rate_hz", "duration"],
+    start: { string: 1, depth_cents: 25, rate_hz: 5.5, duration: 1 },
+  },
+  harmonic: {
+    fields: ["time", "string", "fret", "position", "release"],
+    start: { string: 1, fret: 12 },
+    empty: { fret: "or position", position: "or fret" },
+  },
+  mute: {
+    fields: ["time", "string", "position", "amount", "release"],
+    start: { position: 0.96, amount: 0.7 },
+    empty: { string: "all" },
+  },
+  strum: {
+    fields: ["time", "strings", "direction", "spread", "force", "position", "style"],
+    start: { direction: "down", spread: 0.03, force: 2, position: 0.8, style: "finger" },
   },
 };
 
-function loadExample(name) {
-  const ex = EXAMPLES[name];
-  $("#preset").value = ex.preset;
-  $("#duration").value = ex.duration;
-  events = ex.events.map((e) => ({ ...e }));
-  showPresetInfo();
-  renderTable();
+// How each parameter is edited: a number (`int`: whole) or one of `choices`; `empty` is the
+// placeholder of an empty field ("" where the field is required).
+const FIELD_INPUTS = {
+  time: { label: "Time (s)", empty: "" },
+  fret: { label: "Fret", int: true, empty: "" },
+  from_fret: { label: "From fret", int: true, empty: "" },
+  to_fret: { label: "To fret", int: true, empty: "" },
+  force: { label: "Force (N)", empty: "preset's" },
+  velocity: { label: "Velocity (m/s)" },
+  position: { label: "Position (x/L)" },
+  duration: { label: "Duration (s)" },
+  release: { label: "Release (s)", empty: "none" },
+  semitones: { label: "Semitones", empty: "" },
+  depth_cents: { label: "Depth (cents)" },
+  rate_hz: { label: "Rate (Hz)" },
+  amount: { label: "Amount (0–1)" },
+  spread: { label: "Spread (s)" },
+  style: { label: "Style", choices: ["finger", "pick", "slap", "pop"] },
+  direction: { label: "Direction", choices: ["down", "up"] },
+};
+const FIXED = ["time", "string", "strings"];  // the table's own columns; the rest are parameters
+const MAX_PICKUPS = 4;
+
+let presets = [];
+let examples = [];
+let events = [];
+let pickups = [];  // [{position, gain}]; empty: the preset's single pickup
+let objectUrl = null;
+
+const currentPreset = () => presets.find((p) => p.name === $("#preset").value);
+
+// ---- examples ------------------------------------------------------------------------------
+// static/examples.json holds ready scenes; the tests render every one of them.
+async function loadExamples() {
+  const body = await (await fetch("/static/examples.json")).json();
+  examples = body.examples;
+  const box = $("#examples");
+  for (const ex of examples) {
+    const b = document.createElement("button");
+    b.type = "button";
+    b.dataset.example = ex.id;
+    b.textContent = ex.label;
+    b.title = ex.description;
+    b.addEventListener("click", () => loadExample(ex.id));
+    box.appendChild(b);
+  }
+  return body.default;
+}
+
+// Fill the form from an example's scene; buildScene() gives the same scene back.
+function loadExample(id) {
+  const ex = examples.find((e) => e.id === id);
+  const scene = ex.scene;
+  const output = scene.output || {};
+  $("#preset").value = scene.guitar?.preset ?? presets.find((p) => p.default).name;
+  $("#duration").value = scene.duration;
+  $("#sample_rate").value = scene.sample_rate ?? 44100;
+  $("#quality").value = scene.quality ?? "standard";
+  $("#format").value = output.format || "wav";
+  $("#body").value = output.body || "";
+  $("#normalize").checked = output.normalize !== false;
+  $("#stereo").checked = output.channels === 2;
+  pickups = (output.pickups || []).map((p) => ({ ...p }));
+  events = scene.events.map((e) => structuredClone(e));
+  $("#example-info").textContent = ex.description;
+  presetChanged();
   clearErrors();
 }
 
@@ -71,98 +134,215 @@ async function loadPresets() {
   presets = body.presets;
   const sel = $("#preset");
   sel.innerHTML = "";
-  for (const p of presets) {
-    const o = document.createElement("option");
-    o.value = p.name;
-    o.textContent = p.name;
-    sel.appendChild(o);
-  }
+  for (const p of presets) sel.appendChild(option(p.name, p.name));
   sel.value = body.default;
-  showPresetInfo();
+  presetChanged();
 }
 
-function showPresetInfo() {
-  const p = presets.find((x) => x.name === $("#preset").value);
+// The string selectors, fret limits and pickup hint follow the preset.
+function presetChanged() {
+  const p = currentPreset();
   if (!p) return;
   const tuning = p.strings.map((s) => `${s.string}:${s.note}`).join(" ");
   $("#preset-info").textContent =
-    `${p.description}. ${p.frets} frets, tuning ${tuning}, tensions ` +
+    `${p.description}. ${p.strings.length} strings, ${p.frets} frets, tuning ${tuning}, tensions ` +
     `${Math.round(Math.min(...p.strings.map((s) => s.tension_n)))}–` +
     `${Math.round(Math.max(...p.strings.map((s) => s.tension_n)))} N.`;
+  $("#pickup-default").textContent = `(none: the preset's, at x/L ${p.pickup_position})`;
+  $("#body option[value='']").textContent = `preset's (${p.body})`;
+  renderTable();
+  renderPickups();
 }
 
 // ---- event table ---------------------------------------------------------------------------
+function option(value, text) {
+  const o = document.createElement("option");
+  o.value = value;
+  o.textContent = text;
+  return o;
+}
+
+function errorSpan(...fields) {
+  const s = document.createElement("span");
+  s.className = "err";
+  s.dataset.for = fields.join(" ");
+  return s;
+}
+
+function cell(...children) {
+  const td = document.createElement("td");
+  td.append(...children);
+  return td;
+}
+
 function renderTable() {
   const body = $("#events tbody");
   body.innerHTML = "";
   events.forEach((ev, i) => {
     const tr = document.createElement("tr");
     tr.dataset.index = i;
-    const typeTd = document.createElement("td");
-    const sel = document.createElement("select");
-    for (const t of Object.keys(FIELDS)) {
-      const o = document.createElement("option");
-      o.value = o.textContent = t;
-      sel.appendChild(o);
+    tr.dataset.type = ev.type;
+    const fields = EVENTS[ev.type].fields;
+    const typeSel = document.createElement("select");
+    for (const t of Object.keys(EVENTS)) typeSel.appendChild(option(t, t));
+    typeSel.value = ev.type;
+    typeSel.dataset.field = `events[${i}].type`;
+    typeSel.addEventListener("change", () => changeType(i, typeSel.value));
+    tr.appendChild(cell(typeSel, errorSpan(`events[${i}]`)));
+    tr.appendChild(cell(numberInput(ev, i, "time"), errorSpan(`events[${i}].time`)));
+    if (fields.includes("strings")) {
+      // The engine reports a strum's out-of-range string as `events[i].string`.
+      tr.appendChild(cell(stringsInput(ev, i), errorSpan(`events[${i}].strings`, `events[${i}].string`)));
+    } else {
+      tr.appendChild(cell(stringSelect(ev, i), errorSpan(`events[${i}].string`)));
     }
-    sel.value = ev.type;
-    sel.dataset.field = `events[${i}].type`;
-    sel.addEventListener("change", () => {
-      events[i] = { type: sel.value, time: ev.time, ...DEFAULTS[sel.value], string: ev.string };
-      renderTable();
-    });
-    typeTd.appendChild(sel);
-    typeTd.appendChild(errorSpan(`events[${i}]`));
-    tr.appendChild(typeTd);
-    for (const col of COLUMNS) {
-      const td = document.createElement("td");
-      const input = document.createElement("input");
-      input.type = "number";
-      input.step = col === "string" || col === "fret" ? "1" : "any";
-      input.dataset.field = `events[${i}].${col}`;
-      if (FIELDS[ev.type].includes(col)) {
-        input.value = ev[col] ?? "";
-        input.placeholder = col === "release" ? "none" : "";
-        input.addEventListener("input", () => {
-          if (input.value === "") delete events[i][col];
-          else events[i][col] = Number(input.value);
-        });
-      } else {
-        input.disabled = true;
-        input.placeholder = "—";
-      }
-      td.appendChild(input);
-      td.appendChild(errorSpan(`events[${i}].${col}`));
-      tr.appendChild(td);
+    const params = document.createElement("div");
+    params.className = "params";
+    for (const name of fields.filter((f) => !FIXED.includes(f))) {
+      const label = document.createElement("label");
+      label.className = "param";
+      const spec = FIELD_INPUTS[name];
+      const input = spec.choices ? choiceSelect(ev, i, name, spec.choices) : numberInput(ev, i, name);
+      label.append(spec.label, input, errorSpan(`events[${i}].${name}`));
+      params.appendChild(label);
     }
-    const rm = document.createElement("td");
-    const btn = document.createElement("button");
-    btn.type = "button";
-    btn.className = "remove";
-    btn.title = "remove";
-    btn.textContent = "×";
-    btn.addEventListener("click", () => { events.splice(i, 1); renderTable(); });
-    rm.appendChild(btn);
-    tr.appendChild(rm);
+    tr.appendChild(cell(params));
+    const rm = document.createElement("button");
+    rm.type = "button";
+    rm.className = "remove";
+    rm.title = "remove";
+    rm.textContent = "×";
+    rm.addEventListener("click", () => { events.splice(i, 1); renderTable(); });
+    tr.appendChild(cell(rm));
     body.appendChild(tr);
   });
 }
 
-function errorSpan(field) {
-  const s = document.createElement("span");
-  s.className = "err";
-  s.dataset.for = field;
-  return s;
+// A new type keeps the event's time and string and starts its own fields from EVENTS[type].start.
+function changeType(i, type) {
+  const { time, string } = events[i];
+  events[i] = { type, time, ...EVENTS[type].start };
+  if (string !== undefined && EVENTS[type].fields.includes("string")) events[i].string = string;
+  renderTable();
+}
+
+function numberInput(ev, i, name) {
+  const spec = FIELD_INPUTS[name];
+  const input = document.createElement("input");
+  input.type = "number";
+  input.step = spec.int ? "1" : "any";
+  input.dataset.field = `events[${i}].${name}`;
+  if (name.includes("fret")) {
+    input.min = name === "fret" && ev.type === "fret" ? "0" : "1";
+    input.max = currentPreset().frets;
+  }
+  input.value = ev[name] ?? "";
+  input.placeholder = (EVENTS[ev.type].empty || {})[name] ?? spec.empty ?? "default";
+  input.addEventListener("input", () => {
+    if (input.value === "") delete events[i][name];
+    else events[i][name] = Number(input.value);
+  });
+  return input;
+}
+
+function choiceSelect(ev, i, name, choices) {
+  const sel = document.createElement("select");
+  for (const c of choices) sel.appendChild(option(c, c));
+  sel.value = ev[name] ?? choices[0];  // the first choice is the API's default
+  sel.dataset.field = `events[${i}].${name}`;
+  sel.addEventListener("change", () => { events[i][name] = sel.value; });
+  return sel;
+}
+
+// Strings 1..n of the current preset, each with its open note; "all" where the type allows it.
+// A string the preset lacks (after a preset change) stays listed, so the API can say so.
+function stringSelect(ev, i) {
+  const sel = document.createElement("select");
+  const empty = (EVENTS[ev.type].empty || {}).string;
+  if (empty) sel.appendChild(option("", empty));
+  for (const s of currentPreset().strings) sel.appendChild(option(s.string, `${s.string} ${s.note}`));
+  if (ev.string !== undefined && !sel.querySelector(`option[value="${ev.string}"]`)) {
+    sel.appendChild(option(ev.string, `${ev.string} ?`));
+  }
+  sel.value = ev.string ?? "";
+  sel.dataset.field = `events[${i}].string`;
+  sel.addEventListener("change", () => {
+    if (sel.value === "") delete events[i].string;
+    else events[i].string = Number(sel.value);
+  });
+  return sel;
+}
+
+// A strum's strings as "4 3 2 1" (or with commas); empty: all of them.
+function stringsInput(ev, i) {
+  const input = document.createElement("input");
+  input.type = "text";
+  input.value = (ev.strings || []).join(" ");
+  input.placeholder = "all";
+  input.dataset.field = `events[${i}].strings`;
+  input.addEventListener("input", () => {
+    const list = input.value.split(/[\s,]+/).filter(Boolean).map(Number);
+    if (list.length) events[i].strings = list;
+    else delete events[i].strings;
+  });
+  return input;
 }
 
 function addEvent(type) {
   const last = events.length ? events[events.length - 1].time : 0;
-  events.push({ type, time: +(last + (events.length ? 0.25 : 0)).toFixed(3), ...DEFAULTS[type] });
+  const time = +(last + (events.length ? 0.25 : 0)).toFixed(3);
+  events.push({ type, time, ...EVENTS[type].start });
   renderTable();
+}
+
+// ---- pickups -------------------------------------------------------------------------------
+function renderPickups() {
+  const box = $("#pickups");
+  box.innerHTML = "";
+  pickups.forEach((pu, k) => {
+    const row = document.createElement("div");
+    row.className = "pickup";
+    for (const [name, text, empty] of [["position", "x/L", ""], ["gain", "gain", "1"]]) {
+      const label = document.createElement("label");
+      label.className = "param";
+      const input = document.createElement("input");
+      input.type = "number";
+      input.step = "any";
+      input.value = pu[name] ?? "";
+      input.placeholder = empty;
+      input.dataset.field = `output.pickups[${k}].${name}`;
+      input.addEventListener("input", () => {
+        if (input.value === "") delete pickups[k][name];
+        else pickups[k][name] = Number(input.value);
+      });
+      label.append(text, input, errorSpan(`output.pickups[${k}].${name}`));
+      row.appendChild(label);
+    }
+    const rm = document.createElement("button");
+    rm.type = "button";
+    rm.className = "remove";
+    rm.title = "remove pickup";
+    rm.textContent = "×";
+    rm.addEventListener("click", () => { pickups.splice(k, 1); renderPickups(); });
+    row.append(rm, errorSpan(`output.pickups[${k}]`));
+    box.appendChild(row);
+  });
+  $("#pickup-default").hidden = pickups.length > 0;
+  $("#add-pickup").disabled = pickups.length >= MAX_PICKUPS;
+}
+
+function addPickup() {
+  const p = currentPreset();
+  pickups.push({ position: pickups.length ? 0.75 : p.pickup_position, gain: 1 });
+  renderPickups();
 }
 
 // ---- scene and errors ----------------------------------------------------------------------
 function buildScene() {
+  const output = { format: $("#format").value, normalize: $("#normalize").checked };
+  if ($("#stereo").checked) output.channels = 2;
+  if ($("#body").value) output.body = $("#body").value;
+  if (pickups.length) output.pickups = pickups.map((p) => ({ ...p }));
   return {
     duration: Number($("#duration").value),
     sample_rate: Number($("#sample_rate").value),
@@ -170,14 +350,10 @@ function buildScene() {
     guitar: { preset: $("#preset").value },
     events: events.map((ev) => {
       const out = { type: ev.type };
-      for (const f of FIELDS[ev.type]) if (ev[f] !== undefined && ev[f] !== "") out[f] = ev[f];
+      for (const f of EVENTS[ev.type].fields) if (ev[f] !== undefined && ev[f] !== "") out[f] = ev[f];
       return out;
     }),
-    output: {
-      format: $("#format").value,
-      normalize: $("#normalize").checked,
-      ...($("#stereo").checked ? { channels: 2 } : {}),
-    },
+    output,
   };
 }
 
@@ -187,22 +363,36 @@ function clearErrors() {
   document.querySelectorAll(".row-error").forEach((e) => e.classList.remove("row-error"));
 }
 
+// The error box of a field, else of the nearest field that contains it:
+// events[2].strings[0] -> events[2].strings -> events[2].
+function errorPlace(field) {
+  for (let f = field; f;) {
+    const span = document.querySelector(`.err[data-for~="${CSS.escape(f)}"]`);
+    if (span) return span;
+    const parent = f.replace(/(\.\w+|\[\d+\])$/, "");
+    if (parent === f) break;
+    f = parent;
+  }
+  return null;
+}
+
 // Put each error next to its field; what has no place on the page goes to the general box.
 function showErrors(detail) {
   const general = [];
   for (const d of detail) {
     const field = d.field || "";
-    const span = field && document.querySelector(`.err[data-for="${CSS.escape(field)}"]`);
-    const text = d.msg ? d.msg.replace(/^Value error, /, "").replace(`${field}: `, "") : d.message;
-    if (span) {
-      span.textContent = span.textContent ? `${span.textContent}; ${text}` : text;
-      const input = document.querySelector(`[data-field="${CSS.escape(field)}"]`);
-      if (input) input.classList.add("invalid");
-      const row = span.closest("tr");
-      if (row) row.classList.add("row-error");
-    } else {
+    const span = field && errorPlace(field);
+    if (!span) {
       general.push(d.message || d.msg);
+      continue;
     }
+    const own = span.dataset.for.split(" ").includes(field);
+    const text = own && d.msg ? d.msg.replace(/^Value error, /, "").replace(`${field}: `, "") : d.message;
+    span.textContent = span.textContent ? `${span.textContent}; ${text}` : text;
+    const input = document.querySelector(`[data-field="${CSS.escape(span.dataset.for.split(" ")[0])}"]`);
+    if (input) input.classList.add("invalid");
+    const row = span.closest("tr");
+    if (row) row.classList.add("row-error");
   }
   $("#general-error").textContent = general.join("\n");
 }
@@ -353,12 +543,11 @@ function drawSpectrogram(canvas, samples, rate) {
 
 // ---- wiring --------------------------------------------------------------------------------
 function wire() {
-  document.querySelectorAll("[data-example]").forEach((b) =>
-    b.addEventListener("click", () => loadExample(b.dataset.example)));
-  document.querySelectorAll("[data-add]").forEach((b) =>
-    b.addEventListener("click", () => addEvent(b.dataset.add)));
+  for (const t of Object.keys(EVENTS)) $("#add-type").appendChild(option(t, t));
+  $("#add").addEventListener("click", () => addEvent($("#add-type").value));
   $("#clear").addEventListener("click", () => { events = []; renderTable(); });
-  $("#preset").addEventListener("change", showPresetInfo);
+  $("#add-pickup").addEventListener("click", addPickup);
+  $("#preset").addEventListener("change", presetChanged);
   $("#render").addEventListener("click", render);
 }
 
@@ -366,12 +555,12 @@ async function main() {
   wire();
   try {
     await loadPresets();
+    loadExample(await loadExamples());
     const limits = await (await fetch("/limits")).json();
     $("#duration").max = limits.max_duration_s;
   } catch (err) {
     $("#general-error").textContent = `Could not reach the service: ${err}`;
   }
-  loadExample("strum");
   document.body.dataset.ready = "1";
 }
 

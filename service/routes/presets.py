@@ -8,7 +8,6 @@ from functools import cache
 from fastapi import APIRouter
 
 import engine
-from engine.string import tune
 
 from ..schemas import FingerInfo, PresetInfo, Presets, StringInfo
 
@@ -18,12 +17,13 @@ router = APIRouter(tags=["presets"])
 _TENSION_RATE_HZ = 44100
 
 
-def _string_info(number: int, spec, scale_length_m: float) -> StringInfo:
+def _string_info(preset, number: int) -> StringInfo:
+    spec = preset.strings[number - 1]
     return StringInfo(
         string=number,
         note=spec.note,
         frequency_hz=spec.frequency_hz,
-        tension_n=tune(spec, scale_length_m, _TENSION_RATE_HZ).tension_n,
+        tension_n=engine.tuned_tension(preset, number, _TENSION_RATE_HZ),
         radius_m=spec.radius_m,
         density_kg_m3=spec.density_kg_m3,
         youngs_modulus_pa=spec.youngs_modulus_pa,
@@ -44,8 +44,9 @@ def _preset_info(p, default: str) -> PresetInfo:
         action_12th_m=p.action_12th_m,
         fret_height_m=p.fret_height_m,
         pickup_position=p.pickup_position,
+        body=p.body,
         tuning=[s.note for s in p.strings],
-        strings=[_string_info(i, s, p.scale_length_m) for i, s in enumerate(p.strings, 1)],
+        strings=[_string_info(p, i) for i in range(1, p.n_strings + 1)],
         finger=FingerInfo(**asdict(p.finger)),
     )
 

@@ -127,7 +127,7 @@ async def render_stream(
     check_limits(scene, settings)
     check_streamable(scene)
     rate, subtype, channels = scene.sample_rate, scene.output.subtype, channels_of(scene)
-    frames = audio.frame_count(scene.duration, rate)
+    frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
     scene_json = scene.model_dump(mode="json")
     scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them

@@ -72,12 +72,6 @@ def test_flac_and_ogg(fmt: str, subtype: str, expect: str, rate: int) -> None:
     assert np.all(np.isfinite(y))
 
 
-def test_frame_count_rounds_like_the_engine() -> None:
-    assert audio.frame_count(0.5, 44100) == 22050
-    assert audio.frame_count(1 / 3, 48000) == 16000
-    assert audio.frame_count(1e-6, 22050) == 0
-
-
 @pytest.mark.parametrize("subtype", ["PCM_16", "PCM_24", "FLOAT"])
 def test_stereo_wav_interleaves_and_streams_the_same(signal: np.ndarray, subtype: str) -> None:
     x = np.stack([signal, -0.5 * signal], axis=1)  # (frames, 2): left, right

@@ -6,13 +6,17 @@ browser of its own.
 
 from __future__ import annotations
 
+import json
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import pytest
-from conftest import UvicornServer
+from conftest import ROOT, UvicornServer
+
+import engine
+from engine.scene import Event
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -85,5 +89,107 @@ def test_validation_error_is_shown_next_to_its_field(page: Any) -> None:
     err.wait_for(state="visible", timeout=30_000)
     assert "outside" in err.inner_text()
     assert "invalid" in page.get_attribute("input[data-field='events[1].time']", "class")
+    assert page.inner_text("#general-error") == ""
+    assert page.errors == []
+
+
+# ---- every articulation, preset and example ------------------------------------------------
+EXAMPLES = json.loads((ROOT / "static" / "examples.json").read_text())["examples"]
+# The engine's event models by their `type`: the fields each one takes.
+MODELS = {m.model_fields["type"].default: m for m in get_args(get_args(Event)[0])}
+
+
+def row_fields(page: Any, row: int) -> set[str]:
+    """The fields the editor shows in event row ``row`` (without its type selector)."""
+    prefix = f"events[{row}]."
+    names = page.eval_on_selector_all(
+        f"#events tbody tr[data-index='{row}'] [data-field]", "els => els.map(e => e.dataset.field)")
+    return {n.removeprefix(prefix) for n in names} - {"type"}
+
+
+def test_every_example_has_a_button_and_loads_into_the_form_exactly(page: Any) -> None:
+    buttons = page.eval_on_selector_all("button[data-example]", "bs => bs.map(b => b.dataset.example)")
+    assert buttons == [ex["id"] for ex in EXAMPLES]
+    for ex in EXAMPLES:
+        page.click(f"button[data-example='{ex['id']}']")
+        # What Render would send is the example itself (up to the API's defaults).
+        sent = engine.parse_scene(page.evaluate("buildScene()"))
+        assert sent == engine.parse_scene(ex["scene"]), ex["id"]
+        assert page.inner_text("#example-info") == ex["description"]
+    assert page.errors == []
+
+
+def test_event_editor_shows_the_fields_of_each_type(page: Any) -> None:
+    page.click("button[data-example='strum']")
+    page.click("#clear")
+    page.select_option("#add-type", "pluck")
+    page.click("#add")
+    select = "select[data-field='events[0].type']"
+    assert page.eval_on_selector_all(f"{select} option", "os => os.map(o => o.value)") \
+        == list(MODELS)
+    for kind, model in MODELS.items():
+        page.select_option(select, kind)
+        assert row_fields(page, 0) == set(model.model_fields) - {"type"}, kind
+    page.select_option(select, "slide")  # e.g. a slide: from/to fret and glide time, no fret
+    assert page.is_visible("input[data-field='events[0].from_fret']")
+    assert page.is_visible("input[data-field='events[0].duration']")
+    assert page.locator("[data-field='events[0].fret']").count() == 0
+    page.select_option("#add-type", "mute")  # a new mute rests on all strings
+    page.click("#add")
+    assert row_fields(page, 1) == {"time", "string", "position", "amount", "release"}
+    assert page.input_value("select[data-field='events[1].string']") == ""
+    assert "all" in page.inner_text("select[data-field='events[1].string']")
+    assert page.errors == []
+
+
+def test_string_selector_follows_the_presets_string_count(page: Any) -> None:
+    page.click("button[data-example='slap-bass']")
+    options = page.eval_on_selector_all("select[data-field='events[1].string'] option",
+                                        "os => os.map(o => o.textContent)")
+    assert options == ["1 G2", "2 D2", "3 A1", "4 E1"]
+    page.select_option("#preset", "electric")
+    assert page.locator("select[data-field='events[1].string'] option").count() == 6
+
+
+@pytest.mark.parametrize("example,channels", [("bend", "mono"), ("slap-bass", "mono"),
+                                              ("strum-event", "stereo")])
+def test_render_articulation_and_instrument_examples(page: Any, example: str,
+                                                     channels: str) -> None:
+    duration = next(ex["scene"]["duration"] for ex in EXAMPLES if ex["id"] == example)
+    page.click(f"button[data-example='{example}']")
+    page.click("#render")
+    page.wait_for_selector("#spectrogram[data-drawn='1']", timeout=60_000)
+    page.wait_for_function("document.querySelector('#audio').readyState >= 1", timeout=30_000)
+    audio = page.evaluate("""() => { const a = document.querySelector('#audio');
+        return {src: a.src, duration: a.duration, error: a.error && a.error.code}; }""")
+    assert audio["src"].startswith("blob:") and audio["error"] is None
+    assert audio["duration"] == pytest.approx(duration, abs=0.01)
+    assert page.evaluate(_LIT_PIXELS_JS, "#spectrogram") > 0.2
+    assert channels in page.inner_text("#stat-audio")
+    assert page.inner_text("#general-error") == ""
+    assert page.errors == []
+
+
+def test_errors_of_articulation_fields_are_shown_next_to_them(page: Any) -> None:
+    page.click("button[data-example='bend']")
+    page.fill("input[data-field='events[2].semitones']", "5")
+    page.click("#add-pickup")
+    page.fill("input[data-field='output.pickups[0].position']", "1.5")
+    page.click("#render")
+    err = page.locator(".err[data-for='events[2].semitones']")
+    err.wait_for(state="visible", timeout=30_000)
+    assert "less than or equal to 3" in err.inner_text()
+    assert "invalid" in page.get_attribute("input[data-field='events[2].semitones']", "class")
+    assert "less than 0.98" in page.inner_text(".err[data-for='output.pickups[0].position']")
+    assert page.inner_text("#general-error") == ""
+
+    # A strum's string the preset lacks: the engine names it `events[i].string`.
+    page.click("button[data-example='strum-event']")
+    page.fill("input[data-field='events[4].strings']", "9 3")
+    page.click("#render")
+    err = page.locator("#events tr[data-index='4'] .err[data-for~='events[4].strings']")
+    err.wait_for(state="visible", timeout=30_000)
+    assert "outside 1..6" in err.inner_text()
+    assert "invalid" in page.get_attribute("input[data-field='events[4].strings']", "class")
     assert page.inner_text("#general-error") == ""
     assert page.errors == []

@@ -31,3 +31,9 @@ def test_steel_acoustic_strings(harness) -> None:
         assert f_ideal == pytest.approx(s["frequency_hz"], rel=0.02)
         assert s["radius_m"] > 0 and s["t60_fundamental_s"] > s["t60_2khz_s"] > 0
     assert steel["finger"]["mass_kg"] > 0
+
+
+def test_presets_name_their_body(harness) -> None:
+    bodies = {p["name"]: p["body"] for p in harness.get("/presets").json()["presets"]}
+    assert bodies == {name: p.body for name, p in engine.PRESETS.items()}
+    assert bodies["steel-acoustic"] == "acoustic" and bodies["electric"] == "none"

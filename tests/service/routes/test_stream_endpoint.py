@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from svc_helpers import chord_scene, decode, fields, pluck_scene, same_bytes
 
-from service import audio
+import engine
 
 
 @pytest.mark.parametrize("subtype", ["PCM_16", "PCM_24", "FLOAT"])
@@ -20,7 +20,7 @@ def test_stream_equals_render_without_normalisation(harness, subtype: str, rate:
     assert int(streamed.headers["content-length"]) == len(streamed.content)
     assert same_bytes(streamed.content, whole.content)
     x, got_rate, info = decode(streamed.content)
-    assert (info.subtype, got_rate, len(x)) == (subtype, rate, audio.frame_count(0.3, rate))
+    assert (info.subtype, got_rate, len(x)) == (subtype, rate, engine.frame_count(scene))
     assert np.max(np.abs(x)) > 0.01
 
 
@@ -33,7 +33,7 @@ def test_stereo_stream_equals_render(harness, subtype: str) -> None:
     assert int(streamed.headers["content-length"]) == len(streamed.content)
     assert same_bytes(streamed.content, whole.content)
     x, _, info = decode(streamed.content)
-    assert info.channels == 2 and x.shape == (audio.frame_count(0.3, 44100), 2)
+    assert info.channels == 2 and x.shape == (engine.frame_count(scene), 2)
     assert not np.allclose(x[:, 0], x[:, 1])  # panned: the channels differ
 
 

@@ -1,0 +1,129 @@
+"""The public helpers the service uses: frame_count, tuned_tension and warmup."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import engine
+from engine.guitar import RenderOptions, prepare
+from engine.scene import Scene
+
+from .conftest import fret, pluck
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("rate", [22050, 44100, 48000, 96000])
+@pytest.mark.parametrize("duration", [0.01, 1 / 30, 0.0123457, 0.05])
+def test_frame_count_is_what_render_and_blocks_return(rate, duration):
+    sc = {"duration": duration, "sample_rate": rate, "quality": "draft",
+          "events": [pluck(1)], "output": {"normalize": False}}
+    n = engine.frame_count(sc)
+    assert isinstance(n, int)
+    assert n == len(engine.render(sc))
+    assert n == sum(len(b) for b in engine.blocks(sc, block_frames=97))
+
+
+def test_frame_count_of_stereo_and_silent_scenes():
+    stereo = {"duration": 0.02, "sample_rate": 48000, "events": [pluck(6)],
+              "output": {"channels": 2}}
+    assert engine.frame_count(stereo) == engine.render(stereo).shape[0] == 960
+    silent = Scene(duration=1 / 3, sample_rate=48000)  # a Scene object is accepted too
+    assert engine.frame_count(silent) == len(engine.render(silent)) == 16000
+
+
+@pytest.mark.parametrize("preset", sorted(engine.PRESETS))
+def test_tuned_tension_is_the_engines(preset):
+    p = engine.get_preset(preset)
+    for string in (1, p.n_strings):
+        sc = Scene.model_validate({"duration": 0.01, "guitar": {"preset": preset},
+                                   "events": [pluck(string)]})
+        voice = prepare(sc, RenderOptions(oversample=1)).voices[0]
+        assert voice.index == string
+        assert engine.tuned_tension(preset, string) == voice.model.tension_n
+        assert engine.tuned_tension(p, string, 44100) == voice.model.tension_n
+        assert 20.0 < engine.tuned_tension(preset, string) < 300.0
+
+
+def test_tuned_tension_rejects_a_missing_string():
+    with pytest.raises(ValueError, match="outside"):
+        engine.tuned_tension("bass", 5)
+    with pytest.raises(KeyError):
+        engine.tuned_tension("banjo", 1)
+
+
+# Run in a fresh process, so that kernels compiled by other tests cannot hide a path warmup()
+# misses: after warmup(), renders of every kind must add no signature to any numba dispatcher
+# (a new signature is a compilation, or a cache load, during a real render).
+_AFTER_WARMUP = r"""
+import json, sys
+import numpy as np
+from numba.core.dispatcher import Dispatcher
+import engine, engine.kernels, engine.output
+
+def signatures():
+    out = {}
+    for mod in (engine.kernels, engine.output):
+        for name, obj in vars(mod).items():
+            if isinstance(obj, Dispatcher):
+                out[mod.__name__ + "." + name] = sorted(str(s) for s in obj.signatures)
+    return out
+
+engine.warmup()
+before = signatures()
+for sc in json.loads(sys.argv[1]):
+    engine.render(sc, diagnostics=True)
+    engine.render(sc)
+    for _ in engine.blocks(sc, block_frames=257):
+        pass
+engine.render(json.loads(sys.argv[1])[0], impulse_response=np.array([1.0, 0.5, 0.25]))
+print(json.dumps({"before": before, "after": signatures()}))
+"""
+
+_EVERY_KIND = [
+    {"duration": 0.02, "events": [fret(5, 3), pluck(5, time=0.001), fret(5, 0, time=0.01)]},
+    {"duration": 0.02, "quality": "high", "guitar": {"preset": "bass"},
+     "events": [fret(4, 5, release=0.01), pluck(4, style="pop"), pluck(1, style="slap"),
+                {"type": "hammer_on", "time": 0.005, "string": 4, "fret": 7},
+                {"type": "pull_off", "time": 0.012, "string": 4, "fret": 7}]},
+    {"duration": 0.02, "sample_rate": 96000, "quality": "draft",
+     "guitar": {"preset": "electric", "tuning": ["D4", "B3", "G3", "D3", "A2", "D2"]},
+     "output": {"pickups": [{"position": 0.95}, {"position": 0.7, "gain": 0.3},
+                            {"position": 0.5}], "body": "acoustic"},
+     "events": [{"type": "strum", "time": 0.0, "direction": "up"},
+                {"type": "slide", "time": 0.002, "string": 2, "from_fret": 7, "to_fret": 5,
+                 "duration": 0.01},
+                {"type": "tap", "time": 0.003, "string": 1, "fret": 12, "velocity": 2.0}]},
+    {"duration": 0.02, "sample_rate": 22050, "guitar": {"preset": "nylon-classical"},
+     "output": {"channels": 2, "pan": [0.5, 0.3, 0.1, -0.1, -0.3, -0.5], "normalize": False},
+     "events": [{"type": "harmonic", "time": 0.0, "string": 4, "position": 0.25,
+                 "release": 0.01}, pluck(4),
+                {"type": "mute", "time": 0.0, "amount": 0.3, "release": 0.015}, pluck(5),
+                {"type": "bend", "time": 0.0, "string": 2, "semitones": 2.0, "duration": 0.005,
+                 "release": 0.01}, pluck(2),
+                {"type": "vibrato", "time": 0.0, "string": 1, "depth_cents": 50, "rate_hz": 15,
+                 "duration": 0.02}, pluck(1)]},
+]
+
+
+def test_warmup_leaves_nothing_to_compile():
+    proc = subprocess.run([sys.executable, "-c", _AFTER_WARMUP, json.dumps(_EVERY_KIND)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=600, check=False)
+    assert proc.returncode == 0, proc.stderr
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    before, after = got["before"], got["after"]
+    assert before["engine.kernels.step_block"], "warmup() did not run the time-step kernel"
+    assert before["engine.kernels.fir_decimate"], "warmup() did not run the decimator"
+    assert before["engine.output._modal"], "warmup() did not run the body filter"
+    assert after == before
+
+
+def test_warmup_returns_its_time():
+    assert engine.warmup() >= 0.0
+    assert all(isinstance(s, dict) for s in engine.WARMUP_SCENES)
+    for sc in engine.WARMUP_SCENES:
+        assert np.isfinite(engine.render(sc, diagnostics=False)).all()

@@ -5,7 +5,7 @@
 1. Relative energy-balance deviation (paper sec. 6.1, normalised by the largest stored energy)
    on scenes that exercise each nonlinearity.
 2. Open strings: fundamental against nominal, and the worst of partials 1-10 against the continuous
-   stiff string f_n = n f0 sqrt(1 + B n^2) (cents), per string of both presets.
+   stiff string f_n = n f0 sqrt(1 + B n^2) (cents), per string of every preset.
 3. Pitch glide of the Kirchhoff-Carrier tension modulation: fundamental in 0.01-0.11 s against
    0.5-0.6 s (cents) for soft to hard plucks.
 """
@@ -56,7 +56,7 @@ def open_strings(quality: str) -> None:
     print(f"\nopen strings, 0.2 N pluck, quality '{quality}' (cents)")
     print("preset          string | fundamental vs nominal | worst of partials 1-10 vs f_n")
     for preset in sorted(PRESETS):
-        for s in range(1, 7):
+        for s in range(1, PRESETS[preset].n_strings + 1):
             sc = Scene.model_validate({"duration": 2.0, "quality": quality,
                                        "guitar": {"preset": preset},
                                        "output": {"body": "none", "pickup_position": 0.913},
@@ -76,7 +76,7 @@ def glide(quality: str) -> None:
     print(f"\npitch glide (fundamental 0.01-0.11 s minus 0.5-0.6 s, cents), quality '{quality}'")
     forces = (0.2, 2.0, 8.0, 20.0)
     print("string | " + " | ".join(f"{f:5.1f} N" for f in forces))
-    for s in range(1, 7):
+    for s in range(1, PRESETS["steel-acoustic"].n_strings + 1):  # the scenes' default preset
         row = []
         f0 = PRESETS["steel-acoustic"].strings[s - 1].frequency_hz
         for force in forces:

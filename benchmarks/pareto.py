@@ -28,27 +28,19 @@ errors each against an exact or converged reference:
 It prints the tables, draws the Pareto fronts to docs/img/pareto.png and rewrites the generated
 section of docs/accuracy.md (between the ``pareto:begin`` / ``pareto:end`` markers).
 
-Variants the engine has no ``RenderOptions`` switch for (the gamma rule, dispersion compensation)
-are built here: a private copy of ``engine/kernels.py`` with ``_gamma`` replaced, or
-``engine.string.tune(..., compensate=False)``, swapped into ``engine.guitar`` while a scene is
-prepared and rendered (``variant``).  Nothing under ``engine/`` is modified.
+The gamma rule and the dispersion compensation are ``RenderOptions`` switches (``gamma_rule``:
+``joint`` is the engine's, ``own`` the same rule on each column's own prediction, ``paper`` eq. (61)
+as printed, ``none`` no correction; ``compensate_dispersion``).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import importlib.util
-import inspect
 import math
 import pathlib
-import re
-import sys
 import time
 from dataclasses import dataclass, replace
-from functools import partial
 from multiprocessing import Pool
-from unittest import mock
 
 import numpy as np
 from scipy import signal
@@ -74,76 +66,6 @@ STRINGS = tuple(range(1, 7))
 BAND_HZ = (20.0, 14000.0)
 
 # ------------------------------------------------------------------------------------------------
-# variants without a RenderOptions switch
-
-GAMMA_RULES = {
-    "paper": '''@njit(**JIT)
-def _gamma(psi, xi, s, in_contact):
-    """DAFx24 eq. (61) as printed (benchmark variant, benchmarks/pareto.py)."""
-    if in_contact:
-        if 4.0 * psi + xi < 0.0 and xi != 0.0:
-            return -4.0 * psi / xi
-        return 1.0
-    if xi == 0.0:
-        return 0.0
-    g = -4.0 * psi / xi
-    return (0.5 if g < 0.0 else 1.5) * g
-''',
-    "one": '''@njit(**JIT)
-def _gamma(psi, xi, s, in_contact):
-    """No gradient correction (benchmark variant, benchmarks/pareto.py)."""
-    return 1.0 if in_contact else 0.0
-''',
-}
-_variant_modules: dict[str, object] = {}
-
-
-def gamma_kernels(rule: str):
-    """``engine.kernels`` with ``_gamma`` replaced by ``GAMMA_RULES[rule]`` (a file under
-    benchmarks/out/variants/, compiled and cached by numba like the original)."""
-    if rule == "engine":
-        return engine.kernels
-    if rule in _variant_modules:
-        return _variant_modules[rule]
-    src = inspect.getsource(engine.kernels)
-    m = re.search(r"@njit\(\*\*JIT\)\ndef _gamma\(.*?(?=\n@njit)", src, re.S)
-    if m is None or "from .config import JIT" not in src:
-        raise RuntimeError("engine/kernels.py changed shape: cannot build the gamma variant")
-    src = src[:m.start()] + GAMMA_RULES[rule] + "\n" + src[m.end():]
-    src = src.replace("from .config import JIT", "from engine.config import JIT")
-    folder = OUT / "variants"
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / f"kernels_gamma_{rule}.py"
-    if not path.exists() or path.read_text() != src:
-        path.write_text(src)
-    name = f"benchmarks_kernels_gamma_{rule}"
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    # Share the engine's NamedTuple types: a second set of classes with the same names makes
-    # numba's dispatch of the *original* kernels slow (about 0.4 ms per call) for the rest of
-    # the process.
-    for cname, obj in vars(engine.kernels).items():
-        if isinstance(obj, type) and issubclass(obj, tuple) and hasattr(obj, "_fields"):
-            setattr(mod, cname, obj)
-    _variant_modules[rule] = mod
-    return mod
-
-
-@contextlib.contextmanager
-def variant(gamma: str = "engine", compensate: bool = True):
-    """Prepare and render inside this block to use a variant of the engine."""
-    with contextlib.ExitStack() as stack:
-        if gamma != "engine":
-            stack.enter_context(mock.patch.object(engine.guitar, "kernels", gamma_kernels(gamma)))
-        if not compensate:
-            stack.enter_context(mock.patch.object(
-                engine.guitar, "tune", partial(engine.string.tune, compensate=False)))
-        yield
-
-
-# ------------------------------------------------------------------------------------------------
 # configurations
 
 
@@ -155,7 +77,7 @@ class Config:
     oversample: int | None = None  # force this factor on every string
     fret_mode: int | None = None
     kirchhoff_carrier: bool = True
-    gamma: str = "engine"
+    gamma: str = "joint"
     compensate: bool = True
 
     def options(self, **kw) -> RenderOptions:
@@ -163,10 +85,8 @@ class Config:
         if self.fret_mode is not None:
             q = replace(q, fret_mode=self.fret_mode)
         return RenderOptions(quality=q, oversample=self.oversample,
-                             kirchhoff_carrier=self.kirchhoff_carrier, **kw)
-
-    def variant(self):
-        return variant(self.gamma, self.compensate)
+                             kirchhoff_carrier=self.kirchhoff_carrier, gamma_rule=self.gamma,
+                             compensate_dispersion=self.compensate, **kw)
 
 
 def _forced(os_: int, grid_scale: float = 1.0, **kw) -> Quality:
@@ -192,7 +112,8 @@ CONFIGS = [
     Config("x4, penalty frets", "contact formulation", _forced(4), oversample=4,
            fret_mode=FRET_PENALTY),
     Config("standard, gamma eq. 61 (lambda)", "gamma rule (sec. 4.7)", gamma="paper"),
-    Config("standard, gamma = 1", "gamma rule (sec. 4.7)", gamma="one"),
+    Config("standard, gamma per column", "gamma rule (sec. 4.7)", gamma="own"),
+    Config("standard, gamma = 1", "gamma rule (sec. 4.7)", gamma="none"),
     Config("standard, uncompensated", "dispersion compensation", compensate=False),
     Config("standard, no Kirchhoff-Carrier", "tension modulation", kirchhoff_carrier=False),
 ]
@@ -249,24 +170,18 @@ def per_string_scene(s: int) -> dict:
     return scene([fret(s, 5), pluck(s, 0.05, force=8.0)], 1.0)
 
 
-def decimator_delay(oversample: int) -> int:
-    """Output samples of delay of the engine's linear-phase decimation filter (24 f + 1 taps)."""
-    return 12 if oversample > 1 else 0
-
-
 # ------------------------------------------------------------------------------------------------
 # measurements (each one a pool job)
 
 
 def render(cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
-    with cfg.variant():
-        s = Scene.model_validate({**sc, "diagnostics": diagnostics})
-        eng = prepare(s, cfg.options(skip_decayed=False))
-        parts = []
-        for block in eng.blocks(1 if probe else None):
-            parts.append(block)
-            if probe:
-                probe(eng)
+    s = Scene.model_validate({**sc, "diagnostics": diagnostics})
+    eng = prepare(s, cfg.options(skip_decayed=False))
+    parts = []
+    for block in eng.blocks(1 if probe else None):
+        parts.append(block)
+        if probe:
+            probe(eng)
     return np.concatenate(parts), eng
 
 
@@ -330,9 +245,7 @@ def job_spectral(name: str, key: str):
 
 
 def job_energy(name: str):
-    r = None
-    with BY_NAME[name].variant():
-        r = engine.render(ENERGY, diagnostics=True, options=BY_NAME[name].options())
+    r = engine.render(ENERGY, diagnostics=True, options=BY_NAME[name].options())
     return ("energy", name, None), r.energy_error
 
 
@@ -348,15 +261,6 @@ def spectral_error_db(x: np.ndarray, ref: np.ndarray) -> float:
     band = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
     num = np.linalg.norm(np.abs(X[band]) - np.abs(R[band]))
     return float(20.0 * np.log10(num / np.linalg.norm(np.abs(R[band])) + 1e-300))
-
-
-def align(x: np.ndarray, oversample: int, ref_oversample: int) -> np.ndarray:
-    d = decimator_delay(ref_oversample) - decimator_delay(oversample)
-    if d > 0:
-        return np.concatenate((np.zeros(d), x[:-d]))
-    if d < 0:
-        return np.concatenate((x[-d:], np.zeros(-d)))
-    return x
 
 
 def cpu_time(sc: dict, options: RenderOptions) -> tuple[float, object]:
@@ -379,13 +283,12 @@ def costs(configs: list[Config], repeat: int, seconds: float) -> dict:
         res[c.name]["six_rounds"] = []
     for _ in range(repeat):
         for c in configs:
-            with c.variant():
-                for key, sc in scenes:
-                    t, eng = cpu_time(sc, c.options(skip_decayed=False))
-                    res[c.name][key] = min(res[c.name][key], t / seconds * 1e3)
-                    if key == "six":
-                        res[c.name]["os"] = {v.index: v.oversample for v in eng.voices}
-                        res[c.name]["six_rounds"].append(t / seconds * 1e3)
+            for key, sc in scenes:
+                t, eng = cpu_time(sc, c.options(skip_decayed=False))
+                res[c.name][key] = min(res[c.name][key], t / seconds * 1e3)
+                if key == "six":
+                    res[c.name]["os"] = {v.index: v.oversample for v in eng.voices}
+                    res[c.name]["six_rounds"].append(t / seconds * 1e3)
     return res
 
 
@@ -662,9 +565,7 @@ def main() -> None:
     t0 = time.perf_counter()
     configs = [c for c in CONFIGS if not args.quick or c.name in QUICK]
     names = [c.name for c in configs]
-    for rule in {c.gamma for c in configs} - {"engine"}:  # compile once, before forking
-        with variant(rule):
-            engine.render(scene([tap(1, 5)], 0.01), options=RenderOptions(quality=_forced(1)))
+    engine.warmup()  # compile once, before forking
     jobs = [(job_spectral, (REFERENCE.name, k)) for k in SPECTRAL]
     if FINE not in names:  # the fine configuration is the fretted reference and the x16 check
         jobs += [(job_spectral, (FINE, k)) for k in SPECTRAL]
@@ -685,9 +586,9 @@ def main() -> None:
         for k in SPECTRAL:
             if ("audio", n, k) not in res:
                 continue
-            x, os_ = res["audio", n, k]
-            ref, ros = res["audio", REFERENCE.name, k]
-            res["spectral", n, k] = spectral_error_db(align(x, os_, ros), ref)
+            x, _ = res["audio", n, k]  # every factor lines up in time (guitar.Decimator)
+            ref, _ = res["audio", REFERENCE.name, k]
+            res["spectral", n, k] = spectral_error_db(x, ref)
     ref_check = {k: res["spectral", FINE, k] for k in SPECTRAL}
     cost = costs(configs, args.repeat, args.seconds)
     rows = summarise(names, res, cost)

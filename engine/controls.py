@@ -108,11 +108,22 @@ def max_tension_ratio(events: list, ratio_for_cents) -> float:
     return r
 
 
+@dataclass(frozen=True)
+class FingerMotion:
+    """How fast one finger of the scene can move the string (``string.fret_margin`` bounds it)."""
+
+    v0: float  # speed towards the fretboard when it is put down (taps, hammer-ons), m/s
+    force: float  # pressing force (and lifting force after its release), N
+    gap: float  # height above the string when it is put down, m
+    glide: float  # speed along the string (slides), m/s
+
+
 @dataclass
 class StringControls:
     arrays: Controls
     last_step: int  # the last step at which any control changes (for the decay skip)
-    max_pluck_force: float
+    max_pluck_force: float  # the largest sum of |force| of the pluck pulses acting at one step
+    fingers: tuple[FingerMotion, ...] = ()
 
     @property
     def silent(self) -> bool:
@@ -210,8 +221,23 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 cents = e.depth_cents * math.sin(2.0 * math.pi * e.rate_hz * t)
                 bends.append((step(e.time + t), ratio_for_cents(cents)))
             last = max(last, step(e.time + e.duration))
+    fingers = tuple(FingerMotion(s["v0"], s["force"], s["gap"],
+                                 abs(s["x1"] - s["x0"]) * rate / max(s["me"] - s["ms"], 1))
+                    for s in slots)
     return StringControls(_arrays(plucks, slots, dampers, bends, h, n), last,
-                          max((abs(p[2]) for p in plucks), default=0.0))
+                          _peak_total_force(plucks), fingers)
+
+
+def _peak_total_force(plucks) -> float:
+    """The largest sum of |peak force| over pluck pulses that overlap in time (steps start ..
+    start + len): stacked plucks (a strum and a pluck, pull-offs) push the string together."""
+    edges = sorted([(p[0], 1, abs(p[2])) for p in plucks] + [(p[0] + p[1] + 1, 0, abs(p[2]))
+                                                            for p in plucks])
+    total = peak = 0.0
+    for _step, starts, f in edges:  # at equal steps the ends (0) come before the starts (1)
+        total += f if starts else -f
+        peak = max(peak, total)
+    return peak
 
 
 def _arrays(plucks, slots, dampers, bends, h, n) -> Controls:

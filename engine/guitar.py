@@ -82,14 +82,23 @@ class RenderOptions:
     skip_contacts: bool = True  # look at rigid frets only when one is within reach
     decay_velocity: float = 1e-7  # m/s; -140 dB below the fixed-gain full scale
     block_frames: int = 2048
+    # knobs of the accuracy study (benchmarks/pareto.py): the gradient correction of sec. 4.7
+    # (``GAMMA_RULES``) and the tuning of tension and stiffness against the grid's dispersion
+    gamma_rule: str = "joint"
+    compensate_dispersion: bool = True
 
 
-def oversample_for(spec, length: float, rate: float, q: Quality, max_ratio: float = 1.0) -> int:
+GAMMA_RULES = {"joint": kernels.GAMMA_JOINT, "own": kernels.GAMMA_OWN,
+               "paper": kernels.GAMMA_PAPER, "none": kernels.GAMMA_NONE}
+
+
+def oversample_for(spec, length: float, rate: float, q: Quality, max_ratio: float = 1.0,
+                   compensate: bool = True) -> int:
     """Smallest factor (at most q.max_oversample) whose stable grid has h <= q.max_h_m (contacts
     resolved finely enough for fretted pitch) and whose partials 1-10 lie within
     q.max_dispersion_cents of the stiff-string frequencies (the scheme's dispersion error)."""
     for os_ in range(1, q.max_oversample + 1):
-        m = tune(spec, length, rate * os_, q.grid_scale, max_tension_ratio=max_ratio)
+        m = tune(spec, length, rate * os_, q.grid_scale, compensate, max_ratio)
         if m.h <= q.max_h_m and dispersion_cents(m) <= q.max_dispersion_cents:
             return os_
     return q.max_oversample
@@ -98,24 +107,38 @@ def oversample_for(spec, length: float, rate: float, q: Quality, max_ratio: floa
 class Decimator:
     """Linear-phase FIR low-pass (scipy's firwin, Kaiser window) + downsampling by an integer
     factor, with the input history kept across blocks.  Each output sample is one dot product in a
-    fixed order (``kernels.fir_decimate``), so any block size gives bit-identical samples."""
+    fixed order (``kernels.fir_decimate``), so any block size gives bit-identical samples.
+
+    The filter's delay is removed exactly, so strings at different factors line up in time: the
+    kernel's output at step n is the velocity (u^(n+1) - u^n) / k, i.e. at time (n + 1/2) k, so
+    output sample m of a string at the output rate is the velocity at (m + 1/2) / rate, and at
+    factor f the same time is internal step m f + (f - 1) / 2.  A linear-phase FIR of ``ntaps``
+    taps delays by (ntaps - 1) / 2 internal steps: 24 f + 1 taps for odd f, 24 f + 2 for even f
+    (half a step more), so that the string run ``lead`` = (ntaps - 1) / 2 + (f - 1) / 2 steps
+    ahead (an integer) gives output m centred on exactly that time.  The first output is taken
+    at input index ``lead``; the string simply runs ``lead`` steps past the last frame.
+    """
 
     def __init__(self, factor: int, rate_out: float):
         self.factor = factor
-        self.phase = 0
+        self.pos = 0  # inputs consumed so far
+        self.lead = 0
         if factor > 1:
-            ntaps = 24 * factor + 1
+            ntaps = 24 * factor + (1 if factor % 2 else 2)
+            self.lead = (ntaps - 1 + factor - 1) // 2
             self.taps = signal.firwin(ntaps, 0.45 * rate_out, fs=rate_out * factor,
                                       window=("kaiser", 9.0))[::-1].copy()
             self.history = np.zeros(ntaps - 1)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
+        """The output samples whose input (index lead + m factor) is in this block."""
         if self.factor == 1:
             return x
         buf = np.concatenate((self.history, x))
-        start = (-self.phase) % self.factor
+        ahead = self.lead - self.pos
+        start = ahead if ahead >= 0 else ahead % self.factor
         y = kernels.fir_decimate(buf, self.taps, start, self.factor, len(x))
-        self.phase = (self.phase + len(x)) % self.factor
+        self.pos += len(x)
         self.history = buf[len(x):]
         return y
 
@@ -246,7 +269,7 @@ class Engine:
     def render_frames(self, m: int) -> np.ndarray:
         mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
         for v in self.voices:
-            target = (self.frame + m) * v.oversample
+            target = (self.frame + m) * v.oversample + v.decimator.lead
             y = v.decimator(v.run(target - v.step))
             if self.channels == 2:
                 gl, gr = self.pans[v.index]
@@ -265,6 +288,9 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     """Tune and grid every string, compile the controls, allocate state."""
     opts = options or RenderOptions()
     q = opts.quality or QUALITY[scene.quality]
+    if opts.gamma_rule not in GAMMA_RULES:
+        raise ValueError(f"gamma_rule must be one of {sorted(GAMMA_RULES)}")
+    comp = opts.compensate_dispersion
     preset = scene.preset()
     rate = float(scene.sample_rate)
     out = scene.output
@@ -281,20 +307,22 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         if opts.skip_silent and not events:
             continue
         L = preset.string_length_m(i)
-        probe = tune(spec, L, rate, q.grid_scale)
+        probe = tune(spec, L, rate, q.grid_scale, comp)
         rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
         # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
         # finger touches in this scene needs only the dispersion criterion.
         fingered = any(e.type in FINGER_EVENTS for e in events)
         q_string = q if fingered else replace(q, max_h_m=math.inf)
-        os_ = opts.oversample or oversample_for(spec, L, rate, q_string, rmax)
-        model = tune(spec, L, rate * os_, q.grid_scale, max_tension_ratio=rmax)
+        os_ = opts.oversample or oversample_for(spec, L, rate, q_string, rmax, comp)
+        model = tune(spec, L, rate * os_, q.grid_scale, comp, rmax)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
+        coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule])
         impedance = math.sqrt(model.tension_n * model.rho_a)
         ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
                               partial(tension_ratio_for_cents, model))
-        margin = fret_margin(model, ctl.max_pluck_force) if opts.skip_contacts else 1.0
+        margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
+                  if opts.skip_contacts else 1.0)
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity))

@@ -48,6 +48,10 @@ KC, BOARD, FRETPEN, FINGER, RIGID, DAMPER = 0, 1, 2, 3, 4, 5
 IDLE, ACTIVE, GONE = 0, 1, 2
 # status codes
 OK, NONFINITE = 0, 1
+# gradient-correction rules of sec. 4.7 (``Coefs.gamma_rule``): the engine's (``_gamma``, decided
+# on the joint solution when contacts act together), the same rule on each column's own prediction
+# only, eq. (61) as printed, and no correction (gamma = 1 in contact, 0 out of it)
+GAMMA_JOINT, GAMMA_OWN, GAMMA_PAPER, GAMMA_NONE = 0, 1, 2, 3
 
 
 class Coefs(NamedTuple):
@@ -81,6 +85,7 @@ class Coefs(NamedTuple):
     fg_lift: float  # finger is removed once this far above the string, m
     lam2: float  # T0 k^2 / (rho A h^2): the tension's share of B, for bends
     den: float  # 1 + sigma0 k
+    gamma_rule: int = GAMMA_JOINT  # sec. 4.7 variant, see ``_gamma`` (a knob of the accuracy study)
 
 
 class Geo(NamedTuple):
@@ -252,7 +257,7 @@ def _solve(A, r, n):
 
 
 @njit(**JIT)
-def _gamma(psi, xi, s, in_contact):
+def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
     """Gradient correction of sec. 4.7, written so that its aim is explicit.
 
     In contact: gamma = 1 unless the predicted M_- psi^(n+1/2) (Sherman-Morrison with this column
@@ -263,11 +268,19 @@ def _gamma(psi, xi, s, in_contact):
     where psi^(n+1/2) = 2 M_- psi - psi^(n-1/2) and M_- psi = (psi + gamma xi / 4) / (1 + gamma^2 s / 4).
     (The paper's lambda rule after eq. (61) serves this aim but reads sign-inconsistent; this form
     has no free constant.)  Any gamma keeps the discrete energy balance exact.
+    ``rule`` selects a variant for the accuracy study (GAMMA_PAPER, GAMMA_NONE).
     """
+    if rule == GAMMA_NONE:
+        return 1.0 if in_contact else 0.0
     if in_contact:
         if 4.0 * psi + xi < 0.0 and xi != 0.0:
             return -4.0 * psi / xi
         return 1.0
+    if rule == GAMMA_PAPER:  # eq. (61) as printed: lambda = 1/2 or 3/2 by the sign of -4 psi / xi
+        if xi == 0.0:
+            return 0.0
+        g = -4.0 * psi / xi
+        return (0.5 if g < 0.0 else 1.5) * g
     a = 0.25 * psi * s
     b = -0.5 * xi
     cc = -psi
@@ -403,31 +416,11 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             else:
                 fext[s] = -fs_force[s]  # pressing towards the board
             wfree[s] = 2.0 * f_w[s] - f_w1[s] + lam_f * fext[s]
-        # ---- is more than one force acting together with an SAV contact? -------------------------
-        # Then the gradient correction is decided on the joint solution (see ``_joint_gamma``):
-        # contact columns enter with gamma = 1 and are corrected afterwards only if needed.
-        coupled = False
-        if nslot > 0 or ndamp > 0 or (c.fret_mode == 1 and close > 0):
-            npot = 0
-            nsav = 0
-            if c.board_k > 0.0 and (below > 0 or psi[0] != 0.0):
-                npot += 1
-                nsav += 1
-            if c.fret_mode == 2:
-                npot += 1
-                nsav += 1
-            elif c.fret_mode == 1 and close > 0:
-                npot += 1
-            for s in range(nslot):
-                if f_state[s] == ACTIVE:
-                    p_ = fp[s]
-                    if f_psi[s] != 0.0 or fw0[s] * U0[p_] + fw1[s] * U0[p_ + 1] > f_w[s]:
-                        npot += 1
-                        nsav += 1
-            for d in range(ndamp):
-                if step >= ctl.dp_on[d] and step < ctl.dp_off[d]:
-                    npot += 1
-            coupled = nsav > 0 and npot > 1
+        # ---- the gradient correction (sec. 4.7) is decided on the joint solution ------------------
+        # Contact columns enter the first solve with gamma = 1; ``_joint_gamma`` corrects those
+        # whose predicted psi would pull (or stay out of contact) from that solution.  Alone, a
+        # column gets exactly the per-column rule; together, the prediction includes the others.
+        coupled = c.gamma_rule == GAMMA_JOINT
         # ---- assemble the columns --------------------------------------------------------------
         nc = 0
         nent = 0
@@ -488,7 +481,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             if coupled and contact:
                 gm = 1.0
             else:
-                gm = _gamma(f_psi[s], bt * (etaf - eta1), bt * bt * vlv, contact)
+                gm = _gamma(f_psi[s], bt * (etaf - eta1), bt * bt * vlv, contact, c.gamma_rule)
             cgam[nc] = gm
             ccon[nc] = contact
             bt *= gm
@@ -859,9 +852,9 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
 def _apply_gamma(c, UF, U1, psi, which, contact, coupled, cidx, cval, start, nent):
     """Scale the SAV column g~ in cval[start:nent] by its gamma; returns (nent, used, gamma, s~).
 
-    Alone, gamma follows ``_gamma`` on this column's own prediction.  A contact column that acts
-    together with other forces (``coupled``) enters with gamma = 1; ``_joint_gamma`` corrects it
-    after the solve if the joint solution needs it.
+    With the joint rule (``coupled``) a contact column enters with gamma = 1 and ``_joint_gamma``
+    corrects it after the solve if needed; otherwise gamma follows ``_gamma`` on the column's own
+    prediction.
     """
     xi = 0.0
     s = 0.0
@@ -872,7 +865,7 @@ def _apply_gamma(c, UF, U1, psi, which, contact, coupled, cidx, cval, start, nen
     if coupled and contact:
         gm = 1.0
     else:
-        gm = _gamma(psi[which], xi, s, contact)
+        gm = _gamma(psi[which], xi, s, contact, c.gamma_rule)
     if gm == 0.0 or nent == start:
         return start, False, 0.0, s
     if gm != 1.0:

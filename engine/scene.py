@@ -12,6 +12,7 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from .presets import DEFAULT_PRESET, PRESETS, Preset, apply_overrides, get_preset, note_frequency
+from .string import pitch_tension_n, stiffness_tension_n
 
 MAX_DURATION_S = 120.0
 MAX_EVENTS = 2000
@@ -19,6 +20,7 @@ MAX_PLUCK_FORCE_N = 20.0
 MAX_FINGER_FORCE_N = 10.0
 MAX_TAP_VELOCITY_M_S = 5.0
 MAX_BEND_SEMITONES = 3.0  # the grid is made stable for the highest tension a scene reaches
+MAX_VIBRATO_CENTS = 100.0  # a string must keep a positive tension this far below its pitch
 SAMPLE_RATE_MIN = 22050
 SAMPLE_RATE_MAX = 96000
 
@@ -165,7 +167,7 @@ class Vibrato(_Event):
     """Pitch oscillation of ``depth_cents`` (peak) at ``rate_hz`` for ``duration`` seconds."""
 
     type: Literal["vibrato"] = "vibrato"
-    depth_cents: float = Field(20.0, gt=0.0, le=100.0)
+    depth_cents: float = Field(20.0, gt=0.0, le=MAX_VIBRATO_CENTS)
     rate_hz: float = Field(5.5, ge=0.5, le=15.0)
     duration: float = Field(1.0, gt=0.0, le=MAX_DURATION_S)
 
@@ -364,6 +366,7 @@ class Scene(_Model):
             if s.string > n:
                 raise ValueError(f"guitar.strings: string {s.string} outside 1..{n}")
         preset = self.preset()
+        self._playable(preset)
         frets = preset.frets
         if self.output.pan is not None and len(self.output.pan) != n:
             raise ValueError(f"output.pan: {n} values expected for {preset.name}")
@@ -384,6 +387,38 @@ class Scene(_Model):
             if release is not None and not release > ev.time:
                 raise ValueError(f"{where}.release: {release} must be after time {ev.time}")
         return self
+
+    def _playable(self, preset: Preset) -> None:
+        """Cross-field limits of the physical overrides: a string's rest line must clear the fret
+        tips, and every string needs a positive tension at every pitch a scene can ask of it."""
+        g = self.guitar
+        if preset.action_12th_m < preset.action_nut_m:
+            # the rest line would fall towards the body and run into the upper frets
+            name = "action_12th_m" if g.action_12th_m is not None else "action_nut_m"
+            raise ValueError(
+                f"guitar.{name}: action_12th_m {preset.action_12th_m:g} m is below action_nut_m "
+                f"{preset.action_nut_m:g} m; the string must rise from the nut towards the body "
+                "(action_12th_m >= action_nut_m) or it starts below the fret tips")
+        # Stiff string: f1^2 4 L^2 rho A = T + pi^2 E I / L^2.  The stiffness term must stay below
+        # the pitch's at the lowest pitch a vibrato reaches, or no positive tension tunes it.
+        low = 2.0 ** (-2.0 * MAX_VIBRATO_CENTS / 1200.0)
+        for i, spec in enumerate(preset.strings, start=1):
+            length = preset.string_length_m(i)
+            stiff = stiffness_tension_n(spec, length)
+            limit = low * pitch_tension_n(spec, length)
+            if stiff < limit:
+                continue
+            where = next((f"guitar.strings[{j}]" for j, o in enumerate(g.strings)
+                          if o.string == i), None)
+            if where is None:
+                where = f"guitar.tuning[{i - 1}]" if g.tuning is not None else f"string {i}"
+            raise ValueError(
+                f"{where}.youngs_modulus_pa: string {i} ({spec.note}) is too stiff for its pitch: "
+                f"its bending stiffness pi^2 E I / L^2 = {stiff:.3g} N must be below "
+                f"4 L^2 rho A f0^2 x 2^(-1/6) = {limit:.3g} N (a positive tension down to a "
+                f"{MAX_VIBRATO_CENTS:g}-cent vibrato); with this radius_m, density_kg_m3 and note "
+                f"youngs_modulus_pa must be below {spec.youngs_modulus_pa * limit / stiff:.3g} Pa "
+                "(or lower radius_m, raise density_kg_m3 or the note)")
 
     def preset(self) -> Preset:
         """The preset with this scene's overrides applied."""

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
 
@@ -129,12 +130,47 @@ def tension_ratio_for_cents(model: StringModel, cents: float) -> float:
 
 def dispersion_cents(model: StringModel, partials: int = 10) -> float:
     """Largest |cents| between the scheme's modes 1..partials and the continuous stiff string's
-    f_n at the model's tension."""
-    return max(abs(1200.0 * math.log2(model.frequency(m) / model.target_frequency(m)))
-               for m in range(1, partials + 1))
+    f_n at the model's tension; infinite when the grid has fewer modes or one of them does not
+    oscillate (a partial the grid cannot carry is as far from f_n as it gets)."""
+    worst = 0.0
+    for m in range(1, partials + 1):
+        f = model.frequency(m) if m < model.n else 0.0
+        if f <= 0.0:
+            return math.inf
+        worst = max(worst, abs(1200.0 * math.log2(f / model.target_frequency(m))))
+    return worst
 
 
 PINNED_PARTIAL = 10
+PARTIAL_LIMIT = 0.4  # x the sample rate: the highest frequency the compensation pins a partial at
+
+
+def stiffness_tension_n(spec: StringSpec, length: float) -> float:
+    """pi^2 E I / L^2: the part of the stiff string's f_1^2 (4 L^2 rho A) that stiffness supplies;
+    the tension is 4 L^2 rho A f0^2 minus this, so a string is playable only below that."""
+    return math.pi**2 * spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0 / length**2
+
+
+def pitch_tension_n(spec: StringSpec, length: float) -> float:
+    """4 L^2 rho A f0^2: the tension an ideal (flexible) string needs for its pitch."""
+    return 4.0 * length**2 * spec.linear_density_kg_m * spec.frequency_hz**2
+
+
+def pinned_partial(model: StringModel, sample_rate: float) -> int:
+    """The partial the dispersion compensation pins: ``PINNED_PARTIAL``, or the highest below it
+    that the grid carries (mode < N) whose frequency f_n is at most ``PARTIAL_LIMIT`` x the rate
+    (a high string at a low rate, or a very stiff one); 1 when none is (no compensation)."""
+    for m in range(PINNED_PARTIAL, 1, -1):
+        if m < model.n and model.target_frequency(m) <= PARTIAL_LIMIT * sample_rate:
+            return m
+    return 1
+
+
+MIN_NODES = 4
+
+
+class _Untunable(ArithmeticError):
+    """The compensated solve left the physical range (tension <= 0 or not finite)."""
 
 
 def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float = 1.0,
@@ -146,10 +182,35 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     as sqrt(k) for a stiff string).  With ``compensate`` the scheme's tension *and* its bending
     stiffness are solved from its own dispersion relation so that modes 1 and ``PINNED_PARTIAL``
     land on the continuous string's frequencies (physical E I); the partials between follow within
-    a fraction of a cent (tests/engine/test_string.py).  ``grid_scale`` >= 1 makes the grid coarser
-    than the stability bound (h = grid_scale * h_min), a knob of the accuracy/cost study.
-    ``max_tension_ratio`` > 1 keeps the grid stable up to that multiple of the tension (bends).
+    a fraction of a cent (tests/engine/test_string.py).  When the 10th partial lies above
+    ``PARTIAL_LIMIT`` x the rate (or the grid has fewer modes), the highest partial below that is
+    pinned instead (``pinned_partial``).  The compensation never makes the stiffness negative (an
+    almost flexible string near the Courant limit can be sharp; it keeps E I >= 0), and a string
+    it cannot tune with a positive tension is built uncompensated.  ``grid_scale`` >= 1 makes the
+    grid coarser than the stability bound (h = grid_scale * h_min), a knob of the accuracy/cost
+    study.  ``max_tension_ratio`` > 1 keeps the grid stable up to that multiple of the tension
+    (bends).
+
+    The compensation raises E I, which coarsens the stable grid; when the grid is no longer stable
+    it is rebuilt with the interval count the new bound allows (at least one fewer) and retuned.
+    Raises ValueError for a string whose stiffness alone exceeds its pitch (no positive tension
+    tunes it; ``engine.scene`` rejects such overrides) or that cannot get ``MIN_NODES`` intervals.
     """
+    if stiffness_tension_n(spec, length) >= pitch_tension_n(spec, length):
+        raise ValueError(f"string {spec.note}: its bending stiffness alone exceeds its pitch "
+                         "(pi^2 E I / L^2 >= 4 L^2 rho A f0^2): no positive tension tunes it")
+    if compensate:
+        try:
+            return _tune(spec, length, sample_rate, grid_scale, True, max_tension_ratio)
+        except _Untunable:
+            pass
+    try:
+        return _tune(spec, length, sample_rate, grid_scale, False, max_tension_ratio)
+    except _Untunable:
+        raise ValueError(f"string {spec.note}: no positive tension tunes it on the grid") from None
+
+
+def _tune(spec, length, sample_rate, grid_scale, compensate, max_tension_ratio) -> StringModel:
     k = 1.0 / sample_rate
     rho_a = spec.linear_density_kg_m
     ei_phys = spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0
@@ -158,23 +219,34 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     sigma0, sigma1 = loss_coefficients(spec, tension)
     scale = 1.0
     n = max(int(length / (grid_scale * h_min(k, tension * max_tension_ratio, rho_a, ei_phys,
-                                               sigma1))), 4)
+                                               sigma1))), MIN_NODES)
     for _ in range(60):
         for _ in range(8):  # alternate: tension for mode 1, stiffness for the pinned mode
             sigma0, sigma1 = loss_coefficients(spec, tension)
             args = (n, length, k, rho_a, sigma0, sigma1)
             tension = _secant(partial(_mode_error, 1, f0, args, ei_phys * scale, None), tension)
+            if not tension > 0.0 or not math.isfinite(tension):
+                raise _Untunable
             if not compensate:
                 break
-            target = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale
-                                 ).target_frequency(PINNED_PARTIAL)
-            scale = _secant(partial(_mode_error, PINNED_PARTIAL, target, args, ei_phys, tension),
-                            scale)
+            model = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale)
+            pinned = pinned_partial(model, sample_rate)
+            if pinned == 1:
+                scale = 1.0
+                continue
+            target = model.target_frequency(pinned)
+            scale = _secant(partial(_mode_error, pinned, target, args, ei_phys, tension),
+                            max(scale, 1.0))
+            if not math.isfinite(scale):
+                raise _Untunable
+            scale = max(scale, 0.0)
         model = StringModel(spec, length, k, n, tension, sigma0, sigma1, scale)
         bound = h_min(k, tension * max_tension_ratio, rho_a, model.ei, sigma1)
         if length / n >= bound * (1.0 + 1e-12):
             return model
-        n -= 1
+        n = min(n - 1, int(length / bound))
+        if n < MIN_NODES:
+            break
     raise ValueError(f"cannot place a stable grid on string {spec.note}")
 
 
@@ -248,16 +320,55 @@ def coefficients(model: StringModel, preset: Preset, fret_mode: int,
 NO_BOARD = -1.0  # a "fretboard" a metre below the string: unreachable
 
 
-def fret_margin(model: StringModel, max_pluck_force: float) -> float:
+def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
+                fingers: Sequence = ()) -> float:
     """How far above a fret tip a node of u^n must be for that fret to be out of reach next step.
 
-    A point force f on a string moves it at most at f / (2 sqrt(T rho A)) (the string's wave
-    impedance); three times that speed for one step, plus 50 um, bounds the motion with a wide
-    margin.  tests/engine/test_skips.py checks that the skip leaves the output bit-identical.
+    The skip is exact if no node under a fret moves further than the margin in one step, i.e. if
+    the margin is at least k v_max for a bound v_max on the speed of every node.  Each thing that
+    moves the string is bounded below (damping, palm mutes, harmonic touches only slow it down; a
+    bend changes the tension over whole steps and moves no node fast, which ``test_skips.py``
+    checks).  Not bounded: a grid-scale (odd-even) chatter of nodes pressed into the fretboard,
+    a numerical artefact of the contact, which a random sweep of 1500 stress scenes found twice
+    (nodes alternating by 0.4-0.5 mm per step next to a fret).
+
+    * plucks (every style, strums and the pluck of a pull-off): a point force f drives the string,
+      two half-strings of wave impedance Z = sqrt(T rho A) each, at f / (2 Z); pulses that overlap
+      in time add (``max_pluck_force`` is the largest sum, ``controls._peak_total_force``);
+    * a finger (fret, tap, hammer-on, slide, and its lift) carries the string under it along at
+      its own speed, and pushes it with its force.  Its mass m is pushed by its pressing (or
+      lifting) force F and slowed by the string, so its kinetic energy is at most what it starts
+      with plus the work of F along its travel D: v_f = sqrt(v0^2 + 2 F D / m).  D is the gap it
+      falls through (a tap starts above the string) plus twice the deepest the string can be
+      pressed (clearance + fret height, doubled for the finger's own compression and for a string
+      that is above its rest line when the finger lands).  And like a pluck, the force F drives
+      the string at F / (2 Z) wherever the string gives way before the finger does (a light or
+      slack string, F >> T, is thrown around the frets far faster than the finger moves: the
+      random stress test found strings of Z ~ 0.005 kg/s moving 1-10 mm in one step under a
+      3-6 N finger).  The finger's term is v_f + F / (2 Z);
+    * a slide moves the contact point along the string at g = |x1 - x0| / duration; the string
+      under it changes height at g S, S its slope there: the kink F / T of the pressing force
+      plus the dip between two fret crowns, (clearance + fret height) / (half the smallest fret
+      spacing).
+
+    v_max = v_plucks + the fastest finger; waves crossing or reflecting can add up to about twice
+    a speed, so the margin is three times v_max for one step, plus 50 um.
+    ``tests/engine/test_skips.py`` checks that the skip leaves the output bit-identical with 20 N
+    plucks, pops and pull-offs, 5 m/s taps and hammer-ons, 10 N lifts, a slide over 19 frets in
+    1 ms, a 3-semitone bend in one step, and a light string under two fingers.
     """
     z = math.sqrt(model.tension_n * model.rho_a)
-    return 3.0 * max_pluck_force / (2.0 * z) * model.k + 50e-6
-
+    v = max_pluck_force / (2.0 * z)
+    if fingers:
+        q = np.arange(preset.frets + 1)
+        xq = preset.fret_x_m(q)
+        depth = float(np.max(preset.clearance_m(xq))) + preset.fret_height_m
+        dip = depth / (0.5 * float(np.min(np.diff(xq))))
+        m = preset.finger.mass_kg
+        v += max(math.sqrt(f.v0 ** 2 + 2.0 * f.force * (f.gap + 2.0 * depth) / m)
+                 + f.force / (2.0 * z) + f.glide * (f.force / model.tension_n + dip)
+                 for f in fingers)
+    return 3.0 * v * model.k + 50e-6
 
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,

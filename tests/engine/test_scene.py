@@ -38,6 +38,14 @@ def _bad(patch):
     ({"duration": float("nan")}, ["duration"]),
     ({"events": [{"type": "pluck", "time": 0, "string": 1, "force": float("inf")}]}, ["force"]),
     ({"extra": 1}, ["extra"]),
+    # the string's rest line must rise from the nut, or it starts below the upper fret tips
+    ({"guitar": {"action_nut_m": 3e-3, "action_12th_m": 3e-4}},
+     ["guitar.action_12th_m", "action_12th_m >= action_nut_m"]),
+    ({"guitar": {"action_nut_m": 3e-3}}, ["guitar.action_nut_m", "action_12th_m >= action_nut_m"]),
+    # bending stiffness alone above the pitch: no positive tension tunes the string
+    ({"guitar": {"strings": [{"string": 1, "note": "C#1", "radius_m": 2e-3,
+                              "density_kg_m3": 500.0, "youngs_modulus_pa": 4e11}]}},
+     ["guitar.strings[0].youngs_modulus_pa", "must be below", "Pa"]),
 ])
 def test_bad_input_names_the_field(patch, words):
     msg = _bad(patch)
@@ -50,3 +58,44 @@ def test_overrides_apply():
                                                  "frets": 22, "action_12th_m": 0.0025}})
     p = sc.preset()
     assert p.strings[5].note == "D2" and p.frets == 22 and p.action_12th_m == 0.0025
+
+
+def _stiff_string(fraction):
+    """String 1 of the default preset tuned to C#1 with a 2 mm radius and its Young's modulus at
+    ``fraction`` of the largest the validation allows (tension positive down to a 100-cent
+    vibrato: pi^2 E I / L^2 < 2^(-1/6) 4 L^2 rho A f0^2)."""
+    from engine.presets import apply_overrides, get_preset
+    from engine.scene import Guitar
+    from engine.string import pitch_tension_n, stiffness_tension_n
+
+    o = {"string": 1, "note": "C#1", "radius_m": 2e-3, "density_kg_m3": 500.0}
+    p = apply_overrides(get_preset("steel-acoustic"), Guitar.model_validate({"strings": [o]}))
+    spec, length = p.strings[0], p.string_length_m(1)
+    e_max = spec.youngs_modulus_pa * 2.0 ** (-1.0 / 6.0) * pitch_tension_n(spec, length) / \
+        stiffness_tension_n(spec, length)
+    return {"duration": 0.1, "output": {"body": "none", "normalize": False},
+            "guitar": {"strings": [{**o, "youngs_modulus_pa": fraction * e_max}]},
+            "events": [{"type": "pluck", "time": 0.0, "string": 1, "force": 20.0},
+                       {"type": "vibrato", "time": 0.0, "string": 1, "depth_cents": 100.0,
+                        "rate_hz": 15.0, "duration": 0.1}]}
+
+
+def test_a_string_just_inside_the_stiffness_limit_renders_a_full_vibrato():
+    from benchmarks.stability import check, violations
+
+    with pytest.raises(ValidationError):
+        engine.parse_scene(_stiff_string(1.001))
+    assert violations(check(_stiff_string(0.999))) == []
+
+
+def test_a_pitch_too_high_to_pin_the_10th_partial_is_rendered_in_tune():
+    """An open C6 at 22.05 kHz: partial 10 (10.5 kHz) is above 0.4 x the rate, so the dispersion
+    compensation pins a lower one (engine.string.pinned_partial); the string renders, in tune."""
+    from engine.analysis import cents, spectrum_peak
+
+    sc = {"duration": 0.5, "sample_rate": 22050, "quality": "draft", "output": {"body": "none"},
+          "guitar": {"strings": [{"string": 1, "note": "C6"}]},
+          "events": [{"type": "pluck", "time": 0.0, "string": 1, "force": 0.2}]}
+    x = engine.render(sc)
+    f0 = 1046.5
+    assert abs(cents(spectrum_peak(x[1000:], 22050, f0), f0)) < 1.0

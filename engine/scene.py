@@ -372,11 +372,12 @@ class Scene(_Model):
             raise ValueError(f"output.pan: {n} values expected for {preset.name}")
         for i, ev in enumerate(self.events):
             where = f"events[{i}]"
-            strings = getattr(ev, "strings", None) or []
             single = getattr(ev, "string", None)
-            for st in strings + ([single] if single is not None else []):
+            if single is not None and single > n:
+                raise ValueError(f"{where}.string: {single} outside 1..{n} for {preset.name}")
+            for j, st in enumerate(getattr(ev, "strings", None) or []):
                 if st > n:
-                    raise ValueError(f"{where}.string: {st} outside 1..{n} for {preset.name}")
+                    raise ValueError(f"{where}.strings[{j}]: {st} outside 1..{n} for {preset.name}")
             if not ev.time < self.duration:
                 raise ValueError(f"{where}.time: {ev.time} outside 0 <= time < {self.duration}")
             for name in ("fret", "from_fret", "to_fret"):

@@ -191,8 +191,7 @@ function renderTable() {
     tr.appendChild(cell(typeSel, errorSpan(`events[${i}]`)));
     tr.appendChild(cell(numberInput(ev, i, "time"), errorSpan(`events[${i}].time`)));
     if (fields.includes("strings")) {
-      // The engine reports a strum's out-of-range string as `events[i].string`.
-      tr.appendChild(cell(stringsInput(ev, i), errorSpan(`events[${i}].strings`, `events[${i}].string`)));
+      tr.appendChild(cell(stringsInput(ev, i), errorSpan(`events[${i}].strings`)));
     } else {
       tr.appendChild(cell(stringSelect(ev, i), errorSpan(`events[${i}].string`)));
     }

@@ -99,3 +99,10 @@ def test_a_pitch_too_high_to_pin_the_10th_partial_is_rendered_in_tune():
     x = engine.render(sc)
     f0 = 1046.5
     assert abs(cents(spectrum_peak(x[1000:], 22050, f0), f0)) < 1.0
+
+
+def test_a_strum_names_the_string_it_cannot_play():
+    sc = {"duration": 1.0, "guitar": {"preset": "bass"},
+          "events": [{"type": "strum", "time": 0.0, "strings": [1, 6]}]}
+    with pytest.raises(ValidationError, match=r"events\[0\]\.strings\[1\]: 6 outside 1\.\.4"):
+        engine.parse_scene(sc)

@@ -8,8 +8,9 @@ configuration for comparison (their C++: 40-180 ms per second of audio per strin
 
     python -m benchmarks.speed [--quality standard] [--seconds 2] [--repeat 3]
 
-Timings are the best of ``--repeat`` runs of the simulation alone (scene preparation excluded), on
-one core (the engine is single-threaded; the service runs one render per worker process).
+Timings are the best of ``--repeat`` runs of the simulation alone (scene preparation excluded; CPU
+time of the rendering thread), on one core (the engine is single-threaded; the service runs one
+render per worker process).
 """
 
 from __future__ import annotations
@@ -24,37 +25,42 @@ from engine.scene import Scene
 
 
 def best_time(scene: dict, options: RenderOptions, repeat: int) -> tuple[float, object]:
+    """Best CPU time of the simulation (scene preparation excluded) over ``repeat`` runs: thread
+    time rather than wall time, so that other processes on the machine change it less."""
     sc = Scene.model_validate(scene)
     best = np.inf
     eng = None
     for _ in range(repeat):
         eng = prepare(sc, options)
-        t = time.perf_counter()
+        t = time.thread_time()
         for _block in eng.blocks():
             pass
-        best = min(best, time.perf_counter() - t)
+        best = min(best, time.thread_time() - t)
     return best, eng
 
 
 def per_string(quality: str, seconds: float, repeat: int) -> None:
-    print(f"\nper string, quality '{quality}', {seconds:g} s of audio at 44.1 kHz "
-          "(ms of compute per second of audio)")
-    print("string | oversample |   N | linear | full model | full / linear")
-    linear_opts = RenderOptions(kirchhoff_carrier=False, fretboard=False, frets=False,
-                                skip_decayed=False)
-    full_opts = RenderOptions(skip_decayed=False)
+    print(f"\nper string, quality '{quality}', {seconds:g} s of audio at 44.1 kHz (ms of compute per "
+          "second of audio; body 'none')")
+    print("The full model (finger at fret 5, 8 N pluck) runs at the factor x the quality gives a "
+          "fingered string;\nthe linear string is timed at that same factor (the nonlinearities' "
+          "own cost) and at its own factor.")
+    print("string | x |   N | linear, same x | linear, own x | full model | full / linear (same x)")
+    linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
     for s in range(1, 7):
-        base = {"duration": seconds, "quality": quality}
+        base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
         lin = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 8.0}]}
         full = {**base, "events": [
             {"type": "fret", "time": 0.0, "string": s, "fret": 5},
             {"type": "pluck", "time": 0.05, "string": s, "force": 8.0},
         ]}
-        t_lin, eng = best_time(lin, linear_opts, repeat)
-        t_full, _ = best_time(full, full_opts, repeat)
+        t_full, eng = best_time(full, RenderOptions(skip_decayed=False), repeat)
         v = eng.voices[0]
-        print(f"{s:>6d} | {v.oversample:>10d} | {v.coefs.n:>3d} | {t_lin / seconds * 1e3:6.1f} | "
-              f"{t_full / seconds * 1e3:10.1f} | {t_full / t_lin:13.2f}")
+        t_same, _ = best_time(lin, RenderOptions(oversample=v.oversample, **linear), repeat)
+        t_own, _ = best_time(lin, RenderOptions(**linear), repeat)
+        print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | {t_same / seconds * 1e3:14.1f} | "
+              f"{t_own / seconds * 1e3:13.1f} | {t_full / seconds * 1e3:10.1f} | "
+              f"{t_full / t_same:22.2f}")
 
 
 def scenes(quality: str, seconds: float, repeat: int) -> None:
@@ -67,7 +73,7 @@ def scenes(quality: str, seconds: float, repeat: int) -> None:
               for i in range(6)]
     paper = [{"type": "fret", "time": 0.0, "string": 6, "fret": 5},
              {"type": "pluck", "time": 0.05, "string": 6, "force": 5.0}]
-    print(f"\nscenes, quality '{quality}', {seconds:g} s of audio")
+    print(f"\nscenes, quality '{quality}', {seconds:g} s of audio (with the preset's acoustic body)")
     print("scene                          | ms per s of audio | x real time")
     for name, evs, opts in [
         ("six-string strum (open)", strum, RenderOptions(skip_decayed=False)),

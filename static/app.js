@@ -169,6 +169,17 @@ function errorSpan(...fields) {
   return s;
 }
 
+// A "×" button that removes a row.
+function removeButton(title, onClick) {
+  const rm = document.createElement("button");
+  rm.type = "button";
+  rm.className = "remove";
+  rm.title = title;
+  rm.textContent = "×";
+  rm.addEventListener("click", onClick);
+  return rm;
+}
+
 function cell(...children) {
   const td = document.createElement("td");
   td.append(...children);
@@ -206,13 +217,7 @@ function renderTable() {
       params.appendChild(label);
     }
     tr.appendChild(cell(params));
-    const rm = document.createElement("button");
-    rm.type = "button";
-    rm.className = "remove";
-    rm.title = "remove";
-    rm.textContent = "×";
-    rm.addEventListener("click", () => { events.splice(i, 1); renderTable(); });
-    tr.appendChild(cell(rm));
+    tr.appendChild(cell(removeButton("remove", () => { events.splice(i, 1); renderTable(); })));
     body.appendChild(tr);
   });
 }
@@ -317,13 +322,8 @@ function renderPickups() {
       label.append(text, input, errorSpan(`output.pickups[${k}].${name}`));
       row.appendChild(label);
     }
-    const rm = document.createElement("button");
-    rm.type = "button";
-    rm.className = "remove";
-    rm.title = "remove pickup";
-    rm.textContent = "×";
-    rm.addEventListener("click", () => { pickups.splice(k, 1); renderPickups(); });
-    row.append(rm, errorSpan(`output.pickups[${k}]`));
+    row.append(removeButton("remove pickup", () => { pickups.splice(k, 1); renderPickups(); }),
+               errorSpan(`output.pickups[${k}]`));
     box.appendChild(row);
   });
   $("#pickup-default").hidden = pickups.length > 0;

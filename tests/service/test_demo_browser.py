@@ -52,16 +52,22 @@ def page(server: UvicornServer) -> Iterator[Any]:
         browser.close()
 
 
-def test_render_an_example_plays_and_draws(page: Any, tmp_path: Path) -> None:
-    page.click("button[data-example='chord']")
+def _render_example(page: Any, example: str, duration: float) -> None:
+    """Load an example, render it: the audio element gets a playable source of the scene's length
+    and the spectrogram is drawn."""
+    page.click(f"button[data-example='{example}']")
     page.click("#render")
     page.wait_for_selector("#spectrogram[data-drawn='1']", timeout=60_000)
     page.wait_for_function("document.querySelector('#audio').readyState >= 1", timeout=30_000)
     audio = page.evaluate("""() => { const a = document.querySelector('#audio');
         return {src: a.src, duration: a.duration, error: a.error && a.error.code}; }""")
     assert audio["src"].startswith("blob:") and audio["error"] is None
-    assert audio["duration"] == pytest.approx(2.5, abs=0.01)
+    assert audio["duration"] == pytest.approx(duration, abs=0.01)
     assert page.evaluate(_LIT_PIXELS_JS, "#spectrogram") > 0.2
+
+
+def test_render_an_example_plays_and_draws(page: Any, tmp_path: Path) -> None:
+    _render_example(page, "chord", 2.5)
     assert page.evaluate(_LIT_PIXELS_JS, "#waveform") > 0.01
     assert "Rendered" in page.inner_text("#status")
     assert "real time" in page.inner_text("#stat-rtf")
@@ -81,15 +87,20 @@ def test_stereo_render(page: Any) -> None:
     assert page.errors == []
 
 
+def _expect_field_error(page: Any, field: str, text: str, err: str | None = None) -> None:
+    """After a render, the API's 422 for ``field`` is shown next to its input, and nowhere else."""
+    loc = page.locator(err or f".err[data-for='{field}']")
+    loc.wait_for(state="visible", timeout=30_000)
+    assert text in loc.inner_text()
+    assert "invalid" in page.get_attribute(f"input[data-field='{field}']", "class")
+    assert page.inner_text("#general-error") == ""
+
+
 def test_validation_error_is_shown_next_to_its_field(page: Any) -> None:
     page.click("button[data-example='tap']")
     page.fill("input[data-field='events[1].time']", "99")
     page.click("#render")
-    err = page.locator(".err[data-for='events[1].time']")
-    err.wait_for(state="visible", timeout=30_000)
-    assert "outside" in err.inner_text()
-    assert "invalid" in page.get_attribute("input[data-field='events[1].time']", "class")
-    assert page.inner_text("#general-error") == ""
+    _expect_field_error(page, "events[1].time", "outside")
     assert page.errors == []
 
 
@@ -155,16 +166,8 @@ def test_string_selector_follows_the_presets_string_count(page: Any) -> None:
                                               ("strum-event", "stereo")])
 def test_render_articulation_and_instrument_examples(page: Any, example: str,
                                                      channels: str) -> None:
-    duration = next(ex["scene"]["duration"] for ex in EXAMPLES if ex["id"] == example)
-    page.click(f"button[data-example='{example}']")
-    page.click("#render")
-    page.wait_for_selector("#spectrogram[data-drawn='1']", timeout=60_000)
-    page.wait_for_function("document.querySelector('#audio').readyState >= 1", timeout=30_000)
-    audio = page.evaluate("""() => { const a = document.querySelector('#audio');
-        return {src: a.src, duration: a.duration, error: a.error && a.error.code}; }""")
-    assert audio["src"].startswith("blob:") and audio["error"] is None
-    assert audio["duration"] == pytest.approx(duration, abs=0.01)
-    assert page.evaluate(_LIT_PIXELS_JS, "#spectrogram") > 0.2
+    _render_example(page, example,
+                    next(ex["scene"]["duration"] for ex in EXAMPLES if ex["id"] == example))
     assert channels in page.inner_text("#stat-audio")
     assert page.inner_text("#general-error") == ""
     assert page.errors == []
@@ -176,20 +179,13 @@ def test_errors_of_articulation_fields_are_shown_next_to_them(page: Any) -> None
     page.click("#add-pickup")
     page.fill("input[data-field='output.pickups[0].position']", "1.5")
     page.click("#render")
-    err = page.locator(".err[data-for='events[2].semitones']")
-    err.wait_for(state="visible", timeout=30_000)
-    assert "less than or equal to 3" in err.inner_text()
-    assert "invalid" in page.get_attribute("input[data-field='events[2].semitones']", "class")
+    _expect_field_error(page, "events[2].semitones", "less than or equal to 3")
     assert "less than 0.98" in page.inner_text(".err[data-for='output.pickups[0].position']")
-    assert page.inner_text("#general-error") == ""
 
-    # A strum's string the preset lacks: the engine names it `events[i].string`.
+    # A strum's string the preset lacks: the engine names it `events[i].strings[j]`.
     page.click("button[data-example='strum-event']")
     page.fill("input[data-field='events[4].strings']", "9 3")
     page.click("#render")
-    err = page.locator("#events tr[data-index='4'] .err[data-for~='events[4].strings']")
-    err.wait_for(state="visible", timeout=30_000)
-    assert "outside 1..6" in err.inner_text()
-    assert "invalid" in page.get_attribute("input[data-field='events[4].strings']", "class")
-    assert page.inner_text("#general-error") == ""
+    _expect_field_error(page, "events[4].strings", "outside 1..6",
+                        "#events tr[data-index='4'] .err[data-for~='events[4].strings']")
     assert page.errors == []

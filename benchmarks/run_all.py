@@ -16,7 +16,7 @@ import pathlib
 import sys
 import time
 
-from benchmarks import accuracy, intonation, pareto, skips, soak, speed
+from benchmarks import accuracy, articulations, intonation, pareto, skips, soak, speed
 
 OUT = pathlib.Path(__file__).parent / "out"
 
@@ -25,6 +25,7 @@ RUNS = [
     ("speed_draft", speed.main, ["--quality", "draft"]),
     ("skips", skips.main, []),
     ("accuracy", accuracy.main, []),
+    ("articulations", articulations.main, []),
     ("intonation_steel", intonation.main, ["--preset", "steel-acoustic"]),
     ("intonation_nylon", intonation.main, ["--preset", "nylon-classical"]),
     ("pareto", pareto.main, []),

@@ -594,17 +594,16 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
                 add = -1
                 wval = -1e-12
+                # every fret's predicted height, without data-dependent branches in the loop (a
+                # per-fret reach test here mispredicted often enough to cost more than the work)
+                kq = lam * xk if c.kc > 0.0 else 0.0
                 for q in range(nfret):
-                    if fret_active[q]:
-                        continue
                     p_ = fret_p[q]
-                    if U0[p_] >= near[p_ - 2] and U0[p_ + 1] >= near[p_ - 1]:
-                        continue  # out of reach this step (see string.fret_margin)
                     pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
                     if c.kc > 0.0:
-                        pv += lam * xk * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
+                        pv += kq * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
                     viol = pv - fret_m0[q]
-                    if viol < wval:
+                    if viol < wval and fret_active[q] == 0:
                         wval = viol
                         add = q
                 _unscatter(nc, cstart, cidx, du)

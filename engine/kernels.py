@@ -419,7 +419,9 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         # ---- the gradient correction (sec. 4.7) is decided on the joint solution ------------------
         # Contact columns enter the first solve with gamma = 1; ``_joint_gamma`` corrects those
         # whose predicted psi would pull (or stay out of contact) from that solution.  Alone, a
-        # column gets exactly the per-column rule; together, the prediction includes the others.
+        # column gets the per-column rule's gamma (up to rounding: a rattling string is sensitive
+        # enough that the two paths part after a few hundred samples); together, the prediction
+        # includes the others.
         coupled = c.gamma_rule == GAMMA_JOINT
         # ---- assemble the columns --------------------------------------------------------------
         nc = 0

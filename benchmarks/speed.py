@@ -5,6 +5,7 @@ Table 1, per string of the default preset at the chosen quality: the linear stri
 finger pressing at fret 5, an 8 N pluck), with the ratio between them.
 Table 2, whole scenes: a six-string strum (open strings), a fretted chord, and the paper's Table 1
 configuration for comparison (their C++: 40-180 ms per second of audio per string).
+Table 3, where a fretted string's time goes: each force switched on in turn, ns per time step.
 
     python -m benchmarks.speed [--quality standard] [--seconds 2] [--repeat 3]
 
@@ -63,6 +64,32 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
               f"{t_full / t_same:22.2f}")
 
 
+def components(seconds: float, repeat: int, string: int = 4) -> None:
+    """Where a fretted string's time goes: each force added in turn, at 1x (ns per time step)."""
+    print(f"\nwhere the time goes: string {string} at x1, finger at fret 5, 8 N pluck, body 'none' "
+          "(ns of compute per time step)")
+    base = {"duration": seconds, "output": {"body": "none"}}
+    pluck = {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}
+    open_ = {**base, "events": [pluck]}
+    fretted = {**base, "events": [{"type": "fret", "time": 0.0, "string": string, "fret": 5},
+                                  pluck]}
+    off = {"kirchhoff_carrier": False, "fretboard": False, "frets": False}
+    rows = [
+        ("open string, linear", open_, off),
+        ("open string, + Kirchhoff-Carrier", open_, {**off, "kirchhoff_carrier": True}),
+        ("open string, full model", open_, {}),
+        ("fretted: finger only", fretted, off),
+        ("fretted: finger + rigid frets", fretted, {**off, "frets": True}),
+        ("fretted: + fretboard", fretted, {"kirchhoff_carrier": False}),
+        ("fretted: full model (+ Kirchhoff-Carrier)", fretted, {}),
+    ]
+    print("configuration                             | ns per step")
+    for name, sc, opts in rows:
+        t, eng = best_time(sc, RenderOptions(oversample=1, skip_decayed=False, **opts), repeat)
+        steps = seconds * eng.scene.sample_rate
+        print(f"{name:41s} | {t / steps * 1e9:11.0f}")
+
+
 def scenes(quality: str, seconds: float, repeat: int) -> None:
     strum = [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0}
              for i in range(6)]
@@ -92,6 +119,7 @@ def main() -> None:
     args = ap.parse_args()
     per_string(args.quality, args.seconds, args.repeat)
     scenes(args.quality, args.seconds, args.repeat)
+    components(args.seconds, args.repeat)
 
 
 if __name__ == "__main__":

@@ -20,8 +20,8 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 import engine
+from benchmarks.accuracy import board_depth
 from benchmarks.stability import LIMITS, QUIET_S, PsiProbe, check, random_scene, violations
-from engine import kernels
 from engine.guitar import RenderOptions, prepare
 from engine.scene import MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N, MAX_TAP_VELOCITY_M_S, Scene
 
@@ -119,29 +119,13 @@ def test_finger_psi_returns_to_zero_after_the_finger_bounces_off():
 # ---- reproducers of defects (see the module docstring) ------------------------------------------
 
 
-def _board_depth(velocity: float, oversample: int, rule: int = kernels.GAMMA_JOINT):
-    """A tap at the top of the force range on string 1, stepped one internal step at a time:
-    the deepest any node goes below the fretboard, and the string's grid spacing."""
-    sc = Scene.model_validate(scene([tap(1, 12, force=MAX_FINGER_FORCE_N, velocity=velocity)],
-                                    duration=0.015))
-    eng = prepare(sc, RenderOptions(oversample=oversample))
-    v = eng.voices[0]
-    v.coefs = v.coefs._replace(gamma_rule=rule)
-    deepest = 0.0
-    for _ in range(round(0.015 * sc.sample_rate) * oversample):
-        v.run(1)
-        deepest = max(deepest, float(np.max(v.geom.board - v.state.u[2:v.coefs.n + 1])))
-    return deepest, v.coefs
-
-
 @pytest.mark.parametrize("oversample", [2, 4, 8])
 def test_fretboard_stops_a_string_tapped_hard(oversample):
     """The gamma rule of sec. 4.7 decided on the board's own prediction dropped the board's force
     while the finger drove the string into it (a 1 m/s tap sank it 131 um at x4).  With the joint
     rule the string sinks no deeper than 1.5x the static penetration of the whole finger force
     resting on one grid cell, (F / (K_B h))^(1/alpha)."""
-    deepest, c = _board_depth(1.0, oversample)
-    static = (MAX_FINGER_FORCE_N / (c.board_k * c.h)) ** (1.0 / c.board_alpha)
+    deepest, static = board_depth(1.0, oversample, force=MAX_FINGER_FORCE_N)
     assert deepest < 1.5 * static
 
 
@@ -150,8 +134,8 @@ def test_gamma_correction_never_lets_the_string_sink_deeper_than_no_correction(o
     """A 5 m/s slam: the contact is stiffer than the grid resolves (its frequency is above the
     internal rate), so even the uncorrected scheme (gamma = 1) lets the string sink hundreds of um;
     the correction must not make that worse (the per-column rule went 25-75 % deeper)."""
-    joint, _ = _board_depth(MAX_TAP_VELOCITY_M_S, oversample)
-    plain, _ = _board_depth(MAX_TAP_VELOCITY_M_S, oversample, kernels.GAMMA_NONE)
+    joint, _ = board_depth(MAX_TAP_VELOCITY_M_S, oversample, force=MAX_FINGER_FORCE_N)
+    plain, _ = board_depth(MAX_TAP_VELOCITY_M_S, oversample, "none", force=MAX_FINGER_FORCE_N)
     assert joint <= 1.02 * plain
 
 

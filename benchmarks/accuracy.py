@@ -20,12 +20,11 @@ import argparse
 import numpy as np
 
 import engine
+from benchmarks.scenes import SR, scene, tap
 from engine.analysis import cents, partials, spectrum_peak
 from engine.guitar import RenderOptions, prepare
 from engine.presets import PRESETS
 from engine.scene import Scene
-
-SR = 44100
 
 ENERGY_SCENES = {
     "fret + 8 N pluck + tap (every nonlinearity)": [
@@ -96,9 +95,7 @@ def board_depth(velocity: float, oversample: int, rule: str = "joint",
                 force: float = 10.0) -> tuple[float, float]:
     """A tap at fret 12 of string 1, stepped one internal step at a time: the deepest any node goes
     below the fretboard (m) and the static depth of the whole force on one grid cell (m)."""
-    sc = Scene.model_validate({"duration": 0.015, "sample_rate": SR, "output": {"body": "none"},
-                               "events": [{"type": "tap", "time": 0.0, "string": 1, "fret": 12,
-                                           "force": force, "velocity": velocity}]})
+    sc = Scene.model_validate(scene([tap(1, 12, force=force, velocity=velocity)], 0.015))
     eng = prepare(sc, RenderOptions(oversample=oversample, gamma_rule=rule))
     v = eng.voices[0]
     c = v.coefs

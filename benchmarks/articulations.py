@@ -12,24 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 import engine
+from benchmarks.scenes import SR, fret, pluck, scene
 from engine.analysis import band_level_db, cents, level_db, pitch_track, spectrum_peak
 
-SR = 44100
 STEEL = engine.get_preset("steel-acoustic")
-
-
-def scene(events: list, duration: float) -> dict:
-    return {"duration": duration, "sample_rate": SR, "events": events,
-            "output": {"body": "none"}}
-
-
-def pluck(string: int, time: float = 0.0, force: float = 1.0, position: float = 0.8) -> dict:
-    return {"type": "pluck", "time": time, "string": string, "force": force,
-            "position": position}
-
-
-def fret(string: int, q: int, time: float = 0.0, force: float = 3.0) -> dict:
-    return {"type": "fret", "time": time, "string": string, "fret": q, "force": force}
 
 
 def render(events: list, duration: float) -> tuple[np.ndarray, float]:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import guitar
 from .guitar import FIXED_GAIN, QUALITY, RenderOptions, prepare
 from .output import convolve_ir
 from .presets import PRESETS, Preset, get_preset
@@ -94,9 +95,7 @@ def blocks(scene: Scene | dict, block_frames: int = 4096, options: RenderOptions
 def frame_count(scene: Scene | dict) -> int:
     """The number of output frames ``render`` (and ``blocks``, concatenated) returns for a scene,
     known before anything is simulated (a stream's WAV header needs it)."""
-    sc = parse_scene(scene)
-    # ``prepare`` decides the length; without events it tunes no string, so this costs no physics.
-    return prepare(sc.model_copy(update={"events": []})).frames
+    return guitar.frame_count(parse_scene(scene))  # the rule ``prepare`` uses
 
 
 def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:

@@ -93,15 +93,16 @@ GAMMA_RULES = {"joint": kernels.GAMMA_JOINT, "own": kernels.GAMMA_OWN,
 
 
 def oversample_for(spec, length: float, rate: float, q: Quality, max_ratio: float = 1.0,
-                   compensate: bool = True) -> int:
+                   compensate: bool = True) -> tuple[int, StringModel]:
     """Smallest factor (at most q.max_oversample) whose stable grid has h <= q.max_h_m (contacts
     resolved finely enough for fretted pitch) and whose partials 1-10 lie within
-    q.max_dispersion_cents of the stiff-string frequencies (the scheme's dispersion error)."""
+    q.max_dispersion_cents of the stiff-string frequencies (the scheme's dispersion error), with
+    the string tuned at that factor."""
     for os_ in range(1, q.max_oversample + 1):
         m = tune(spec, length, rate * os_, q.grid_scale, compensate, max_ratio)
         if m.h <= q.max_h_m and dispersion_cents(m) <= q.max_dispersion_cents:
-            return os_
-    return q.max_oversample
+            return os_, m
+    return q.max_oversample, m
 
 
 class Decimator:
@@ -284,6 +285,11 @@ class Engine:
         return max((v.energy_error() for v in self.voices), default=0.0)
 
 
+def frame_count(scene: Scene) -> int:
+    """Output frames a scene renders: its duration at its rate, rounded."""
+    return int(round(scene.duration * scene.sample_rate))
+
+
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     """Tune and grid every string, compile the controls, allocate state."""
     opts = options or RenderOptions()
@@ -313,8 +319,11 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         # finger touches in this scene needs only the dispersion criterion.
         fingered = any(e.type in FINGER_EVENTS for e in events)
         q_string = q if fingered else replace(q, max_h_m=math.inf)
-        os_ = opts.oversample or oversample_for(spec, L, rate, q_string, rmax, comp)
-        model = tune(spec, L, rate * os_, q.grid_scale, comp, rmax)
+        if opts.oversample:
+            os_ = opts.oversample
+            model = tune(spec, L, rate * os_, q.grid_scale, comp, rmax)
+        else:
+            os_, model = oversample_for(spec, L, rate, q_string, rmax, comp)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
         coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule])
@@ -326,7 +335,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
-    frames = int(round(scene.duration * rate))
+    frames = frame_count(scene)
     pan = out.pan or default_pan(nstr)
     body_name = out.body or preset.body
     body = Body(body_name, rate, out.channels) if body_name != "none" else None
@@ -334,5 +343,5 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
                   {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
 
 
-__all__ = ["Engine", "FIXED_GAIN", "QUALITY", "Quality", "RenderOptions", "prepare",
+__all__ = ["Engine", "FIXED_GAIN", "frame_count", "QUALITY", "Quality", "RenderOptions", "prepare",
            "FRET_PENALTY", "FRET_RIGID"]

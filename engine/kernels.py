@@ -357,6 +357,12 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     b0 = c.b0
     b1 = c.b1
     ratio = 1.0
+    # The gradient correction (sec. 4.7) is decided on the joint solution: contact columns enter
+    # the first solve with gamma = 1 and ``_joint_gamma`` corrects those whose predicted psi would
+    # pull (or stay out of contact).  Alone, a column gets the per-column rule's gamma (up to
+    # rounding: a rattling string is sensitive enough that the two paths part after a few hundred
+    # samples); together, the prediction includes the others.
+    joint = c.gamma_rule == GAMMA_JOINT
     for it in range(nsteps):
         step = step0 + it
         U0[0] = -U0[2]
@@ -416,16 +422,10 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             else:
                 fext[s] = -fs_force[s]  # pressing towards the board
             wfree[s] = 2.0 * f_w[s] - f_w1[s] + lam_f * fext[s]
-        # ---- the gradient correction (sec. 4.7) is decided on the joint solution ------------------
-        # Contact columns enter the first solve with gamma = 1; ``_joint_gamma`` corrects those
-        # whose predicted psi would pull (or stay out of contact) from that solution.  Alone, a
-        # column gets the per-column rule's gamma (up to rounding: a rattling string is sensitive
-        # enough that the two paths part after a few hundred samples); together, the prediction
-        # includes the others.
-        coupled = c.gamma_rule == GAMMA_JOINT
         # ---- assemble the columns --------------------------------------------------------------
         nc = 0
         nent = 0
+        nsav = 0  # SAV and finger columns: the ones ``_joint_gamma`` looks at
         cstart[0] = 0
         if c.kc > 0.0:
             kind[nc] = KC
@@ -439,24 +439,26 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         # c) fretboard, eq. (24a), (55a)
         if c.board_k > 0.0 and (below > 0 or psi[0] != 0.0):
             nent, used, cgam[nc], cs[nc] = _sav_board(c, U0, U1, UF, board, psi, gprev_b,
-                                                      has_gprev, below > 0, coupled, cidx, cval,
+                                                      has_gprev, below > 0, joint, cidx, cval,
                                                       nent, scr)
             if used:
                 kind[nc] = BOARD
                 cslot[nc] = -1
                 ccon[nc] = below > 0
                 nc += 1
+                nsav += 1
                 cstart[nc] = nent
         # d) frets as penalty, eq. (24b), (55b)
         if c.fret_mode == 2:
             nent, used, cgam[nc], cs[nc], fcon = _sav_frets(
                 c, U0, U1, UF, psi, gprev_f, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
-                coupled, cidx, cval, nent, scr)
+                joint, cidx, cval, nent, scr)
             if used:
                 kind[nc] = FRETPEN
                 cslot[nc] = -1
                 ccon[nc] = fcon
                 nc += 1
+                nsav += 1
                 cstart[nc] = nent
         # e) fingers, eqs. (25)-(27), (55c-d), with contact damping
         for s in range(nslot):
@@ -480,7 +482,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             vlv = lam * (fw0[s] * fw0[s] + fw1[s] * fw1[s]) + lam_f
             cbt[nc] = bt
             cs[nc] = bt * bt * vlv
-            if coupled and contact:
+            if joint and contact:
                 gm = 1.0
             else:
                 gm = _gamma(f_psi[s], bt * (etaf - eta1), bt * bt * vlv, contact, c.gamma_rule)
@@ -505,6 +507,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             nent += 2
             fcol[s] = nc
             nc += 1
+            nsav += 1
             cstart[nc] = nent
         # dampers: a light touch or a palm, f = -R d/dt (v^T u) (bilateral, lossy), counted in Q
         for d in range(ndamp):
@@ -596,8 +599,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
                 add = -1
                 wval = -1e-12
-                # every fret's predicted height, without data-dependent branches in the loop (a
-                # per-fret reach test here mispredicted often enough to cost more than the work)
+                # every fret's predicted height (no per-fret reach test here: which fret is added
+                # must not depend on the skip's margin)
                 kq = lam * xk if c.kc > 0.0 else 0.0
                 for q in range(nfret):
                     p_ = fret_p[q]
@@ -615,9 +618,9 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 nent = _add_rigid(add, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p,
                                   fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                 nc += 1
-            # gamma of the coupled contact columns from the joint solution, sec. 4.7 (one
-            # correction at most: a second solve, never an iteration)
-            if gpass == 1 or not coupled or status != OK:
+            # gamma of the contact columns from the joint solution, sec. 4.7 (one correction at
+            # most: a second solve, never an iteration)
+            if gpass == 1 or not joint or nsav == 0 or status != OK:
                 break
             if not _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam,
                                 cs, cbt, ccon, psi, f_psi, fbeta, fchi, c.fg_r / (2.0 * k), nc):
@@ -762,7 +765,7 @@ def _finger_x(x0, x1, ms, me, step):
 
 
 @njit(**JIT)
-def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, coupled, cidx, cval, nent,
+def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx, cval, nent,
                scr):
     """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used, gamma,
     s~) (see ``_apply_gamma``)."""
@@ -794,12 +797,12 @@ def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, coupled, ci
                 cidx[nent] = j + 2
                 cval[nent] = gprev[j + 2]
                 nent += 1
-    return _apply_gamma(c, UF, U1, psi, 0, contact, coupled, cidx, cval, start, nent)
+    return _apply_gamma(c, UF, U1, psi, 0, contact, joint, cidx, cval, start, nent)
 
 
 @njit(**JIT)
 def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
-               coupled, cidx, cval, nent, scr):
+               joint, cidx, cval, nent, scr):
     """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used,
     gamma, s~, contact)."""
     start = nent
@@ -845,17 +848,17 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
                     nent += 1
         for e in range(start, nent):
             scr[cidx[e]] = 0.0
-    nent, used, gm, s = _apply_gamma(c, UF, U1, psi, 1, contact, coupled, cidx, cval, start, nent)
+    nent, used, gm, s = _apply_gamma(c, UF, U1, psi, 1, contact, joint, cidx, cval, start, nent)
     return nent, used, gm, s, contact
 
 
 @njit(**JIT)
-def _apply_gamma(c, UF, U1, psi, which, contact, coupled, cidx, cval, start, nent):
+def _apply_gamma(c, UF, U1, psi, which, contact, joint, cidx, cval, start, nent):
     """Scale the SAV column g~ in cval[start:nent] by its gamma; returns (nent, used, gamma, s~).
 
-    With the joint rule (``coupled``) a contact column enters with gamma = 1 and ``_joint_gamma``
-    corrects it after the solve if needed; otherwise gamma follows ``_gamma`` on the column's own
-    prediction.
+    With the engine's joint rule (``joint``) a contact column enters with gamma = 1 and
+    ``_joint_gamma`` corrects it after the solve if needed; otherwise gamma follows ``_gamma`` on
+    the column's own prediction.
     """
     xi = 0.0
     s = 0.0
@@ -863,7 +866,7 @@ def _apply_gamma(c, UF, U1, psi, which, contact, coupled, cidx, cval, start, nen
         xi += cval[e] * (UF[cidx[e]] - U1[cidx[e]])
         s += cval[e] * cval[e]
     s *= c.lam
-    if coupled and contact:
+    if joint and contact:
         gm = 1.0
     else:
         gm = _gamma(psi[which], xi, s, contact, c.gamma_rule)
@@ -883,7 +886,7 @@ def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam
     ``_gamma`` predicts a column's psi from the free motion and its own force alone.  When a finger
     presses the string onto the fretboard, or two fingers share nodes, that prediction leaves out
     the other forces and can be badly wrong (the board's column dropped while the finger drives the
-    string through it).  Coupled contact columns therefore enter the first solve with gamma = 1;
+    string through it).  With the joint rule, contact columns enter the first solve with gamma = 1;
     here each one's predicted mean psi is read off that joint solution, and where it would pull
     (mean < 0 in contact) or leave a residual (out of contact), gamma is recomputed by the same
     rule with the prediction that includes every other column's force from the first solve.  The

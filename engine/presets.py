@@ -29,6 +29,7 @@ Sources and reasoning
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -81,6 +82,11 @@ class StringSpec:
     @property
     def linear_density_kg_m(self) -> float:
         return self.density_kg_m3 * self.area_m2
+
+    @property
+    def bending_stiffness_nm2(self) -> float:
+        """E I of a solid round section, I = pi r^4 / 4."""
+        return self.youngs_modulus_pa * math.pi * self.radius_m**4 / 4.0
 
 
 @dataclass(frozen=True)

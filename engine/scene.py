@@ -409,12 +409,11 @@ class Scene(_Model):
             limit = low * pitch_tension_n(spec, length)
             if stiff < limit:
                 continue
-            where = next((f"guitar.strings[{j}]" for j, o in enumerate(g.strings)
-                          if o.string == i), None)
-            if where is None:
-                where = f"guitar.tuning[{i - 1}]" if g.tuning is not None else f"string {i}"
+            # the field that made it so: the string's override, else a lowered tuning
+            where = next((f"guitar.strings[{j}].youngs_modulus_pa" for j, o in enumerate(g.strings)
+                          if o.string == i), f"guitar.tuning[{i - 1}]")
             raise ValueError(
-                f"{where}.youngs_modulus_pa: string {i} ({spec.note}) is too stiff for its pitch: "
+                f"{where}: string {i} ({spec.note}) is too stiff for its pitch: "
                 f"its bending stiffness pi^2 E I / L^2 = {stiff:.3g} N must be below "
                 f"4 L^2 rho A f0^2 x 2^(-1/6) = {limit:.3g} N (a positive tension down to a "
                 f"{MAX_VIBRATO_CENTS:g}-cent vibrato); with this radius_m, density_kg_m3 and note "

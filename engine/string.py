@@ -33,7 +33,7 @@ def loss_coefficients(spec: StringSpec, tension: float) -> tuple[float, float]:
     """sigma_0, sigma_1 matching T60 at the fundamental and at 2 kHz (two-frequency calibration)."""
     rho_a = spec.linear_density_kg_m
     gamma2 = tension / rho_a
-    kappa2 = spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0 / rho_a
+    kappa2 = spec.bending_stiffness_nm2 / rho_a
 
     def xi(f: float) -> float:  # beta^2 of the mode at frequency f (continuous dispersion)
         w = 2.0 * math.pi * f
@@ -92,7 +92,7 @@ class StringModel:
 
     @property
     def ei_physical(self) -> float:
-        return self.spec.youngs_modulus_pa * math.pi * self.spec.radius_m**4 / 4.0
+        return self.spec.bending_stiffness_nm2
 
     @property
     def ei(self) -> float:
@@ -148,7 +148,7 @@ PARTIAL_LIMIT = 0.4  # x the sample rate: the highest frequency the compensation
 def stiffness_tension_n(spec: StringSpec, length: float) -> float:
     """pi^2 E I / L^2: the part of the stiff string's f_1^2 (4 L^2 rho A) that stiffness supplies;
     the tension is 4 L^2 rho A f0^2 minus this, so a string is playable only below that."""
-    return math.pi**2 * spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0 / length**2
+    return math.pi**2 * spec.bending_stiffness_nm2 / length**2
 
 
 def pitch_tension_n(spec: StringSpec, length: float) -> float:
@@ -213,7 +213,7 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
 def _tune(spec, length, sample_rate, grid_scale, compensate, max_tension_ratio) -> StringModel:
     k = 1.0 / sample_rate
     rho_a = spec.linear_density_kg_m
-    ei_phys = spec.youngs_modulus_pa * math.pi * spec.radius_m**4 / 4.0
+    ei_phys = spec.bending_stiffness_nm2
     f0 = spec.frequency_hz
     tension = rho_a * (2.0 * length * f0) ** 2
     sigma0, sigma1 = loss_coefficients(spec, tension)

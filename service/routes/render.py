@@ -32,11 +32,6 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
 }
 
 
-def channels_of(scene: engine.Scene) -> int:
-    """1 (mono) or 2 (stereo: ``output.channels``, where the engine's schema has it)."""
-    return int(getattr(scene.output, "channels", 1))
-
-
 def _seconds(x: float) -> str:
     return f"{x:.6f}"
 
@@ -70,7 +65,7 @@ async def render(
             "sample_rate": scene.sample_rate,
             "format": scene.output.format,
             "subtype": scene.output.subtype,
-            "channels": channels_of(scene),
+            "channels": scene.output.channels,
         },
         settings.time_limit_s(scene.duration),
     )
@@ -126,7 +121,7 @@ async def render_stream(
     settings, pool = request.state.settings, request.state.pool
     check_limits(scene, settings)
     check_streamable(scene)
-    rate, subtype, channels = scene.sample_rate, scene.output.subtype, channels_of(scene)
+    rate, subtype, channels = scene.sample_rate, scene.output.subtype, scene.output.channels
     frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
     scene_json = scene.model_dump(mode="json")

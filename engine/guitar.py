@@ -9,9 +9,15 @@ fretting depth).
 
 Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in ``benchmarks/``):
 * a string with no events is never simulated (its output is exactly zero);
-* contact work is done only where contact is possible: the fretboard column is formed only when the
-  fused linear pass finds a node below the board (or a residual psi remains), a finger only while it
-  exists, rigid frets only while active or violated;
+* contact work is done only where contact is possible: the linear pass returns S, the sum of
+  squared differences of u^n, which bounds every node's height (``string.contact_bound``); only when
+  S cannot rule contact out are the nodes compared with the fretboard and the fret tips.  The
+  fretboard column is formed only when a node is below the board (or a residual psi remains), a
+  finger only while it exists, rigid frets only while active or within reach;
+* quiet steps (nothing but the string's own forces act, no contact possible) take a short path
+  through the kernel that computes the same samples (``kernels._quiet_run``);
+* in quiet steps the Kirchhoff-Carrier column is left out while its tension rise is below the
+  quality's ``kc_tolerance`` x T0 (``standard``: 1e-4, under 0.09 cents of pitch; ``high``: never);
 * a string whose motion has decayed below ``decay_velocity`` (m/s at every node and at the pickup)
   after its last event stops being computed; its remaining output is below that level.
 """
@@ -38,6 +44,7 @@ from .string import (
     dispersion_cents,
     fret_margin,
     geometry,
+    kc_skip_level,
     tension_ratio_for_cents,
     tune,
 )
@@ -59,11 +66,14 @@ class Quality:
     max_oversample: int = 8
     fret_mode: int = FRET_RIGID
     grid_scale: float = 1.0
+    # quiet steps leave Kirchhoff-Carrier out while its tension rise is below this share of T0:
+    # the pitch it would add is then below about 866 x this many cents (``string.kc_skip_level``)
+    kc_tolerance: float = 0.0
 
 
 QUALITY = {
-    "draft": Quality(max_h_m=1.0),
-    "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8),
+    "draft": Quality(max_h_m=1.0, kc_tolerance=1e-3),
+    "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8, kc_tolerance=1e-4),
     "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16),
 }
 
@@ -81,6 +91,9 @@ class RenderOptions:
     skip_decayed: bool = True
     skip_contacts: bool = True  # look at rigid frets only when one is within reach
     decay_velocity: float = 1e-7  # m/s; -140 dB below the fixed-gain full scale
+    # quiet steps leave Kirchhoff-Carrier out while its tension rise is below this share of T0
+    # (``string.kc_skip_level``); 0 keeps it in every step; None: the quality's
+    kc_tolerance: float | None = None
     block_frames: int = 2048
     # knobs of the accuracy study (benchmarks/pareto.py): the gradient correction of sec. 4.7
     # (``GAMMA_RULES``) and the tuning of tension and stiffness against the grid's dispersion
@@ -175,6 +188,7 @@ class Voice:
             fret_active=np.zeros(len(self.geom.fret_p), np.int64),
             f_state=np.zeros(nslot, np.int64), f_w=np.zeros(nslot), f_w1=np.zeros(nslot),
             f_psi=np.zeros(nslot), f_bprev=np.zeros(nslot), tens=np.zeros(2),
+            s_last=np.full(1, np.inf),
         )
         self.h_start = 0.0  # H^(-1/2): the string starts at rest
 
@@ -297,6 +311,9 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     if opts.gamma_rule not in GAMMA_RULES:
         raise ValueError(f"gamma_rule must be one of {sorted(GAMMA_RULES)}")
     comp = opts.compensate_dispersion
+    kc_tol = q.kc_tolerance if opts.kc_tolerance is None else opts.kc_tolerance
+    if not kc_tol >= 0.0:
+        raise ValueError("kc_tolerance must be >= 0")
     preset = scene.preset()
     rate = float(scene.sample_rate)
     out = scene.output
@@ -326,13 +343,15 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
             os_, model = oversample_for(spec, L, rate, q_string, rmax, comp)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
-        coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule])
+        coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
+                               kc_s_skip=kc_skip_level(model, kc_tol))
         impedance = math.sqrt(model.tension_n * model.rho_a)
         ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
                               partial(tension_ratio_for_cents, model))
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
-        geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin)
+        geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
+                        fretboard=opts.fretboard)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
     frames = frame_count(scene)

@@ -86,6 +86,10 @@ class Coefs(NamedTuple):
     lam2: float  # T0 k^2 / (rho A h^2): the tension's share of B, for bends
     den: float  # 1 + sigma0 k
     gamma_rule: int = GAMMA_JOINT  # sec. 4.7 variant, see ``_gamma`` (a knob of the accuracy study)
+    # quiet steps leave the Kirchhoff-Carrier column out while S (``_linear_pass_kc``) of the step
+    # before is below this: its tension rise E A S / (2 L h) is then below a stated share of T0
+    # (``string.kc_skip_level``); 0 keeps it in every step
+    kc_s_skip: float = 0.0
 
 
 class Geo(NamedTuple):
@@ -100,6 +104,9 @@ class Geo(NamedTuple):
     out_p: np.ndarray  # per pickup: interpolant
     out_w0: np.ndarray
     out_w1: np.ndarray
+    # S = sum of (u_(i+1) - u_i)^2 below which no node can reach the fretboard or come within
+    # reach of a fret tip (``_counts``; ``string.contact_bound``); 0: the counts run every step
+    s_crit: float = 0.0
 
 
 class Controls(NamedTuple):
@@ -148,6 +155,7 @@ class State(NamedTuple):
     f_psi: np.ndarray
     f_bprev: np.ndarray
     tens: np.ndarray  # [T^(n-1), W^(n-1/2)] for the work done by a changing tension
+    s_last: np.ndarray  # [S of u^(n-1)] (``_linear_pass_kc``): decides quiet steps and the KC skip
 
 
 @njit(**JIT)
@@ -174,14 +182,14 @@ def interp(x: float, h: float, n: int):
 
 
 @njit(**JIT)
-def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near):
-    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), nodes below the board."""
+def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q):
+    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), and S = sum of (u_(i+1) - u_i)^2 over
+    the N intervals of u^n (the contact bound, see ``_counts``)."""
     n = c.n
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
-    below = 0
-    close = 0
+    s2 = 0.0
     for j in range(n - 1):
         a = U0[j]
         b = U0[j + 1]
@@ -196,29 +204,106 @@ def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near):
         qq += qv * qv
         quf += qv * uf
         qu1 += qv * u1
-        below += m < board[j]  # an integer count vectorises; a float min() does not
-        close += m < near[j]
-    return qq, quf, qu1, below, close
+        dm = m - b
+        s2 += dm * dm
+    last = U0[n]  # the interval from node N-1 to the fixed end
+    return qq, quf, qu1, s2 + last * last
 
 
 @njit(**JIT)
-def _linear_pass(c, b0, b1, U0, U1, UF, board, near):
-    """a) without Kirchhoff-Carrier: u_free and the count of nodes below the board."""
+def _linear_pass(c, b0, b1, U0, U1, UF):
+    """a) without Kirchhoff-Carrier: u_free and S (see ``_linear_pass_kc``)."""
     n = c.n
-    below = 0
-    close = 0
+    s2 = 0.0
     for j in range(n - 1):
+        b = U0[j + 1]
         m = U0[j + 2]
         UF[j + 2] = (
             b0 * m
-            + b1 * (U0[j + 1] + U0[j + 3])
+            + b1 * (b + U0[j + 3])
             + c.b2 * (U0[j] + U0[j + 4])
             + c.c0 * U1[j + 2]
             + c.c1 * (U1[j + 1] + U1[j + 3])
         )
+        dm = m - b
+        s2 += dm * dm
+    last = U0[n]
+    return s2 + last * last
+
+
+@njit(**JIT)
+def _counts(n, U0, board, near):
+    """Nodes of u^n below the fretboard, and nodes within reach of a fret tip (``Geo.near``).
+
+    Run only when the contact bound cannot rule contact out: a string fixed at both ends has
+    u_i^2 <= (i (N - i) / N) S at node i, S = sum of (u_(m+1) - u_m)^2 (Cauchy-Schwarz on the
+    differences from either end), so S < ``Geo.s_crit`` proves both counts zero.  An integer count
+    vectorises; a float min() does not.
+    """
+    below = 0
+    close = 0
+    for j in range(n - 1):
+        m = U0[j + 2]
         below += m < board[j]
         close += m < near[j]
     return below, close
+
+
+@njit(**JIT)
+def _kc_multiplier(c, qq, quf, qu1):
+    """The Kirchhoff-Carrier column alone (the common free-vibration step): a 1x1 system."""
+    return -c.kc * (qu1 + quf) / (1.0 + c.kc * c.lam * qq)
+
+
+@njit(**JIT)
+def _add_kc(n, UF, Q, a_):
+    """z^(n+1) += Lambda x_KC q."""
+    for j in range(n - 1):
+        UF[j + 2] += a_ * Q[j]
+
+
+@njit(**JIT)
+def _pickups(geo, UF, U0, k, out, it):
+    """Output: the string velocity (u^(n+1) - u^n) / k at each pickup."""
+    for pk in range(geo.out_p.shape[0]):
+        po = geo.out_p[pk]
+        out[pk, it] = (
+            geo.out_w0[pk] * (UF[po] - U0[po]) + geo.out_w1[pk] * (UF[po + 1] - U0[po + 1])
+        ) / k
+
+
+@njit(**JIT)
+def _quiet_until(s, ctl, psi, f_state):
+    """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
+
+    A step is quiet when nothing acts on the string but its own forces: no pluck force, no finger
+    on the string or about to be put down, no damper, no residual psi of a contact.  With the
+    contact bound (``Geo.s_crit``) ruling out every collision, such a step is the linear update
+    plus the Kirchhoff-Carrier column, and ``step_block`` takes a short path through it.
+    """
+    if psi[0] != 0.0 or psi[1] != 0.0:
+        return s
+    end = 1 << 62
+    for e in range(ctl.pl_start.shape[0]):
+        a = ctl.pl_start[e]
+        if a <= s <= a + ctl.pl_len[e]:
+            return s
+        if a > s and a < end:
+            end = a
+    for q in range(f_state.shape[0]):
+        if f_state[q] == ACTIVE:
+            return s
+        if f_state[q] == IDLE:
+            if ctl.fs_on[q] <= s:
+                return s
+            if ctl.fs_on[q] < end:
+                end = ctl.fs_on[q]
+    for d in range(ctl.dp_on.shape[0]):
+        if ctl.dp_on[d] <= s < ctl.dp_off[d]:
+            return s
+        if ctl.dp_on[d] > s and ctl.dp_on[d] < end:
+            end = ctl.dp_on[d]
+    return end
 
 
 @njit(**JIT)
@@ -294,6 +379,57 @@ def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
 
 
 @njit(**JIT)
+def _quiet_run(c, geo, ctl, U0, U1, UF, Q, out, it, stop, step0, s_last):
+    """Quiet steps ``it``, ``it + 1``, ... before ``stop`` while the contact bound holds.
+
+    A tight loop of its own (in the body of ``step_block`` the same work cost about 50 ns more a
+    step).  Each step: the linear pass with S of u^n; if S rules contact out, the
+    Kirchhoff-Carrier column (left out while S of the step before is below ``Coefs.kc_s_skip``),
+    the pickups, the rotation.  If it does not, the step is handed back half done: returns
+    (U0, U1, UF, it, S, True, q.q, q.u_free, q.u^(n-1)) with u_free (and q) formed, and the general
+    path goes on from there.  Otherwise returns (..., it at the end, S of the last step, False,
+    0, 0, 0).
+    """
+    n = c.n
+    lam = c.lam
+    s_crit = geo.s_crit
+    tb_n = ctl.tb_step.shape[0]
+    b0 = c.b0
+    b1 = c.b1
+    while it < stop and s_last < s_crit:
+        step = step0 + it
+        U0[0] = -U0[2]
+        U0[n + 2] = -U0[n]
+        if tb_n > 0:  # as in step_block
+            ratio = _tension_ratio(ctl.tb_step, ctl.tb_ratio, step)
+            dl = (ratio - 1.0) * c.lam2
+            b0 = c.b0 - 2.0 * dl / c.den
+            b1 = c.b1 + dl / c.den
+        if c.kc > 0.0 and s_last >= c.kc_s_skip:
+            qq, quf, qu1, s2 = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q)
+            if s2 >= s_crit:
+                return U0, U1, UF, it, s2, True, qq, quf, qu1
+            xk = _kc_multiplier(c, qq, quf, qu1)
+            if xk != 0.0:
+                _add_kc(n, UF, Q, lam * xk)
+        else:
+            s2 = _linear_pass(c, b0, b1, U0, U1, UF)
+            if s2 >= s_crit:
+                if c.kc > 0.0:  # the general step needs the Kirchhoff-Carrier column
+                    qq, quf, qu1, s2 = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q)
+                    return U0, U1, UF, it, s2, True, qq, quf, qu1
+                return U0, U1, UF, it, s2, True, 0.0, 0.0, 0.0
+        s_last = s2
+        _pickups(geo, UF, U0, c.k, out, it)
+        T = U1
+        U1 = U0
+        U0 = UF
+        UF = T
+        it += 1
+    return U0, U1, UF, it, s_last, False, 0.0, 0.0, 0.0
+
+
+@njit(**JIT)
 def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     """Advance one string by ``nsteps`` steps from global step ``step0``.
 
@@ -363,8 +499,24 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     # rounding: a rattling string is sensitive enough that the two paths part after a few hundred
     # samples); together, the prediction includes the others.
     joint = c.gamma_rule == GAMMA_JOINT
-    for it in range(nsteps):
+    s_crit = geo.s_crit
+    # Quiet steps (``_quiet_until``: nothing but the string's own forces act, and the contact
+    # bound rules out every collision) run in ``_quiet_run``: the linear update, the
+    # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
+    # samples are identical (``skip_contacts=False`` sets s_crit = 0 and never takes it;
+    # test_skips.py compares).  With diagnostics every step takes the general path.
+    quiet_end = -1 if diag else _quiet_until(step0, ctl, psi, f_state)
+    s_last = st.s_last[0]  # S of the previous step's u^n
+    it = 0
+    while it < nsteps:
         step = step0 + it
+        handed = False
+        if step < quiet_end and s_last < s_crit:
+            U0, U1, UF, it, s_last, handed, qq, quf, qu1 = _quiet_run(
+                c, geo, ctl, U0, U1, UF, Q, out, it, min(nsteps, quiet_end - step0), step0, s_last)
+            if not handed:
+                continue
+            step = step0 + it  # its linear pass is done and found a contact possible
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
         if tb_n > 0:  # bends and vibrato: T^n = T0 * ratio(step) enters B of eq. (50a)
@@ -372,14 +524,20 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             dl = (ratio - 1.0) * c.lam2
             b0 = c.b0 - 2.0 * dl / c.den
             b1 = c.b1 + dl / c.den
-        # ---- a) linear update (+ KC vector, + board gap) -------------------------------------
-        if c.kc > 0.0:
-            qq, quf, qu1, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near)
-        else:
+        # ---- a) linear update (+ KC vector, + the contact bound S) -------------------------
+        if not handed:
             qq = 0.0
             quf = 0.0
             qu1 = 0.0
-            below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
+            if c.kc > 0.0:
+                qq, quf, qu1, s_last = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q)
+            else:
+                s_last = _linear_pass(c, b0, b1, U0, U1, UF)
+        if s_last >= s_crit:
+            below, close = _counts(n, U0, board, near)
+        else:
+            below = 0
+            close = 0
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         for e in range(npl):
@@ -558,8 +716,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         for gpass in range(2):
             for _attempt in range(2 * nfret + 4):
                 if nc == 1 and kind[0] == KC:
-                    # Kirchhoff-Carrier alone (the common free-vibration step): a 1x1 system
-                    x[0] = -c.kc * (qu1 + quf) / (1.0 + c.kc * lam * qq)
+                    x[0] = _kc_multiplier(c, qq, quf, qu1)
                 elif nc > 0:
                     _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
                     for i in range(nc):
@@ -634,9 +791,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             for e in range(cstart[ci], cstart[ci + 1]):
                 UF[cidx[e]] += lam * cval[e] * x[ci]
         if xk != 0.0:
-            a_ = lam * xk
-            for j in range(n - 1):
-                UF[j + 2] += a_ * Q[j]
+            _add_kc(n, UF, Q, lam * xk)
         # fingers' new positions and psi updates, eqs. (41), (48)
         qloss = 0.0
         for s in range(nslot):
@@ -675,11 +830,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 sn = fret_w0[cfret[ci]] * UF[p_] + fret_w1[cfret[ci]] * UF[p_ + 1]
                 qloss -= x[ci] * (sn - v1[ci]) * 0.5  # reaction's work, booked as loss
         # ---- output: velocity at the pickup ---------------------------------------------------
-        for pk in range(npk):
-            po = geo.out_p[pk]
-            out[pk, it] = (
-                geo.out_w0[pk] * (UF[po] - U0[po]) + geo.out_w1[pk] * (UF[po + 1] - U0[po + 1])
-            ) / k
+        _pickups(geo, UF, U0, k, out, it)
         if diag:
             for e in range(npl):
                 m = step - pl_start[e]
@@ -705,6 +856,10 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         U1 = U0
         U0 = UF
         UF = T
+        if not diag:
+            quiet_end = _quiet_until(step + 1, ctl, psi, f_state)
+        it += 1
+    st.s_last[0] = s_last
     # hand the state back in the caller's arrays (U0/U1 may have rotated)
     if nsteps % 3 != 0:
         _restore(U0, U1, UF, nsteps % 3)

@@ -5,6 +5,7 @@ import time
 import numpy as np
 import pytest
 
+from engine.analysis import cents, spectrum_peak
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 
@@ -27,11 +28,12 @@ def test_silent_strings_are_not_simulated_and_contribute_exactly_zero():
 
 
 def test_unreachable_frets_are_skipped_exactly():
-    """The rigid frets are looked at only when one is within reach: bit-identical output."""
+    """The rigid frets are looked at only when one is within reach, the counts run only when the
+    contact bound cannot rule contact out, and quiet steps take the short path: bit-identical."""
     sc = scene([pluck(6, force=20.0, duration=1e-4), pluck(1, force=20.0, duration=1e-4),
                 fret(3, 2), pluck(3, time=0.02, force=10.0)], duration=0.3)
-    a, _, _ = _render(sc)
-    b, _, _ = _render(sc, skip_contacts=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
+    b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
 
@@ -60,8 +62,8 @@ def test_unreachable_frets_are_skipped_exactly_when_the_string_moves_fast(case):
     """string.fret_margin bounds the speed of every node from the plucks and fingers of the
     scene; the skip must not change a sample."""
     sc = {**scene(FAST[case], duration=0.05), "quality": "draft"}
-    a, _, _ = _render(sc)
-    b, _, _ = _render(sc, skip_contacts=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
+    b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
 
@@ -75,8 +77,8 @@ def test_unreachable_frets_are_skipped_exactly_on_a_light_string_under_a_finger(
                                   "t60_fundamental_s": 0.237, "t60_2khz_s": 2.89}]},
           "events": [_ev("hammer_on", 0.005, 6, fret=13, velocity=0.0124),
                      _ev("tap", 0.016, 6, fret=15, velocity=0.0112)]}
-    a, _, _ = _render(sc)
-    b, _, _ = _render(sc, skip_contacts=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
+    b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
 
@@ -93,3 +95,57 @@ def test_decayed_strings_stop_with_a_bounded_difference():
     assert peak > 1e-2
     assert np.abs(a - b).max() < 1e-6
     assert t_skip < t_full
+
+
+def _quiet_share(sc, seconds_per_look=0.01):
+    """Share of looks (every ``seconds_per_look``) at which each string's u^n satisfies the contact
+    bound, i.e. at which its next step can be quiet."""
+    eng = prepare(Scene.model_validate(sc), RenderOptions(kc_tolerance=0.0))
+    frames = int(seconds_per_look * eng.scene.sample_rate)
+    seen = {v.index: [] for v in eng.voices}
+    for _ in eng.blocks(frames):
+        for v in eng.voices:
+            d = np.diff(v.state.u[1:v.coefs.n + 2])
+            seen[v.index].append(float(d @ d) < v.geom.s_crit)
+    return {i: float(np.mean(s)) for i, s in seen.items()}
+
+
+STRUM_2N = scene([pluck(6 - i, time=0.02 * i, force=2.0) for i in range(6)], duration=1.0)
+
+
+def test_quiet_steps_happen_in_an_open_strum():
+    """The exact-identity tests above mean something only if the short path is taken: in the first
+    second of a 2 N open strum, the contact bound holds at a third or more of the looks on every
+    string (0.44 on the thin strings to 0.74 on string 5 when this was written; the share grows as
+    the strings decay)."""
+    share = _quiet_share(STRUM_2N)
+    assert min(share.values()) > 1 / 3, share
+
+
+def test_quiet_steps_are_exact_in_a_strum_with_articulations():
+    sc = scene([pluck(6 - i, time=0.02 * i, force=2.0) for i in range(6)]
+               + [fret(2, 3, time=0.3), pluck(2, time=0.32, force=1.0),
+                  {"type": "bend", "time": 0.4, "string": 3, "semitones": 1.0, "duration": 0.05},
+                  {"type": "mute", "time": 0.6, "string": 5, "amount": 0.5},
+                  {"type": "harmonic", "time": 0.5, "string": 4, "fret": 12, "release": 0.55},
+                  pluck(4, time=0.5, force=1.0)], duration=0.8)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
+    b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
+    assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("string", range(1, 7))
+def test_kirchhoff_carrier_skip_moves_the_pitch_less_than_its_tolerance(string):
+    """Quiet steps leave Kirchhoff-Carrier out while its tension rise is below 1e-4 T (the
+    ``standard`` level): the pitch it then adds, about 866 x 1e-4 = 0.087 cents, is the bound.
+    Measured on a 2 N pluck: the fundamental over 0.5-2 s, with and without the skip."""
+    sc = scene([pluck(string, force=2.0)], duration=2.0)
+    a, eng, _ = _render(sc)
+    b, _, _ = _render(sc, kc_tolerance=0.0)
+    assert eng.voices[0].coefs.kc_s_skip > 0.0
+    sr = eng.scene.sample_rate
+    f0 = eng.voices[0].model.spec.frequency_hz
+    late = slice(int(0.5 * sr), None)
+    shift = cents(spectrum_peak(a[late], sr, f0), spectrum_peak(b[late], sr, f0))
+    assert abs(shift) < 866 * 1e-4
+    assert not np.array_equal(a, b)  # the skip did act

@@ -3,7 +3,12 @@
 For every way the engine avoids work, the same scene is rendered with the skip on and off:
 
 * silent strings: strings with no events are not simulated;
-* unreachable frets: rigid frets are evaluated only when one is within reach this step;
+* contacts: the nodes are compared with the fretboard and the fret tips only when the contact bound
+  (S, the string's sum of squared differences, against ``Geo.s_crit``) cannot rule contact out,
+  rigid frets are evaluated only when one is within reach this step, and quiet steps take the short
+  path of ``kernels._quiet_run`` (both sides with Kirchhoff-Carrier in every step: exact);
+* Kirchhoff-Carrier below tolerance: quiet steps leave the column out while its tension rise is
+  below ``kc_tolerance`` x T0 (``standard``: 1e-4); its own table gives the pitch this moves;
 * decayed strings: a string stops once every node (and finger) moves slower than 1e-7 m/s after
   its last event.
 
@@ -18,6 +23,7 @@ import time
 
 import numpy as np
 
+from engine.analysis import cents, spectrum_peak
 from engine.guitar import FIXED_GAIN, RenderOptions, prepare
 from engine.scene import Scene
 
@@ -54,18 +60,50 @@ MELODY_THEN_REST = {"duration": 15.0, "guitar": {"preset": "nylon-classical"}, "
     {"type": "fret", "time": 1.0, "string": 2, "fret": 0},
 ]}
 
+EXACT_KC = {"kc_tolerance": 0.0}  # Kirchhoff-Carrier in every step
+
 CASES = [
     ("silent strings", "one note on string 3, 4 s", SINGLE_NOTE,
      {"skip_silent": False, "skip_decayed": False}, {"skip_decayed": False}),
-    ("unreachable frets", "open strum 2 N, 2 s", STRUM, {"skip_contacts": False}, {}),
-    ("unreachable frets", "open strum 8 N, 2 s", HARD_STRUM, {"skip_contacts": False}, {}),
-    ("unreachable frets", "6 taps 10 N, 5 m/s, draft, 1 s", FAST_TAPS,
-     {"skip_contacts": False}, {}),
+    ("contacts", "open strum 2 N, 2 s", STRUM, {"skip_contacts": False, **EXACT_KC}, EXACT_KC),
+    ("contacts", "open strum 8 N, 2 s", HARD_STRUM, {"skip_contacts": False, **EXACT_KC},
+     EXACT_KC),
+    ("contacts", "6 taps 10 N, 5 m/s, draft, 1 s", FAST_TAPS,
+     {"skip_contacts": False, **EXACT_KC}, EXACT_KC),
+    ("KC below 1e-4 T", "open strum 2 N, 2 s", STRUM, EXACT_KC, {}),
+    ("KC below 1e-4 T", "open strum 8 N, 2 s", HARD_STRUM, EXACT_KC, {}),
     ("decayed strings", "6 short notes (T60 0.6 s), 10 s", SHORT_NOTES,
      {"skip_decayed": False}, {}),
     ("decayed strings", "nylon B string melody, rest, 15 s", MELODY_THEN_REST,
      {"skip_decayed": False}, {}),
 ]
+
+
+def kc_skip_pitch_shift(string: int, force: float = 2.0, seconds: float = 2.0,
+                        tolerance: float | None = None) -> tuple[float, bool]:
+    """Cents between the fundamental of one open-string pluck rendered with the Kirchhoff-Carrier
+    skip (``tolerance``; None: the quality's) and without it, measured over 0.5 s to the end, and
+    whether the two renders differ at all (``tests/engine/test_skips.py`` asserts on this)."""
+    sc = Scene.model_validate({"duration": seconds, "events": [
+        {"type": "pluck", "time": 0.0, "string": string, "force": force}]})
+    outs = []
+    for tol in (tolerance, 0.0):
+        eng = prepare(sc, RenderOptions(kc_tolerance=tol))
+        outs.append(np.concatenate(list(eng.blocks())))
+    sr = sc.sample_rate
+    f0 = eng.voices[0].model.spec.frequency_hz
+    late = slice(int(0.5 * sr), None)
+    shift = float(cents(spectrum_peak(outs[0][late], sr, f0), spectrum_peak(outs[1][late], sr, f0)))
+    return shift, not np.array_equal(outs[0], outs[1])
+
+
+def kc_table() -> None:
+    print("\nKirchhoff-Carrier skip, quality 'standard' (tolerance 1e-4 T: bound 0.087 cents): "
+          "pitch of the fundamental over 0.5-2 s, skip on minus skip off (cents)")
+    print("string | 2 N pluck | 8 N pluck")
+    for s_ in range(1, 7):
+        print(f"{s_:>6d} | {kc_skip_pitch_shift(s_, 2.0)[0]:+9.4f} | "
+              f"{kc_skip_pitch_shift(s_, 8.0)[0]:+9.4f}")
 
 
 def main() -> None:
@@ -79,6 +117,7 @@ def main() -> None:
         diff = float(np.max(np.abs(a - b)))
         print(f"{skip:17s} | {name:31s} | {t_off:7.2f}s | {t_on:6.2f}s | {t_off / t_on:7.1f}x |"
               f" {diff:17.2e} | {np.abs(b).max():.3f}")
+    kc_table()
 
 
 if __name__ == "__main__":

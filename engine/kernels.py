@@ -182,14 +182,18 @@ def interp(x: float, h: float, n: int):
 
 
 @njit(**JIT)
-def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q):
-    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), and S = sum of (u_(i+1) - u_i)^2 over
-    the N intervals of u^n (the contact bound, see ``_counts``)."""
+def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
+    """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over
+    the N intervals of u^n (the contact bound, see ``_counts``) and, with ``counts``, the counts
+    of ``_counts`` fused in (LLVM unswitches the loop on the flag); returns (q.q, q.u_free,
+    q.u^(n-1), S, below, close)."""
     n = c.n
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
     s2 = 0.0
+    below = 0
+    close = 0
     for j in range(n - 1):
         a = U0[j]
         b = U0[j + 1]
@@ -206,15 +210,21 @@ def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q):
         qu1 += qv * u1
         dm = m - b
         s2 += dm * dm
+        if counts:
+            below += m < board[j]
+            close += m < near[j]
     last = U0[n]  # the interval from node N-1 to the fixed end
-    return qq, quf, qu1, s2 + last * last
+    return qq, quf, qu1, s2 + last * last, below, close
 
 
 @njit(**JIT)
-def _linear_pass(c, b0, b1, U0, U1, UF):
-    """a) without Kirchhoff-Carrier: u_free and S (see ``_linear_pass_kc``)."""
+def _linear_pass(c, b0, b1, U0, U1, UF, counts, board, near):
+    """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_linear_pass_kc``); returns
+    (S, below, close)."""
     n = c.n
     s2 = 0.0
+    below = 0
+    close = 0
     for j in range(n - 1):
         b = U0[j + 1]
         m = U0[j + 2]
@@ -227,8 +237,11 @@ def _linear_pass(c, b0, b1, U0, U1, UF):
         )
         dm = m - b
         s2 += dm * dm
+        if counts:
+            below += m < board[j]
+            close += m < near[j]
     last = U0[n]
-    return s2 + last * last
+    return s2 + last * last, below, close
 
 
 @njit(**JIT)
@@ -263,17 +276,19 @@ def _add_kc(n, UF, Q, a_):
 
 
 @njit(**JIT)
-def _pickups(geo, UF, U0, k, out, it):
-    """Output: the string velocity (u^(n+1) - u^n) / k at each pickup."""
-    for pk in range(geo.out_p.shape[0]):
-        po = geo.out_p[pk]
+def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
+    """Output: the string velocity (u^(n+1) - u^n) / k at each pickup.  (Helpers called every step
+    take arrays, not the NamedTuples of arrays: a call copies every array of a tuple and counts
+    its references, which cost ~200 ns a step when ``_quiet_until`` took ``Controls``.)"""
+    for pk in range(out_p.shape[0]):
+        po = out_p[pk]
         out[pk, it] = (
-            geo.out_w0[pk] * (UF[po] - U0[po]) + geo.out_w1[pk] * (UF[po + 1] - U0[po + 1])
+            out_w0[pk] * (UF[po] - U0[po]) + out_w1[pk] * (UF[po + 1] - U0[po + 1])
         ) / k
 
 
 @njit(**JIT)
-def _quiet_until(s, ctl, psi, f_state):
+def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
     A step is quiet when nothing acts on the string but its own forces: no pluck force, no finger
@@ -284,9 +299,9 @@ def _quiet_until(s, ctl, psi, f_state):
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s
     end = 1 << 62
-    for e in range(ctl.pl_start.shape[0]):
-        a = ctl.pl_start[e]
-        if a <= s <= a + ctl.pl_len[e]:
+    for e in range(pl_start.shape[0]):
+        a = pl_start[e]
+        if a <= s <= a + pl_len[e]:
             return s
         if a > s and a < end:
             end = a
@@ -294,15 +309,15 @@ def _quiet_until(s, ctl, psi, f_state):
         if f_state[q] == ACTIVE:
             return s
         if f_state[q] == IDLE:
-            if ctl.fs_on[q] <= s:
+            if fs_on[q] <= s:
                 return s
-            if ctl.fs_on[q] < end:
-                end = ctl.fs_on[q]
-    for d in range(ctl.dp_on.shape[0]):
-        if ctl.dp_on[d] <= s < ctl.dp_off[d]:
+            if fs_on[q] < end:
+                end = fs_on[q]
+    for d in range(dp_on.shape[0]):
+        if dp_on[d] <= s < dp_off[d]:
             return s
-        if ctl.dp_on[d] > s and ctl.dp_on[d] < end:
-            end = ctl.dp_on[d]
+        if dp_on[d] > s and dp_on[d] < end:
+            end = dp_on[d]
     return end
 
 
@@ -379,7 +394,8 @@ def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
 
 
 @njit(**JIT)
-def _quiet_run(c, geo, ctl, U0, U1, UF, Q, out, it, stop, step0, s_last):
+def _quiet_run(c, s_crit, tb_step, tb_ratio, out_p, out_w0, out_w1, U0, U1, UF, Q, out, it, stop,
+               step0, s_last):
     """Quiet steps ``it``, ``it + 1``, ... before ``stop`` while the contact bound holds.
 
     A tight loop of its own (in the body of ``step_block`` the same work cost about 50 ns more a
@@ -392,8 +408,7 @@ def _quiet_run(c, geo, ctl, U0, U1, UF, Q, out, it, stop, step0, s_last):
     """
     n = c.n
     lam = c.lam
-    s_crit = geo.s_crit
-    tb_n = ctl.tb_step.shape[0]
+    tb_n = tb_step.shape[0]
     b0 = c.b0
     b1 = c.b1
     while it < stop and s_last < s_crit:
@@ -401,26 +416,27 @@ def _quiet_run(c, geo, ctl, U0, U1, UF, Q, out, it, stop, step0, s_last):
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
         if tb_n > 0:  # as in step_block
-            ratio = _tension_ratio(ctl.tb_step, ctl.tb_ratio, step)
+            ratio = _tension_ratio(tb_step, tb_ratio, step)
             dl = (ratio - 1.0) * c.lam2
             b0 = c.b0 - 2.0 * dl / c.den
             b1 = c.b1 + dl / c.den
         if c.kc > 0.0 and s_last >= c.kc_s_skip:
-            qq, quf, qu1, s2 = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q)
+            qq, quf, qu1, s2, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, Q, Q)
             if s2 >= s_crit:
                 return U0, U1, UF, it, s2, True, qq, quf, qu1
             xk = _kc_multiplier(c, qq, quf, qu1)
             if xk != 0.0:
                 _add_kc(n, UF, Q, lam * xk)
         else:
-            s2 = _linear_pass(c, b0, b1, U0, U1, UF)
+            s2, _, _ = _linear_pass(c, b0, b1, U0, U1, UF, False, Q, Q)
             if s2 >= s_crit:
                 if c.kc > 0.0:  # the general step needs the Kirchhoff-Carrier column
-                    qq, quf, qu1, s2 = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q)
+                    qq, quf, qu1, s2, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, Q,
+                                                             Q)
                     return U0, U1, UF, it, s2, True, qq, quf, qu1
                 return U0, U1, UF, it, s2, True, 0.0, 0.0, 0.0
         s_last = s2
-        _pickups(geo, UF, U0, c.k, out, it)
+        _pickups(out_p, out_w0, out_w1, UF, U0, c.k, out, it)
         T = U1
         U1 = U0
         U0 = UF
@@ -505,7 +521,11 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
     # samples are identical (``skip_contacts=False`` sets s_crit = 0 and never takes it;
     # test_skips.py compares).  With diagnostics every step takes the general path.
-    quiet_end = -1 if diag else _quiet_until(step0, ctl, psi, f_state)
+    dp_on, dp_off = ctl.dp_on, ctl.dp_off
+    out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
+    tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
+    quiet_end = -1 if diag else _quiet_until(step0, pl_start, pl_len, fs_on, dp_on, dp_off, psi,
+                                             f_state)
     s_last = st.s_last[0]  # S of the previous step's u^n
     it = 0
     while it < nsteps:
@@ -513,7 +533,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         handed = False
         if step < quiet_end and s_last < s_crit:
             U0, U1, UF, it, s_last, handed, qq, quf, qu1 = _quiet_run(
-                c, geo, ctl, U0, U1, UF, Q, out, it, min(nsteps, quiet_end - step0), step0, s_last)
+                c, s_crit, tb_step, tb_ratio, out_p, out_w0, out_w1, U0, U1, UF, Q, out, it,
+                min(nsteps, quiet_end - step0), step0, s_last)
             if not handed:
                 continue
             step = step0 + it  # its linear pass is done and found a contact possible
@@ -525,19 +546,21 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             b0 = c.b0 - 2.0 * dl / c.den
             b1 = c.b1 + dl / c.den
         # ---- a) linear update (+ KC vector, + the contact bound S) -------------------------
+        # the counts are fused into the pass when the step before already needed them
+        fuse = s_last >= s_crit and not handed
+        below = 0
+        close = 0
         if not handed:
             qq = 0.0
             quf = 0.0
             qu1 = 0.0
             if c.kc > 0.0:
-                qq, quf, qu1, s_last = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q)
+                qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q,
+                                                                     fuse, board, near)
             else:
-                s_last = _linear_pass(c, b0, b1, U0, U1, UF)
-        if s_last >= s_crit:
+                s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
+        if s_last >= s_crit and not fuse:
             below, close = _counts(n, U0, board, near)
-        else:
-            below = 0
-            close = 0
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         for e in range(npl):
@@ -830,7 +853,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 sn = fret_w0[cfret[ci]] * UF[p_] + fret_w1[cfret[ci]] * UF[p_ + 1]
                 qloss -= x[ci] * (sn - v1[ci]) * 0.5  # reaction's work, booked as loss
         # ---- output: velocity at the pickup ---------------------------------------------------
-        _pickups(geo, UF, U0, k, out, it)
+        _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it)
         if diag:
             for e in range(npl):
                 m = step - pl_start[e]
@@ -857,7 +880,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         U0 = UF
         UF = T
         if not diag:
-            quiet_end = _quiet_until(step + 1, ctl, psi, f_state)
+            quiet_end = _quiet_until(step + 1, pl_start, pl_len, fs_on, dp_on, dp_off, psi,
+                                     f_state)
         it += 1
     st.s_last[0] = s_last
     # hand the state back in the caller's arrays (U0/U1 may have rotated)

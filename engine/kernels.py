@@ -415,11 +415,8 @@ def _quiet_run(c, s_crit, tb_step, tb_ratio, out_p, out_w0, out_w1, U0, U1, UF, 
         step = step0 + it
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
-        if tb_n > 0:  # as in step_block
-            ratio = _tension_ratio(tb_step, tb_ratio, step)
-            dl = (ratio - 1.0) * c.lam2
-            b0 = c.b0 - 2.0 * dl / c.den
-            b1 = c.b1 + dl / c.den
+        if tb_n > 0:
+            _, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         if c.kc > 0.0 and s_last >= c.kc_s_skip:
             qq, quf, qu1, s2, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, Q, Q)
             if s2 >= s_crit:
@@ -540,11 +537,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             step = step0 + it  # its linear pass is done and found a contact possible
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
-        if tb_n > 0:  # bends and vibrato: T^n = T0 * ratio(step) enters B of eq. (50a)
-            ratio = _tension_ratio(ctl.tb_step, ctl.tb_ratio, step)
-            dl = (ratio - 1.0) * c.lam2
-            b0 = c.b0 - 2.0 * dl / c.den
-            b1 = c.b1 + dl / c.den
+        if tb_n > 0:
+            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         # ---- a) linear update (+ KC vector, + the contact bound S) -------------------------
         # the counts are fused into the pass when the step before already needed them
         fuse = s_last >= s_crit and not handed
@@ -892,6 +886,14 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             status = NONFINITE
             break
     return status
+
+
+@njit(**JIT)
+def _bent_stencil(c, tb_step, tb_ratio, step):
+    """Bends and vibrato: T^n = T0 * ratio(step) enters B of eq. (50a); returns (ratio, b0, b1)."""
+    ratio = _tension_ratio(tb_step, tb_ratio, step)
+    dl = (ratio - 1.0) * c.lam2
+    return ratio, c.b0 - 2.0 * dl / c.den, c.b1 + dl / c.den
 
 
 @njit(**JIT)

@@ -6,7 +6,7 @@ For every way the engine avoids work, the same scene is rendered with the skip o
 * contacts: the nodes are compared with the fretboard and the fret tips only when the contact bound
   (S, the string's sum of squared differences, against ``Geo.s_crit``) cannot rule contact out,
   rigid frets are evaluated only when one is within reach this step, and quiet steps take the short
-  path of ``kernels._quiet_run`` (both sides with Kirchhoff-Carrier in every step: exact);
+  path through ``kernels.step_block`` (both sides with Kirchhoff-Carrier in every step: exact);
 * Kirchhoff-Carrier below tolerance: quiet steps leave the column out while its tension rise is
   below ``kc_tolerance`` x T0 (``standard``: 1e-4); its own table gives the pitch this moves;
 * decayed strings: a string stops once every node (and finger) moves slower than 1e-7 m/s after

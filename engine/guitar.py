@@ -15,7 +15,7 @@ Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in 
   fretboard column is formed only when a node is below the board (or a residual psi remains), a
   finger only while it exists, rigid frets only while active or within reach;
 * quiet steps (nothing but the string's own forces act, no contact possible) take a short path
-  through the kernel that computes the same samples (``kernels._quiet_run``);
+  through the kernel that computes the same samples (``kernels.step_block``);
 * in quiet steps the Kirchhoff-Carrier column is left out while its tension rise is below the
   quality's ``kc_tolerance`` x T0 (``standard``: 1e-4, under 0.09 cents of pitch; ``high``: never);
 * a string whose motion has decayed below ``decay_velocity`` (m/s at every node and at the pickup)
@@ -89,10 +89,11 @@ class RenderOptions:
     frets: bool = True
     skip_silent: bool = True
     skip_decayed: bool = True
-    skip_contacts: bool = True  # look at rigid frets only when one is within reach
+    # the contact bound, quiet steps and the unreachable-fret skip (False: every node is compared
+    # with the board and the fret tips in every step, and every step takes the general path)
+    skip_contacts: bool = True
     decay_velocity: float = 1e-7  # m/s; -140 dB below the fixed-gain full scale
-    # quiet steps leave Kirchhoff-Carrier out while its tension rise is below this share of T0
-    # (``string.kc_skip_level``); 0 keeps it in every step; None: the quality's
+    # overrides ``Quality.kc_tolerance`` (0: Kirchhoff-Carrier in every step)
     kc_tolerance: float | None = None
     block_frames: int = 2048
     # knobs of the accuracy study (benchmarks/pareto.py): the gradient correction of sec. 4.7

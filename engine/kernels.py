@@ -279,7 +279,8 @@ def _add_kc(n, UF, Q, a_):
 def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
     """Output: the string velocity (u^(n+1) - u^n) / k at each pickup.  (Helpers called every step
     take arrays, not the NamedTuples of arrays: a call copies every array of a tuple and counts
-    its references, which cost ~200 ns a step when ``_quiet_until`` took ``Controls``.)"""
+    its references; when ``_quiet_until`` took ``Controls`` a fretted string's step went from 285
+    to 473 ns in ``benchmarks.speed``'s component table.)"""
     for pk in range(out_p.shape[0]):
         po = out_p[pk]
         out[pk, it] = (
@@ -294,7 +295,8 @@ def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state):
     A step is quiet when nothing acts on the string but its own forces: no pluck force, no finger
     on the string or about to be put down, no damper, no residual psi of a contact.  With the
     contact bound (``Geo.s_crit``) ruling out every collision, such a step is the linear update
-    plus the Kirchhoff-Carrier column, and ``step_block`` takes a short path through it.
+    plus the Kirchhoff-Carrier column, and ``step_block`` takes a short path through it.  Nothing
+    of this changes in a quiet step, so the answer holds until the next general step.
     """
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s
@@ -394,55 +396,6 @@ def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
 
 
 @njit(**JIT)
-def _quiet_run(c, s_crit, tb_step, tb_ratio, out_p, out_w0, out_w1, U0, U1, UF, Q, out, it, stop,
-               step0, s_last):
-    """Quiet steps ``it``, ``it + 1``, ... before ``stop`` while the contact bound holds.
-
-    A tight loop of its own (in the body of ``step_block`` the same work cost about 50 ns more a
-    step).  Each step: the linear pass with S of u^n; if S rules contact out, the
-    Kirchhoff-Carrier column (left out while S of the step before is below ``Coefs.kc_s_skip``),
-    the pickups, the rotation.  If it does not, the step is handed back half done: returns
-    (U0, U1, UF, it, S, True, q.q, q.u_free, q.u^(n-1)) with u_free (and q) formed, and the general
-    path goes on from there.  Otherwise returns (..., it at the end, S of the last step, False,
-    0, 0, 0).
-    """
-    n = c.n
-    lam = c.lam
-    tb_n = tb_step.shape[0]
-    b0 = c.b0
-    b1 = c.b1
-    while it < stop and s_last < s_crit:
-        step = step0 + it
-        U0[0] = -U0[2]
-        U0[n + 2] = -U0[n]
-        if tb_n > 0:
-            _, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
-        if c.kc > 0.0 and s_last >= c.kc_s_skip:
-            qq, quf, qu1, s2, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, Q, Q)
-            if s2 >= s_crit:
-                return U0, U1, UF, it, s2, True, qq, quf, qu1
-            xk = _kc_multiplier(c, qq, quf, qu1)
-            if xk != 0.0:
-                _add_kc(n, UF, Q, lam * xk)
-        else:
-            s2, _, _ = _linear_pass(c, b0, b1, U0, U1, UF, False, Q, Q)
-            if s2 >= s_crit:
-                if c.kc > 0.0:  # the general step needs the Kirchhoff-Carrier column
-                    qq, quf, qu1, s2, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, Q,
-                                                             Q)
-                    return U0, U1, UF, it, s2, True, qq, quf, qu1
-                return U0, U1, UF, it, s2, True, 0.0, 0.0, 0.0
-        s_last = s2
-        _pickups(out_p, out_w0, out_w1, UF, U0, c.k, out, it)
-        T = U1
-        U1 = U0
-        U0 = UF
-        UF = T
-        it += 1
-    return U0, U1, UF, it, s_last, False, 0.0, 0.0, 0.0
-
-
-@njit(**JIT)
 def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     """Advance one string by ``nsteps`` steps from global step ``step0``.
 
@@ -514,45 +467,51 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     joint = c.gamma_rule == GAMMA_JOINT
     s_crit = geo.s_crit
     # Quiet steps (``_quiet_until``: nothing but the string's own forces act, and the contact
-    # bound rules out every collision) run in ``_quiet_run``: the linear update, the
+    # bound rules out every collision) take a short path: the linear update, the
     # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
     # samples are identical (``skip_contacts=False`` sets s_crit = 0 and never takes it;
     # test_skips.py compares).  With diagnostics every step takes the general path.
     dp_on, dp_off = ctl.dp_on, ctl.dp_off
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
-    quiet_end = -1 if diag else _quiet_until(step0, pl_start, pl_len, fs_on, dp_on, dp_off, psi,
-                                             f_state)
+    quiet_end = -1  # steps before this may be quiet (what acts on the string allows it)
+    stale = not diag  # quiet_end is recomputed, after a general step, only once the bound holds
     s_last = st.s_last[0]  # S of the previous step's u^n
-    it = 0
-    while it < nsteps:
+    for it in range(nsteps):
         step = step0 + it
-        handed = False
-        if step < quiet_end and s_last < s_crit:
-            U0, U1, UF, it, s_last, handed, qq, quf, qu1 = _quiet_run(
-                c, s_crit, tb_step, tb_ratio, out_p, out_w0, out_w1, U0, U1, UF, Q, out, it,
-                min(nsteps, quiet_end - step0), step0, s_last)
-            if not handed:
-                continue
-            step = step0 + it  # its linear pass is done and found a contact possible
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
         if tb_n > 0:
             ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         # ---- a) linear update (+ KC vector, + the contact bound S) -------------------------
-        # the counts are fused into the pass when the step before already needed them
-        fuse = s_last >= s_crit and not handed
-        below = 0
-        close = 0
-        if not handed:
-            qq = 0.0
-            quf = 0.0
-            qu1 = 0.0
-            if c.kc > 0.0:
-                qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q,
-                                                                     fuse, board, near)
-            else:
-                s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
+        if stale and s_last < s_crit:
+            quiet_end = _quiet_until(step, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state)
+            stale = False
+        quiet = step < quiet_end and s_last < s_crit  # a guess: S of u^n decides below
+        fuse = s_last >= s_crit  # the counts ride in the pass when the step before needed them
+        with_kc = c.kc > 0.0 and not (quiet and s_last < c.kc_s_skip)
+        qq = 0.0
+        quf = 0.0
+        qu1 = 0.0
+        if with_kc:
+            qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, fuse,
+                                                                 board, near)
+        else:
+            s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
+        if quiet and s_last < s_crit:
+            if with_kc:
+                xk = _kc_multiplier(c, qq, quf, qu1)
+                if xk != 0.0:
+                    _add_kc(n, UF, Q, lam * xk)
+            _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it)
+            T = U1
+            U1 = U0
+            U0 = UF
+            UF = T
+            continue
+        if c.kc > 0.0 and not with_kc:  # the guess was wrong: this step needs the KC column
+            qq, quf, qu1, s_last, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, board,
+                                                         near)
         if s_last >= s_crit and not fuse:
             below, close = _counts(n, U0, board, near)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
@@ -873,10 +832,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         U1 = U0
         U0 = UF
         UF = T
-        if not diag:
-            quiet_end = _quiet_until(step + 1, pl_start, pl_len, fs_on, dp_on, dp_off, psi,
-                                     f_state)
-        it += 1
+        stale = not diag  # what acts on the string may have changed
     st.s_last[0] = s_last
     # hand the state back in the caller's arrays (U0/U1 may have rotated)
     if nsteps % 3 != 0:

@@ -155,7 +155,9 @@ class State(NamedTuple):
     f_psi: np.ndarray
     f_bprev: np.ndarray
     tens: np.ndarray  # [T^(n-1), W^(n-1/2)] for the work done by a changing tension
-    s_last: np.ndarray  # [S of u^(n-1)] (``_linear_pass_kc``): decides quiet steps and the KC skip
+    # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact was possible at u^(n-1)]: decide
+    # quiet steps and the KC skip
+    s_last: np.ndarray
 
 
 @njit(**JIT_INLINE)
@@ -262,6 +264,13 @@ def _counts(n, U0, board, near):
     return below, close
 
 
+@njit(**JIT)
+def _contact_possible(n, U0, board, near):
+    """``_counts`` as one answer, for the quiet run (not inlined: a rare branch of a tight loop)."""
+    below, close = _counts(n, U0, board, near)
+    return below > 0 or close > 0
+
+
 @njit(**JIT_INLINE)
 def _kc_multiplier(c, qq, quf, qu1):
     """The Kirchhoff-Carrier column alone (the common free-vibration step): a 1x1 system."""
@@ -326,16 +335,19 @@ def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state):
 @njit(**JIT)
 def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p, out_w0, out_w1, out, it,
                it_end, step0, s_crit, s_last):
-    """Quiet steps it, it + 1, ... (< it_end) while S of u^n stays below ``s_crit``; returns (steps
-    done, S of the last u^n looked at).
+    """Quiet steps it, it + 1, ... (< it_end) while no contact is possible; returns (steps done,
+    S of the last u^n looked at).
 
     The caller guarantees that nothing but the string's own forces acts before it_end
-    (``_quiet_until``) and that S of u^(n-1) is below s_crit.  A step is then the linear update, the
-    Kirchhoff-Carrier column (left out while S of u^(n-1) is below ``Coefs.kc_s_skip``) and the
-    pickups: the same operations, on the same helpers, as ``step_block``'s general path.  The step
-    whose S reaches s_crit is not taken (its u_free is scratch) and goes to the general path.
-    A loop of its own: inside ``step_block`` the same quiet step cost 122 ns at N = 134 against 80 ns
-    here (its general path's variables crowd the loop).
+    (``_quiet_until``).  A step is then contact-free when S of u^n is below ``s_crit`` or, failing
+    that bound, when the counts of ``_counts`` are zero: the general path would then assemble the
+    Kirchhoff-Carrier column alone.  Such a step is the linear update, that column (left out while
+    S of u^(n-1) is below ``Coefs.kc_s_skip``) and the pickups: the same operations, on the same
+    helpers, as ``step_block``'s general path.  The first step with a possible contact is not taken
+    (its u_free is scratch) and goes to the general path.
+    A loop of its own: as a branch of ``step_block``'s loop the same step was half as slow again
+    (the general path's variables crowd the loop; with the hot helpers inlined, the strum of
+    ``benchmarks.speed`` went from 34 to 24 ms per second of audio when the quiet steps moved here).
     """
     n = c.n
     b0 = c.b0
@@ -353,7 +365,7 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p, out_w0, 
             qq, quf, qu1, s, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, board, near)
         else:
             s, _, _ = _linear_pass(c, b0, b1, U0, U1, UF, False, board, near)
-        if s >= s_crit:
+        if s >= s_crit and _contact_possible(n, U0, board, near):
             return done, s
         s_last = s
         if with_kc:
@@ -521,25 +533,27 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
     quiet_end = -1  # steps before this may be quiet (what acts on the string allows it)
-    stale = not diag  # quiet_end is recomputed, after a general step, only once the bound holds
+    stale = not diag  # quiet_end is recomputed, after a general step, only if contact-free
     s_last = st.s_last[0]  # S of the previous step's u^n
+    free = st.s_last[1] != 0.0  # no contact was possible in the last step (a guess for this one)
     it = 0
     while it < nsteps:
         step = step0 + it
-        if stale and s_last < s_crit:
+        if stale and free:
             quiet_end = _quiet_until(step, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state)
             stale = False
-        if step < quiet_end and s_last < s_crit:
+        if step < quiet_end and free:
+            it_end = min(nsteps, quiet_end - step0)
             done, s_last = _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p,
-                                      out_w0, out_w1, out, it, min(nsteps, quiet_end - step0),
-                                      step0, s_crit, s_last)
+                                      out_w0, out_w1, out, it, it_end, step0, s_crit, s_last)
             for _r in range(done % 3):  # the run rotated its own copies of the three arrays
                 T = U1
                 U1 = U0
                 U0 = UF
                 UF = T
             it += done
-            continue  # the step that ended the run (if any) takes the general path
+            free = it == it_end  # a run ends early only on a step with a possible contact
+            continue  # that step takes the general path
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
         if tb_n > 0:
@@ -556,6 +570,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
         if s_last >= s_crit and not fuse:
             below, close = _counts(n, U0, board, near)
+        free = s_last < s_crit or (below == 0 and close == 0)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         for e in range(npl):
@@ -877,6 +892,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         stale = not diag  # what acts on the string may have changed
         it += 1
     st.s_last[0] = s_last
+    st.s_last[1] = 1.0 if free else 0.0
     # hand the state back in the caller's arrays (U0/U1 may have rotated)
     if nsteps % 3 != 0:
         _restore(U0, U1, UF, nsteps % 3)

@@ -960,7 +960,7 @@ def _finger_x(x0, x1, ms, me, step):
     return x0 + (x1 - x0) * (step - ms) / (me - ms)
 
 
-@njit(**JIT)
+@njit(**JIT_INLINE)
 def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx, cval, nent,
                scr):
     """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used, gamma,
@@ -996,7 +996,7 @@ def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx
     return _apply_gamma(c, UF, U1, psi, 0, contact, joint, cidx, cval, start, nent)
 
 
-@njit(**JIT)
+@njit(**JIT_INLINE)
 def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
                joint, cidx, cval, nent, scr):
     """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used,
@@ -1048,7 +1048,7 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
     return nent, used, gm, s, contact
 
 
-@njit(**JIT)
+@njit(**JIT_INLINE)
 def _apply_gamma(c, UF, U1, psi, which, contact, joint, cidx, cval, start, nent):
     """Scale the SAV column g~ in cval[start:nent] by its gamma; returns (nent, used, gamma, s~).
 
@@ -1074,7 +1074,7 @@ def _apply_gamma(c, UF, U1, psi, which, contact, joint, cidx, cval, start, nent)
     return nent, True, gm, s
 
 
-@njit(**JIT)
+@njit(**JIT_INLINE)
 def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs, cbt, ccon,
                  psi, f_psi, fbeta, fchi, rdamp, nc):
     """The gradient correction of sec. 4.7 for columns that act together; True if any changed.
@@ -1154,7 +1154,7 @@ def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret
     return nent + 2
 
 
-@njit(**JIT)
+@njit(**JIT_INLINE)
 def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1):
     """Remove column i (a rigid fret, always stored after the others) and compact the storage."""
     width = cstart[i + 1] - cstart[i]

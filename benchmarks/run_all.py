@@ -1,6 +1,7 @@
 """Regenerate every benchmark table (the figures the README and docs/ quote).
 
-    python -m benchmarks.run_all        # or: make bench
+    python -m benchmarks.run_all                 # or: make bench
+    python -m benchmarks.run_all speed skips     # only these (after a change that moves timings)
 
 Each script prints its own table; this runs them in turn and writes the output to
 benchmarks/out/<name>.txt as well as to the terminal.  ``pareto`` and ``soak`` also rewrite their
@@ -37,8 +38,14 @@ DOCS = {"skips": "Skips: speed-up and largest output difference"}
 
 def main() -> None:
     OUT.mkdir(exist_ok=True)
+    only = set(sys.argv[1:])
+    unknown = only - {name for name, _, _ in RUNS}
+    if unknown:
+        sys.exit(f"unknown benchmark(s) {sorted(unknown)}; choose from {[r[0] for r in RUNS]}")
     t0 = time.perf_counter()
     for name, fn, argv in RUNS:
+        if only and name not in only:
+            continue
         t = time.perf_counter()
         buf = io.StringIO()
         sys.argv = [name, *argv]

@@ -2,7 +2,8 @@
 
 Table 1, per string of the default preset at the chosen quality: the linear string alone (the
 "baseline" of the paper's sec. 7), and the full model (Kirchhoff-Carrier, fretboard, rigid frets, a
-finger pressing at fret 5, an 8 N pluck), with the ratio between them.
+finger pressing at fret 5, an 8 N pluck), with the ratio between them; and an open string's 2 N
+pluck with every nonlinearity on against the same pluck on the linear string.
 Table 2, whole scenes: a six-string strum (open strings), a fretted chord, and the paper's Table 1
 configuration for comparison (their C++: 40-180 ms per second of audio per string).
 Table 3, where a fretted string's time goes: each force switched on in turn, ns per time step.
@@ -43,10 +44,12 @@ def best_time(scene: dict, options: RenderOptions, repeat: int) -> tuple[float, 
 def per_string(quality: str, seconds: float, repeat: int) -> None:
     print(f"\nper string, quality '{quality}', {seconds:g} s of audio at 44.1 kHz (ms of compute per "
           "second of audio; body 'none')")
-    print("The full model (finger at fret 5, 8 N pluck) runs at the factor x the quality gives a "
-          "fingered string;\nthe linear string is timed at that same factor (the nonlinearities' "
-          "own cost) and at its own factor.")
-    print("string | x |   N | linear, same x | linear, own x | full model | full / linear (same x)")
+    print("The fretted full model (finger at fret 5, 8 N pluck) runs at the factor x the quality "
+          "gives a fingered string;\nthe linear string is timed at that same factor (the "
+          "nonlinearities' own cost) and at its own factor.\nOpen: a 2 N pluck of the open string "
+          "with every nonlinearity on, against the linear string, both at the open string's own x.")
+    print("string | x |   N | linear, same x | linear, own x | fretted full | fretted / linear "
+          "(same x) | open full / linear")
     linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
@@ -55,13 +58,16 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
             {"type": "fret", "time": 0.0, "string": s, "fret": 5},
             {"type": "pluck", "time": 0.05, "string": s, "force": 8.0},
         ]}
+        soft = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 2.0}]}
         t_full, eng = best_time(full, RenderOptions(skip_decayed=False), repeat)
         v = eng.voices[0]
         t_same, _ = best_time(lin, RenderOptions(oversample=v.oversample, **linear), repeat)
         t_own, _ = best_time(lin, RenderOptions(**linear), repeat)
+        t_open, _ = best_time(soft, RenderOptions(skip_decayed=False), repeat)
+        t_soft_lin, _ = best_time(soft, RenderOptions(**linear), repeat)
         print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | {t_same / seconds * 1e3:14.1f} | "
-              f"{t_own / seconds * 1e3:13.1f} | {t_full / seconds * 1e3:10.1f} | "
-              f"{t_full / t_same:22.2f}")
+              f"{t_own / seconds * 1e3:13.1f} | {t_full / seconds * 1e3:12.1f} | "
+              f"{t_full / t_same:24.2f} | {t_open / t_soft_lin:18.2f}")
 
 
 def components(seconds: float, repeat: int, string: int = 4) -> None:

@@ -178,6 +178,7 @@ class Voice:
     energy_h: list = field(default_factory=list)
     energy_q: list = field(default_factory=list)
     energy_p: list = field(default_factory=list)
+    _step_block: object = field(default=None, repr=False)  # kernels.entry_point of step_block
 
     def __post_init__(self):
         n = self.coefs.n
@@ -211,8 +212,11 @@ class Voice:
         e_h = np.empty(nsteps if d else 0)
         e_q = np.empty(nsteps if d else 0)
         e_p = np.empty(nsteps if d else 0)
-        status = kernels.step_block(self.coefs, self.geom, self.ctl.arrays, self.state,
-                                    self.step, nsteps, out, d, e_h, e_q, e_p)
+        args = (self.coefs, self.geom, self.ctl.arrays, self.state, self.step, nsteps, out, d,
+                e_h, e_q, e_p)
+        if self._step_block is None:  # the argument types are the same in every block
+            self._step_block = kernels.entry_point(kernels.step_block, args)
+        status = self._step_block(*args)
         if status != kernels.OK:
             raise FloatingPointError(f"string {self.index}: the simulation became non-finite")
         self.step += nsteps

@@ -107,6 +107,8 @@ class Geo(NamedTuple):
     # S = sum of (u_(i+1) - u_i)^2 below which no node can reach the fretboard or come within
     # reach of a fret tip (``_counts``; ``string.contact_bound``); 0: the counts run every step
     s_crit: float = 0.0
+    # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
+    quiet: bool = True
 
 
 class Controls(NamedTuple):
@@ -273,13 +275,6 @@ def _counts(n, U0, board, near):
     return below, close
 
 
-@njit(**JIT)
-def _contact_possible(n, U0, board, near):
-    """``_counts`` as one answer, for the quiet run (not inlined: a rare branch of a tight loop)."""
-    below, close = _counts(n, U0, board, near)
-    return below > 0 or close > 0
-
-
 @njit(**JIT_INLINE)
 def _kc_multiplier(c, qq, quf, qu1):
     """The Kirchhoff-Carrier column alone (the common free-vibration step): a 1x1 system."""
@@ -307,17 +302,21 @@ def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
 
 
 @njit(**JIT)
-def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state):
+def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_active):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
     A step is quiet when nothing acts on the string but its own forces: no pluck force, no finger
-    on the string or about to be put down, no damper, no residual psi of a contact.  With the
+    on the string or about to be put down, no damper, no residual psi of a contact, no rigid fret
+    in the active set.  With the
     contact bound (``Geo.s_crit``) ruling out every collision, such a step is the linear update
     plus the Kirchhoff-Carrier column, and ``step_block`` takes a short path through it.  Nothing
     of this changes in a quiet step, so the answer holds until the next general step.
     """
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s
+    for q in range(fret_active.shape[0]):
+        if fret_active[q]:
+            return s
     end = 1 << 62
     for e in range(pl_start.shape[0]):
         a = pl_start[e]
@@ -342,21 +341,26 @@ def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state):
 
 
 @njit(**JIT)
-def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p, out_w0, out_w1, out, it,
-               it_end, step0, s_crit, s_last):
-    """Quiet steps it, it + 1, ... (< it_end) while no contact is possible; returns (steps done,
-    S of the last u^n looked at).
+def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0, fret_w1,
+               fret_m0, fret_active, out_p, out_w0, out_w1, out, it, it_end, step0, s_crit,
+               s_last):
+    """Quiet steps it, it + 1, ... (< it_end) while no contact happens; returns (steps done, S of
+    the last u^n looked at).
 
     The caller guarantees that nothing but the string's own forces acts before it_end
-    (``_quiet_until``).  A step is then contact-free when S of u^n is below ``s_crit`` or, failing
-    that bound, when the counts of ``_counts`` are zero: the general path would then assemble the
-    Kirchhoff-Carrier column alone.  Such a step is the linear update, that column (left out while
-    S of u^(n-1) is below ``Coefs.kc_s_skip``) and the pickups: the same operations, on the same
-    helpers, as ``step_block``'s general path.  The first step with a possible contact is not taken
-    (its u_free is scratch) and goes to the general path.
-    A loop of its own: as a branch of ``step_block``'s loop the same step was half as slow again
-    (the general path's variables crowd the loop; with the hot helpers inlined, the strum of
-    ``benchmarks.speed`` went from 34 to 24 ms per second of audio when the quiet steps moved here).
+    (``_quiet_until``; so no rigid fret is active, and ``du`` is zero).  A step is then the linear
+    update, the Kirchhoff-Carrier column (left out while S of u^(n-1) is below
+    ``Coefs.kc_s_skip``) and the pickups, the same operations, on the same helpers, as
+    ``step_block``'s general path, provided no contact acts:
+    * S of u^n below ``s_crit`` proves it (``_counts``);
+    * failing that, no node of u^n is below the fretboard, and either none is within reach of a
+      fret tip or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1): the general path
+      would look at the frets, find none to add and keep the Kirchhoff-Carrier column alone.
+    The first step with a contact is not taken (its u_free is scratch) and goes to the general
+    path.  A loop of its own: as a branch of ``step_block``'s loop the same step was half as slow
+    again (the general path's variables crowd the loop; with the hot helpers inlined, the strum of
+    ``benchmarks.speed`` went from 34 to 24 ms per second of audio when the quiet steps moved
+    here).
     """
     n = c.n
     b0 = c.b0
@@ -370,17 +374,18 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p, out_w0, 
         if tb_n > 0:
             _, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step0 + i)
         with_kc = c.kc > 0.0 and s_last >= c.kc_s_skip
+        xk = 0.0
         if with_kc:
             qq, quf, qu1, s, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, board, near)
+            xk = _kc_multiplier(c, qq, quf, qu1)
         else:
             s, _, _ = _linear_pass(c, b0, b1, U0, U1, UF, False, board, near)
-        if s >= s_crit and _contact_possible(n, U0, board, near):
+        if s >= s_crit and _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1,
+                                    fret_m0, fret_active, lam * xk):
             return done, s
         s_last = s
-        if with_kc:
-            xk = _kc_multiplier(c, qq, quf, qu1)
-            if xk != 0.0:
-                _add_kc(n, UF, Q, lam * xk)
+        if xk != 0.0:
+            _add_kc(n, UF, Q, lam * xk)
         _pickups(out_p, out_w0, out_w1, UF, U0, c.k, out, i)
         T = U1
         U1 = U0
@@ -388,6 +393,40 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p, out_w0, 
         UF = T
         done += 1
     return done, s_last
+
+
+@njit(**JIT)
+def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
+    """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
+    rare branch of a tight loop (inlined, it made the loop 10 % slower)."""
+    below, close = _counts(c.n, U0, board, near)
+    if below > 0:
+        return True
+    if close == 0:
+        return False
+    if c.fret_mode != 1:  # penalty frets act on u^n: within reach is all there is to know
+        return True
+    return _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
+                     kq) >= 0
+
+
+@njit(**JIT_INLINE)
+def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
+    """The rigid frets' active-set check: the fret outside the active set that the predicted
+    u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
+    fret is looked at: which fret is added must not depend on the skip's margin."""
+    add = -1
+    wval = -1e-12
+    for q in range(fret_p.shape[0]):
+        p_ = fret_p[q]
+        pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
+        if with_q:
+            pv += kq * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
+        viol = pv - fret_m0[q]
+        if viol < wval and fret_active[q] == 0:
+            wval = viol
+            add = q
+    return add
 
 
 @njit(**JIT_INLINE)
@@ -542,18 +581,20 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
     quiet_end = -1  # steps before this may be quiet (what acts on the string allows it)
-    stale = not diag  # quiet_end is recomputed, after a general step, only if contact-free
+    stale = not diag  # quiet_end is recomputed, after a general step, only if no contact acted
     s_last = st.s_last[0]  # S of the previous step's u^n
-    free = st.s_last[1] != 0.0  # no contact was possible in the last step (a guess for this one)
+    free = geo.quiet and st.s_last[1] != 0.0  # no contact acted in the last step (a guess)
     it = 0
     while it < nsteps:
         step = step0 + it
         if stale and free:
-            quiet_end = _quiet_until(step, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state)
+            quiet_end = _quiet_until(step, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state,
+                                     fret_active)
             stale = False
         if step < quiet_end and free:
             it_end = min(nsteps, quiet_end - step0)
-            done, s_last = _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, board, near, out_p,
+            done, s_last = _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near,
+                                      fret_p, fret_w0, fret_w1, fret_m0, fret_active, out_p,
                                       out_w0, out_w1, out, it, it_end, step0, s_crit, s_last)
             for _r in range(done % 3):  # the run rotated its own copies of the three arrays
                 T = U1
@@ -561,7 +602,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 U0 = UF
                 UF = T
             it += done
-            free = it == it_end  # a run ends early only on a step with a possible contact
+            free = it == it_end  # a run ends early only on a step with a contact
             continue  # that step takes the general path
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
@@ -579,7 +620,6 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
         if s_last >= s_crit and not fuse:
             below, close = _counts(n, U0, board, near)
-        free = s_last < s_crit or (below == 0 and close == 0)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         for e in range(npl):
@@ -796,20 +836,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                     nent = cstart[nc]
                     continue
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-                add = -1
-                wval = -1e-12
-                # every fret's predicted height (no per-fret reach test here: which fret is added
-                # must not depend on the skip's margin)
-                kq = lam * xk if c.kc > 0.0 else 0.0
-                for q in range(nfret):
-                    p_ = fret_p[q]
-                    pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
-                    if c.kc > 0.0:
-                        pv += kq * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
-                    viol = pv - fret_m0[q]
-                    if viol < wval and fret_active[q] == 0:
-                        wval = viol
-                        add = q
+                add = _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
+                                fret_active, lam * xk)
                 _unscatter(nc, cstart, cidx, du)
                 if add < 0:
                     break
@@ -824,6 +852,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             if not _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam,
                                 cs, cbt, ccon, psi, f_psi, fbeta, fchi, c.fg_r / (2.0 * k), nc):
                 break
+        # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
+        free = geo.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
         # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
         xk = 0.0
         for ci in range(nc):

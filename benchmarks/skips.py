@@ -5,8 +5,9 @@ For every way the engine avoids work, the same scene is rendered with the skip o
 * silent strings: strings with no events are not simulated;
 * contacts: the nodes are compared with the fretboard and the fret tips only when the contact bound
   (S, the string's sum of squared differences, against ``Geo.s_crit``) cannot rule contact out,
-  rigid frets are evaluated only when one is within reach this step, and quiet steps take the short
-  path through ``kernels.step_block`` (both sides with Kirchhoff-Carrier in every step: exact);
+  rigid frets are evaluated only when one is within reach this step, and steps in which nothing
+  but the string acts and no contact happens run in ``kernels._quiet_run`` (both sides with
+  Kirchhoff-Carrier in every step: exact); a last table gives the share of such quiet steps;
 * Kirchhoff-Carrier below tolerance: quiet steps leave the column out while its tension rise is
   below ``kc_tolerance`` x T0 (``standard``: 1e-4); its own table gives the pitch this moves;
 * decayed strings: a string stops once every node (and finger) moves slower than 1e-7 m/s after
@@ -118,6 +119,25 @@ def main() -> None:
         print(f"{skip:17s} | {name:31s} | {t_off:7.2f}s | {t_on:6.2f}s | {t_off / t_on:7.1f}x |"
               f" {diff:17.2e} | {np.abs(b).max():.3f}")
     kc_table()
+    quiet_table()
+
+
+def quiet_table(seconds: float = 2.0) -> None:
+    """Share of each string's steps that took the quiet run (``kernels._quiet_run``)."""
+    print(f"\nquiet steps: share of each string's steps in an open strum, {seconds:g} s, quality "
+          "'standard'")
+    print("string | 2 N pluck | 8 N pluck")
+    share = {}
+    for force in (2.0, 8.0):
+        sc = {"duration": seconds, "events": [
+            {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force}
+            for i in range(6)]}
+        eng = prepare(Scene.model_validate(sc), RenderOptions(skip_decayed=False))
+        for _ in eng.blocks():
+            pass
+        share[force] = {v.index: int(v.state.quiet[0]) / v.step for v in eng.voices}
+    for s in range(1, 7):
+        print(f"{s:>6d} | {share[2.0][s]:9.4f} | {share[8.0][s]:9.4f}")
 
 
 if __name__ == "__main__":

@@ -160,6 +160,7 @@ class State(NamedTuple):
     # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact was possible at u^(n-1)]: decide
     # quiet steps and the KC skip
     s_last: np.ndarray
+    quiet: np.ndarray  # [steps the quiet run has taken] (for the tests and benchmarks/skips.py)
 
 
 def entry_point(dispatcher, args):
@@ -602,6 +603,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 U0 = UF
                 UF = T
             it += done
+            st.quiet[0] += done
             free = it == it_end  # a run ends early only on a step with a contact
             continue  # that step takes the general path
         U0[0] = -U0[2]

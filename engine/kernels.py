@@ -798,7 +798,14 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                                       fret_p, fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                     nc += 1
         for gpass in range(2):
-            for _attempt in range(2 * nfret + 4):
+            # Every pass of this loop ends in a solve of the current column set, so the
+            # multipliers applied below always belong to the columns applied with them (the
+            # discrete energy balance depends on it).  The active set changes at most
+            # 2 M + 4 times; should it not settle by then (frets crowded into one grid interval
+            # can cycle), the last solve stands, and a fret it leaves penetrated or pulling shows
+            # as negative dissipation in the energy balance, which stays exact.
+            changes = 0
+            while True:
                 if nc == 1 and kind[0] == KC:
                     x[0] = _kc_multiplier(c, qq, quf, qu1)
                 elif nc > 0:
@@ -822,8 +829,9 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                             continue
                         status = NONFINITE
                         break
-                if not rigid:
+                if not rigid or changes == 2 * nfret + 4:
                     break
+                changes += 1
                 # check the rigid frets: reactions >= 0, no fret penetrated
                 worst = -1
                 wval = 0.0

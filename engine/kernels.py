@@ -157,7 +157,7 @@ class State(NamedTuple):
     f_psi: np.ndarray
     f_bprev: np.ndarray
     tens: np.ndarray  # [T^(n-1), W^(n-1/2)] for the work done by a changing tension
-    # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact was possible at u^(n-1)]: decide
+    # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact acted in the last step]: decide
     # quiet steps and the KC skip
     s_last: np.ndarray
     quiet: np.ndarray  # [steps the quiet run has taken] (for the tests and benchmarks/skips.py)
@@ -166,9 +166,9 @@ class State(NamedTuple):
 def entry_point(dispatcher, args):
     """The compiled function behind a numba dispatcher for the types of ``args``, compiled or
     loaded from the cache if need be.  Calling it skips the dispatcher's type resolution, which
-    for the NamedTuples of arrays ``step_block`` takes costs several times the unboxing itself and,
-    once per block and string, a tenth of a strum's run time.  Only for arguments of exactly these
-    types (it unboxes by the signature it was compiled for)."""
+    for the NamedTuples of arrays ``step_block`` takes costs more than the unboxing itself, once per
+    block and string.  Only for arguments of exactly these types (it unboxes by the signature it
+    was compiled for)."""
     return dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
 
 
@@ -358,10 +358,8 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fre
       fret tip or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1): the general path
       would look at the frets, find none to add and keep the Kirchhoff-Carrier column alone.
     The first step with a contact is not taken (its u_free is scratch) and goes to the general
-    path.  A loop of its own: as a branch of ``step_block``'s loop the same step was half as slow
-    again (the general path's variables crowd the loop; with the hot helpers inlined, the strum of
-    ``benchmarks.speed`` went from 34 to 24 ms per second of audio when the quiet steps moved
-    here).
+    path.  A loop of its own: as a branch of ``step_block``'s loop the same step was slower (the
+    general path's many variables crowd the loop).
     """
     n = c.n
     b0 = c.b0
@@ -399,7 +397,7 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fre
 @njit(**JIT)
 def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
-    rare branch of a tight loop (inlined, it made the loop 10 % slower)."""
+    rare branch of a tight loop (inlined, it slowed the loop down)."""
     below, close = _counts(c.n, U0, board, near)
     if below > 0:
         return True

@@ -195,6 +195,13 @@ def interp(x: float, h: float, n: int):
     return l + 1, w0, w1
 
 
+# The two passes below are inlined into both ``_quiet_run`` and ``step_block``, so each caller
+# has its own copy, and the float sums in them (S, the KC dot products) are vectorised per copy.
+# Quiet steps are bit-identical to the general path only while LLVM vectorises both copies the
+# same way; ``tests/engine/test_skips.py`` checks it.  A change that breaks it (padding Q like U
+# did) has two ways back: undo it, or stop inlining the passes, which makes the identity hold by
+# construction but costs a call with six arrays in every step (the strum got much slower).
+# pyproject.toml bounds numba's version for the same reason.
 @njit(**JIT_INLINE)
 def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over

@@ -14,8 +14,8 @@ Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in 
   S cannot rule contact out are the nodes compared with the fretboard and the fret tips.  The
   fretboard column is formed only when a node is below the board (or a residual psi remains), a
   finger only while it exists, rigid frets only while active or within reach;
-* quiet steps (nothing but the string's own forces act, no contact possible) take a short path
-  through the kernel that computes the same samples (``kernels.step_block``);
+* quiet steps (nothing but the string's own forces act, no contact happens) run in a loop of
+  their own that computes the same samples (``kernels._quiet_run``);
 * in quiet steps the Kirchhoff-Carrier column is left out while its tension rise is below the
   quality's ``kc_tolerance`` x T0 (``standard``: 1e-4, under 0.09 cents of pitch; ``high``: never);
 * a string whose motion has decayed below ``decay_velocity`` (m/s at every node and at the pickup)

@@ -313,12 +313,11 @@ def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
 def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_active):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
-    A step is quiet when nothing acts on the string but its own forces: no pluck force, no finger
-    on the string or about to be put down, no damper, no residual psi of a contact, no rigid fret
-    in the active set.  With the
-    contact bound (``Geo.s_crit``) ruling out every collision, such a step is the linear update
-    plus the Kirchhoff-Carrier column, and ``step_block`` takes a short path through it.  Nothing
-    of this changes in a quiet step, so the answer holds until the next general step.
+    A step may be quiet when nothing acts on the string but its own forces: no pluck force, no
+    finger on the string or about to be put down, no damper, no residual psi of a contact, no
+    rigid fret in the active set.  If no contact happens either (``_quiet_run`` checks each step),
+    the step is the linear update plus the Kirchhoff-Carrier column, and ``_quiet_run`` takes it.
+    Nothing of this changes in a quiet step, so the answer holds until the next general step.
     """
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s

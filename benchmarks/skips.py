@@ -122,20 +122,22 @@ def main() -> None:
     quiet_table()
 
 
+def quiet_share(force: float, seconds: float) -> dict[int, float]:
+    """Share of each string's steps that took the quiet run (``kernels._quiet_run``) in an open
+    strum of ``force`` N, quality 'standard' (``tests/engine/test_skips.py`` asserts on this)."""
+    sc = {"duration": seconds, "events": [
+        {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force} for i in range(6)]}
+    eng = prepare(Scene.model_validate(sc), RenderOptions(skip_decayed=False))
+    for _ in eng.blocks():
+        pass
+    return {v.index: int(v.state.quiet[0]) / v.step for v in eng.voices}
+
+
 def quiet_table(seconds: float = 2.0) -> None:
-    """Share of each string's steps that took the quiet run (``kernels._quiet_run``)."""
     print(f"\nquiet steps: share of each string's steps in an open strum, {seconds:g} s, quality "
           "'standard'")
     print("string | 2 N pluck | 8 N pluck")
-    share = {}
-    for force in (2.0, 8.0):
-        sc = {"duration": seconds, "events": [
-            {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force}
-            for i in range(6)]}
-        eng = prepare(Scene.model_validate(sc), RenderOptions(skip_decayed=False))
-        for _ in eng.blocks():
-            pass
-        share[force] = {v.index: int(v.state.quiet[0]) / v.step for v in eng.voices}
+    share = {force: quiet_share(force, seconds) for force in (2.0, 8.0)}
     for s in range(1, 7):
         print(f"{s:>6d} | {share[2.0][s]:9.4f} | {share[8.0][s]:9.4f}")
 

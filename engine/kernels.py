@@ -298,10 +298,7 @@ def _add_kc(n, UF, Q, a_):
 
 @njit(**JIT_INLINE)
 def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
-    """Output: the string velocity (u^(n+1) - u^n) / k at each pickup.  (Helpers called every step
-    take arrays, not the NamedTuples of arrays: a call copies every array of a tuple and counts
-    its references; when ``_quiet_until`` took ``Controls`` a fretted string's step went from 285
-    to 473 ns in ``benchmarks.speed``'s component table.)"""
+    """Output: the string velocity (u^(n+1) - u^n) / k at each pickup."""
     for pk in range(out_p.shape[0]):
         po = out_p[pk]
         out[pk, it] = (
@@ -403,7 +400,7 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fre
 @njit(**JIT)
 def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
-    rare branch of a tight loop (inlined, it slowed the loop down)."""
+    branch that the quiet steps of a soft pluck rarely take (inlined, it slowed their loop)."""
     below, close = _counts(c.n, U0, board, near)
     if below > 0:
         return True
@@ -577,10 +574,10 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     # samples); together, the prediction includes the others.
     joint = c.gamma_rule == GAMMA_JOINT
     s_crit = geo.s_crit
-    # Quiet steps (``_quiet_until``: nothing but the string's own forces act, and the contact
-    # bound rules out every collision) run in ``_quiet_run``: the linear update, the
+    # Quiet steps (nothing but the string's own forces act, ``_quiet_until``, and no contact
+    # happens, ``_quiet_run`` checks each step) run in ``_quiet_run``: the linear update, the
     # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
-    # samples are identical (``skip_contacts=False`` sets s_crit = 0 and never takes it;
+    # samples are identical (``Geo.quiet`` False, from ``skip_contacts=False``, never takes it;
     # test_skips.py compares).  With diagnostics every step takes the general path.
     dp_on, dp_off = ctl.dp_on, ctl.dp_off
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1

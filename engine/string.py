@@ -398,10 +398,11 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
-             margin: float = math.inf, fretboard: bool = True) -> Geo:
+             margin: float = math.inf, fretboard: bool = True, quiet: bool = True) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
-    ``Geo.s_crit`` bounds the contacts that exist (``fretboard``, frets within ``margin``)."""
+    ``Geo.s_crit`` bounds the contacts that exist (``fretboard``, frets within ``margin``);
+    ``quiet`` False sends every step through the kernel's general path."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q)
@@ -424,4 +425,4 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     levels = ([board] if fretboard else []) + ([near] if with_frets else [])
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
                np.array([a[1] for a in pk]), np.array([a[2] for a in pk]),
-               contact_bound(n, levels))
+               contact_bound(n, levels), quiet)

@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from benchmarks.skips import kc_skip_pitch_shift
+from benchmarks.skips import kc_skip_pitch_shift, quiet_share
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 
@@ -97,7 +97,7 @@ def test_decayed_strings_stop_with_a_bounded_difference():
     assert t_skip < t_full
 
 
-def _quiet_share(sc, seconds_per_look=0.01):
+def _bound_share(sc, seconds_per_look=0.01):
     """Share of looks (every ``seconds_per_look``) at which each string's u^n satisfies the contact
     bound, i.e. at which its next step can be quiet."""
     eng = prepare(Scene.model_validate(sc), RenderOptions(kc_tolerance=0.0))
@@ -117,7 +117,7 @@ def test_the_contact_bound_holds_in_an_open_strum():
     """The bound, not only the node-by-node comparison, clears quiet steps: in the first second of
     a 2 N open strum, it holds at a third or more of the looks on every string (0.44 on the thin
     strings to 0.74 on string 5 when this was written; the share grows as the strings decay)."""
-    share = _quiet_share(STRUM_2N)
+    share = _bound_share(STRUM_2N)
     assert min(share.values()) > 1 / 3, share
 
 
@@ -127,11 +127,7 @@ def test_quiet_steps_are_most_steps_of_an_open_strum(force):
     string's steps in the first second take the quiet run.  (An 8 N pluck keeps the thin strings
     within the unreachable-fret margin of the fret tips; their steps are quiet because the quiet
     run checks the frets exactly.  ``benchmarks/skips.py`` prints the shares over 2 s.)"""
-    sc = scene([pluck(6 - i, time=0.02 * i, force=force) for i in range(6)], duration=1.0)
-    eng = prepare(Scene.model_validate(sc), RenderOptions(skip_decayed=False))
-    for _ in eng.blocks():
-        pass
-    share = {v.index: int(v.state.quiet[0]) / v.step for v in eng.voices}
+    share = quiet_share(force, seconds=1.0)
     assert min(share.values()) > 0.9, share
 
 

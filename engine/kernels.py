@@ -467,6 +467,93 @@ def _solve(A, r, n):
 
 
 @njit(**JIT_INLINE)
+def _assemble(nc, kind, ca, cc, vfree, G, A, b):
+    """The system of the multipliers from the Gram matrix: rows of the non-rigid columns
+    x + c (G x + v_free) = -a (eqs. (55)-(56)), rigid rows G x = m0 - v_free."""
+    for i in range(nc):
+        for j in range(nc):
+            if kind[i] == RIGID:
+                A[i, j] = G[i, j]
+            else:
+                A[i, j] = cc[i] * G[i, j]
+        if kind[i] == RIGID:
+            b[i] = ca[i] - vfree[i]
+        else:
+            A[i, i] += 1.0
+            b[i] = -ca[i] - cc[i] * vfree[i]
+
+
+@njit(**JIT)
+def _step_to_zero(x, xp, nbase, nc):
+    """Lawson and Hanson's step: xp (every rigid reaction >= 0) moves towards the solve x, which
+    has a negative one, until the first rigid reaction reaches zero; returns that column.  Not
+    inlined, like ``_ray_blocked``: rarely taken, and every fretted step paid for it inlined."""
+    alpha = 1.0
+    worst = -1
+    for i in range(nbase, nc):
+        if x[i] < 0.0:
+            a = xp[i] / (xp[i] - x[i])
+            if a < alpha:
+                alpha = a
+                worst = i
+    for i in range(nc):
+        xp[i] += alpha * (x[i] - xp[i])
+    xp[worst] = 0.0
+    return worst
+
+
+@njit(**JIT)
+def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, ca, cc, vfree,
+                 xp, G, A, b, scr):
+    """A rigid fret (the last of the nc columns) was just added to xp, a solution of the others
+    with every rigid reaction >= 0 (xp of the new column is 0).  Does the way to the joint
+    solution meet a zero reaction first?  If so, xp is moved there and the column of the fret
+    that leaves is returned; -1 if not.  G, A and b are scratch.
+
+    In the QP of the active-set loop, with H = the system's rows scaled symmetric, the direction
+    that keeps the other columns' gradients at zero while the new reaction grows is
+    d = (-H_PP^-1 H_Pj, 1) (solved with the rows of A, which are H's scaled by positive numbers);
+    along it the objective changes by g_j t + s t^2 / 2, with g_j < 0 the new fret's gap and
+    s = H_jj + H_jP d_P its Schur complement, so t* = -g_j / s is the joint solution.  A rigid
+    reaction that d reduces reaches zero at t_i = xp_i / -d_i; if the first such t comes before
+    t*, the step stops there and that fret leaves.  It always does when the new fret depends on
+    the others (s = 0 up to rounding: crowded frets), where the joint system is singular or so
+    ill-conditioned that its multipliers would break the energy balance.  Not inlined: called
+    only when a fret is added."""
+    _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
+    _assemble(nc, kind, ca, cc, vfree, G, A, b)
+    m = nc - 1
+    d = np.empty(m)
+    A2 = np.empty((m, m))
+    gj = -b[m]
+    for i in range(m):
+        gj += A[m, i] * xp[i]
+        d[i] = -A[i, m]
+        for l in range(m):
+            A2[i, l] = A[i, l]
+    if m > 0 and not _solve(A2, d, m):
+        return -1
+    s = A[m, m]
+    for i in range(m):
+        s += A[m, i] * d[i]
+    tb = math.inf
+    blk = -1
+    for i in range(nbase, m):
+        if d[i] < 0.0:
+            t = xp[i] / -d[i]
+            if t < tb:
+                tb = t
+                blk = i
+    if blk < 0 or (s > 0.0 and tb * s >= -gj):
+        return -1
+    for i in range(m):
+        xp[i] += tb * d[i]
+    xp[blk] = 0.0
+    xp[m] = tb
+    return blk
+
+
+@njit(**JIT_INLINE)
 def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
     """Gradient correction of sec. 4.7, written so that its aim is explicit.
 
@@ -546,6 +633,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     G = np.empty((ncap, ncap))
     A = np.empty((ncap, ncap))
     x = np.empty(ncap)
+    xp = np.empty(ncap)  # the rigid frets' last feasible multipliers (see the active-set loop)
     cgam = np.empty(ncap)  # gamma of an SAV or finger column (sec. 4.7)
     cs = np.empty(ncap)  # its s~ = v~^T Lambda v~ (unscaled gradient)
     cbt = np.empty(ncap)  # a finger column's unscaled beta~
@@ -799,29 +887,27 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                                       fret_p, fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                     nc += 1
         for gpass in range(2):
-            # Every pass of this loop ends in a solve of the current column set, so the
-            # multipliers applied below always belong to the columns applied with them (the
-            # discrete energy balance depends on it).  The active set changes at most
-            # 2 M + 4 times; should it not settle by then (frets crowded into one grid interval
-            # can cycle), the last solve stands, and a fret it leaves penetrated or pulling shows
-            # as negative dissipation in the energy balance, which stays exact.
+            # The rigid frets' reactions x_r >= 0 solve a convex QP in the multipliers (the
+            # system, each non-rigid row scaled by 1/c, is symmetric positive semidefinite) whose
+            # gradient in x_r is the fret's gap.  The sign rule alone (drop the most negative
+            # reaction, add the deepest penetration) cycled on crowded frets, whose constraints
+            # are (nearly) linearly dependent.  So once a solve has left every reaction >= 0
+            # (``feasible``; kept in ``xp`` when a fret is added), the loop is Lawson and Hanson's
+            # active-set method, which ends after finitely many changes: a fret that joins does
+            # so only as far as no other reaction turns negative on the way (``_ray_blocked``),
+            # and a later solve with a negative reaction is taken only as far as the first one
+            # reaches zero (``_step_to_zero``); that fret leaves.  Every pass ends in a solve of
+            # the current column set, so the multipliers applied below belong to the columns
+            # applied with them (the discrete energy balance depends on it); the 2 M + 4 changes
+            # allowed are a guard.
             changes = 0
+            feasible = False
             while True:
                 if nc == 1 and kind[0] == KC:
                     x[0] = _kc_multiplier(c, qq, quf, qu1)
                 elif nc > 0:
                     _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
-                    for i in range(nc):
-                        for j in range(nc):
-                            if kind[i] == RIGID:
-                                A[i, j] = G[i, j]
-                            else:
-                                A[i, j] = cc[i] * G[i, j]
-                        if kind[i] == RIGID:
-                            x[i] = ca[i] - vfree[i]
-                        else:
-                            A[i, i] += 1.0
-                            x[i] = -ca[i] - cc[i] * vfree[i]
+                    _assemble(nc, kind, ca, cc, vfree, G, A, x)
                     if not _solve(A, x, nc):
                         if nc > nbase:  # drop the newest rigid constraint and try again
                             fret_active[cfret[nc - 1]] = 0
@@ -833,29 +919,46 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 if not rigid or changes == 2 * nfret + 4:
                     break
                 changes += 1
-                # check the rigid frets: reactions >= 0, no fret penetrated
+                # a negative reaction: the fret leaves (see above for which one)
                 worst = -1
                 wval = 0.0
                 for i in range(nbase, nc):
                     if x[i] < wval:
                         wval = x[i]
                         worst = i
+                if worst >= 0 and feasible:
+                    worst = _step_to_zero(x, xp, nbase, nc)
                 if worst >= 0:
                     fret_active[cfret[worst]] = 0
                     nc = _remove_col(worst, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
-                                     vfree, v1)
+                                     vfree, v1, xp)
                     nent = cstart[nc]
                     continue
+                # every reaction >= 0: add the fret the prediction penetrates deepest, if any
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
                 add = _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
                                 fret_active, lam * xk)
                 _unscatter(nc, cstart, cidx, du)
                 if add < 0:
                     break
+                for i in range(nc):
+                    xp[i] = x[i]
+                xp[nc] = 0.0
+                feasible = True
                 fret_active[add] = 1
                 nent = _add_rigid(add, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p,
                                   fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                 nc += 1
+                blk = _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f,
+                                   ca, cc, vfree, xp, G, A, x, scr)
+                if blk >= 0:
+                    # the way to the new fret's constraint meets a zero reaction first (or the
+                    # new fret depends on the others): that fret leaves, xp moved on
+                    changes += 1
+                    fret_active[cfret[blk]] = 0
+                    nc = _remove_col(blk, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
+                                     vfree, v1, xp)
+                    nent = cstart[nc]
             # gamma of the contact columns from the joint solution, sec. 4.7 (one correction at
             # most: a second solve, never an iteration)
             if gpass == 1 or not joint or nsav == 0 or status != OK:
@@ -1205,7 +1308,7 @@ def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret
 
 
 @njit(**JIT_INLINE)
-def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1):
+def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1, xp):
     """Remove column i (a rigid fret, always stored after the others) and compact the storage."""
     width = cstart[i + 1] - cstart[i]
     for m in range(i, nc - 1):
@@ -1216,6 +1319,7 @@ def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1
         cc[m] = cc[m + 1]
         vfree[m] = vfree[m + 1]
         v1[m] = v1[m + 1]
+        xp[m] = xp[m + 1]
         for e in range(cstart[m + 1], cstart[m + 2]):
             cidx[e - width] = cidx[e]
             cval[e - width] = cval[e]

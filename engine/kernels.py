@@ -487,7 +487,8 @@ def _assemble(nc, kind, ca, cc, vfree, G, A, b):
 def _step_to_zero(x, xp, nbase, nc):
     """Lawson and Hanson's step: xp (every rigid reaction >= 0) moves towards the solve x, which
     has a negative one, until the first rigid reaction reaches zero; returns that column.  Not
-    inlined, like ``_ray_blocked``: rarely taken, and every fretted step paid for it inlined."""
+    inlined, like ``_ray_blocked``: both are rarely taken, and inlined they slowed every fretted
+    step."""
     alpha = 1.0
     worst = -1
     for i in range(nbase, nc):
@@ -519,7 +520,8 @@ def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, 
     t*, the step stops there and that fret leaves.  It always does when the new fret depends on
     the others (s = 0 up to rounding: crowded frets), where the joint system is singular or so
     ill-conditioned that its multipliers would break the energy balance.  Not inlined: called
-    only when a fret is added."""
+    only when a fret is added.  It assembles the system itself, and the loop assembles it again
+    before its solve: once per added fret, the price of keeping a flag for it out of the loop."""
     _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
     _assemble(nc, kind, ca, cc, vfree, G, A, b)
     m = nc - 1

@@ -163,13 +163,36 @@ class State(NamedTuple):
     quiet: np.ndarray  # [steps the quiet run has taken] (for the tests and benchmarks/skips.py)
 
 
+def _type_key(a):
+    """What numba's ``typeof`` reads of an argument of the kinds the kernels take, as a hashable
+    key: an array's dtype, dimensions, layout (C before F, as numba maps it), writability and
+    alignment; a tuple's class and items, recursively; a scalar's Python type."""
+    if isinstance(a, np.ndarray):
+        f = a.flags
+        layout = "C" if f.c_contiguous else "F" if f.f_contiguous else "A"
+        return (a.dtype.str, a.ndim, layout, f.writeable, f.aligned)
+    if isinstance(a, tuple):
+        return (type(a), *(_type_key(v) for v in a))
+    return type(a)
+
+
+_ENTRIES: dict = {}
+
+
 def entry_point(dispatcher, args):
     """The compiled function behind a numba dispatcher for the types of ``args``, compiled or
     loaded from the cache if need be.  Calling it skips the dispatcher's type resolution, which
-    for the NamedTuples of arrays ``step_block`` takes costs more than the unboxing itself, once per
-    block and string.  Only for arguments of exactly these types (it unboxes by the signature it
-    was compiled for)."""
-    return dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
+    for the NamedTuples of arrays ``step_block`` takes costs more than the unboxing itself.
+    Resolving the types once per string (numba's ``typeof`` of some sixty arrays) was itself a
+    visible share of a short render, so the result is kept per process, keyed by ``_type_key``,
+    which is much cheaper to compute.  Only for arguments of exactly these types (it unboxes by the
+    signature it was compiled for)."""
+    key = (dispatcher, _type_key(args))
+    fn = _ENTRIES.get(key)
+    if fn is None:
+        fn = dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
+        _ENTRIES[key] = fn
+    return fn
 
 
 @njit(**JIT_INLINE)

@@ -456,7 +456,71 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
 
 @njit(**JIT_INLINE)
 def _solve(A, r, n):
-    """Gaussian elimination with partial pivoting, in place; returns False if singular."""
+    """Solve A x = r in place (x into r) by Gaussian elimination with partial pivoting; returns
+    False if A is singular.  The common systems have two or three columns (Kirchhoff-Carrier with
+    a finger and a fret, with a damper, or with the fretboard); they are eliminated with the
+    entries held as scalars, which is cheaper at these sizes than ``_solve_n``'s loops over n.
+    The pivots are chosen as ``_solve_n`` chooses them."""
+    if n == 3:
+        a00, a01, a02, r0 = A[0, 0], A[0, 1], A[0, 2], r[0]
+        a10, a11, a12, r1 = A[1, 0], A[1, 1], A[1, 2], r[1]
+        a20, a21, a22, r2 = A[2, 0], A[2, 1], A[2, 2], r[2]
+        # the pivot of column 0: the first row of largest magnitude, as in ``_solve_n``
+        if abs(a10) > abs(a00) and abs(a10) >= abs(a20):
+            a00, a01, a02, r0, a10, a11, a12, r1 = a10, a11, a12, r1, a00, a01, a02, r0
+        elif abs(a20) > abs(a00):
+            a00, a01, a02, r0, a20, a21, a22, r2 = a20, a21, a22, r2, a00, a01, a02, r0
+        if not abs(a00) > 0.0:
+            return False
+        i0 = 1.0 / a00
+        f = a10 * i0
+        a11 -= f * a01
+        a12 -= f * a02
+        r1 -= f * r0
+        f = a20 * i0
+        a21 -= f * a01
+        a22 -= f * a02
+        r2 -= f * r0
+        if abs(a21) > abs(a11):
+            a11, a12, r1, a21, a22, r2 = a21, a22, r2, a11, a12, r1
+        if not abs(a11) > 0.0:
+            return False
+        i1 = 1.0 / a11
+        f = a21 * i1
+        a22 -= f * a12
+        r2 -= f * r1
+        if not abs(a22) > 0.0:
+            return False
+        x2 = r2 / a22
+        x1 = (r1 - a12 * x2) * i1
+        r[0] = (r0 - a01 * x1 - a02 * x2) * i0
+        r[1] = x1
+        r[2] = x2
+        return True
+    if n == 2:
+        a00, a01, r0 = A[0, 0], A[0, 1], r[0]
+        a10, a11, r1 = A[1, 0], A[1, 1], r[1]
+        if abs(a10) > abs(a00):
+            a00, a01, r0, a10, a11, r1 = a10, a11, r1, a00, a01, r0
+        if not abs(a00) > 0.0:
+            return False
+        i0 = 1.0 / a00
+        f = a10 * i0
+        a11 -= f * a01
+        r1 -= f * r0
+        if not abs(a11) > 0.0:
+            return False
+        x1 = r1 / a11
+        r[0] = (r0 - a01 * x1) * i0
+        r[1] = x1
+        return True
+    return _solve_n(A, r, n)
+
+
+@njit(**JIT_INLINE)
+def _solve_n(A, r, n):
+    """Gaussian elimination with partial pivoting, in place; returns False if singular (one
+    column, or more than three)."""
     for i in range(n):
         p = i
         big = abs(A[i, i])
@@ -1354,37 +1418,53 @@ def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1
 
 @njit(**JIT_INLINE)
 def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
-    """G[i, j] = v_i^T Lambda v_j for the active columns (the Woodbury core matrix)."""
+    """G[i, j] = v_i^T Lambda v_j for the active columns (the Woodbury core matrix).
+
+    A sparse column holds each node once, so its diagonal entry is its sum of squares.  Two
+    columns meet on the nodes they share: found by comparing indices when either is narrow (a
+    finger's or a fret's two nodes), by scattering one into ``scr`` when both are wide (the
+    fretboard against the penalty frets)."""
     for i in range(nc):
         if kind[i] == KC:
+            G[i, i] = lam * qq
+            for j in range(nc):
+                if j == i:
+                    continue
+                t = 0.0
+                for e in range(cstart[j], cstart[j + 1]):
+                    t += Q[cidx[e] - 2] * cval[e]
+                G[i, j] = lam * t
+                G[j, i] = lam * t
             continue
+        s = 0.0
         for e in range(cstart[i], cstart[i + 1]):
-            scr[cidx[e]] += cval[e]
-        for j in range(i, nc):
+            s += cval[e] * cval[e]
+        s *= lam
+        if cslot[i] >= 0:
+            s += lam_f  # the finger's own entry (-1)(-1)
+        G[i, i] = s
+        for j in range(i + 1, nc):
             if kind[j] == KC:
                 continue
             s = 0.0
-            for e in range(cstart[j], cstart[j + 1]):
-                s += scr[cidx[e]] * cval[e]
+            if cstart[i + 1] - cstart[i] <= 2 or cstart[j + 1] - cstart[j] <= 2:
+                for e in range(cstart[i], cstart[i + 1]):
+                    ie = cidx[e]
+                    for f in range(cstart[j], cstart[j + 1]):
+                        if cidx[f] == ie:
+                            s += cval[e] * cval[f]
+            else:
+                for e in range(cstart[i], cstart[i + 1]):
+                    scr[cidx[e]] = cval[e]
+                for f in range(cstart[j], cstart[j + 1]):
+                    s += scr[cidx[f]] * cval[f]
+                for e in range(cstart[i], cstart[i + 1]):
+                    scr[cidx[e]] = 0.0
             s *= lam
             if cslot[i] >= 0 and cslot[i] == cslot[j]:
-                s += lam_f  # the finger entries (-1)(-1)
+                s += lam_f
             G[i, j] = s
             G[j, i] = s
-        for e in range(cstart[i], cstart[i + 1]):
-            scr[cidx[e]] = 0.0
-    for i in range(nc):
-        if kind[i] != KC:
-            continue
-        G[i, i] = lam * qq
-        for j in range(nc):
-            if j == i:
-                continue
-            t = 0.0
-            for e in range(cstart[j], cstart[j + 1]):
-                t += Q[cidx[e] - 2] * cval[e]
-            G[i, j] = lam * t
-            G[j, i] = lam * t
 
 
 @njit(**JIT_INLINE)

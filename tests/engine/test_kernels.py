@@ -43,3 +43,33 @@ def test_strings_share_one_entry_point_and_it_renders_as_the_dispatcher():
     assert fn(*args_a) == kernels.step_block(*args_t) == kernels.OK
     assert np.array_equal(args_a[6], args_t[6])
     assert np.any(args_a[6] != 0.0)
+
+
+def _system(n, rng, zero_lead=False):
+    a = rng.standard_normal((n, n)) + n * np.eye(n)
+    if zero_lead:  # the first pivot must come from another row
+        a[0, 0] = 0.0
+    return a, rng.standard_normal(n)
+
+
+def test_small_solve_matches_numpy_with_and_without_pivoting():
+    rng = np.random.default_rng(7)
+    for n in range(1, 7):
+        for zero_lead in (False, True):
+            if n == 1 and zero_lead:
+                continue
+            for _ in range(50):
+                a, r = _system(n, rng, zero_lead)
+                big = np.zeros((8, 8))  # the kernel's matrices are larger than the system
+                big[:n, :n] = a
+                x = np.zeros(8)
+                x[:n] = r
+                assert kernels._solve(big, x, n)
+                want = np.linalg.solve(a, r)
+                assert np.allclose(x[:n], want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+
+
+def test_small_solve_reports_singular_systems():
+    for n in (1, 2, 3, 4):
+        a = np.ones((n, n)) if n > 1 else np.zeros((1, 1))
+        assert not kernels._solve(a.copy(), np.ones(n), n)

@@ -457,70 +457,22 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
 @njit(**JIT_INLINE)
 def _solve(A, r, n):
     """Solve A x = r in place (x into r) by Gaussian elimination with partial pivoting; returns
-    False if A is singular.  The common systems have two or three columns (Kirchhoff-Carrier with
-    a finger and a fret, with a damper, or with the fretboard); they are eliminated with the
-    entries held as scalars, which is cheaper at these sizes than ``_solve_n``'s loops over n.
-    The pivots are chosen as ``_solve_n`` chooses them."""
-    if n == 3:
-        a00, a01, a02, r0 = A[0, 0], A[0, 1], A[0, 2], r[0]
-        a10, a11, a12, r1 = A[1, 0], A[1, 1], A[1, 2], r[1]
-        a20, a21, a22, r2 = A[2, 0], A[2, 1], A[2, 2], r[2]
-        # the pivot of column 0: the first row of largest magnitude, as in ``_solve_n``
-        if abs(a10) > abs(a00) and abs(a10) >= abs(a20):
-            a00, a01, a02, r0, a10, a11, a12, r1 = a10, a11, a12, r1, a00, a01, a02, r0
-        elif abs(a20) > abs(a00):
-            a00, a01, a02, r0, a20, a21, a22, r2 = a20, a21, a22, r2, a00, a01, a02, r0
-        if not abs(a00) > 0.0:
-            return False
-        i0 = 1.0 / a00
-        f = a10 * i0
-        a11 -= f * a01
-        a12 -= f * a02
-        r1 -= f * r0
-        f = a20 * i0
-        a21 -= f * a01
-        a22 -= f * a02
-        r2 -= f * r0
-        if abs(a21) > abs(a11):
-            a11, a12, r1, a21, a22, r2 = a21, a22, r2, a11, a12, r1
-        if not abs(a11) > 0.0:
-            return False
-        i1 = 1.0 / a11
-        f = a21 * i1
-        a22 -= f * a12
-        r2 -= f * r1
-        if not abs(a22) > 0.0:
-            return False
-        x2 = r2 / a22
-        x1 = (r1 - a12 * x2) * i1
-        r[0] = (r0 - a01 * x1 - a02 * x2) * i0
-        r[1] = x1
-        r[2] = x2
-        return True
+    False if A is singular.  Two columns (Kirchhoff-Carrier with a damper, the fretboard or a
+    finger) and three (with a finger and a fret) go to ``_solve_n`` with a literal size, which
+    LLVM unrolls: cheaper than its loops over an unknown n.  A held fretted note has four columns
+    (Kirchhoff-Carrier, the finger, and the frets on both sides of it, on which the pressed string
+    rests); its solve lies on the step's critical path, and unrolled it did not make that step
+    measurably faster, so it takes the loops."""
+    if n == 3:  # literal sizes: LLVM unrolls the loops
+        return _solve_n(A, r, 3)
     if n == 2:
-        a00, a01, r0 = A[0, 0], A[0, 1], r[0]
-        a10, a11, r1 = A[1, 0], A[1, 1], r[1]
-        if abs(a10) > abs(a00):
-            a00, a01, r0, a10, a11, r1 = a10, a11, r1, a00, a01, r0
-        if not abs(a00) > 0.0:
-            return False
-        i0 = 1.0 / a00
-        f = a10 * i0
-        a11 -= f * a01
-        r1 -= f * r0
-        if not abs(a11) > 0.0:
-            return False
-        x1 = r1 / a11
-        r[0] = (r0 - a01 * x1) * i0
-        r[1] = x1
-        return True
+        return _solve_n(A, r, 2)
     return _solve_n(A, r, n)
 
 
 @njit(**JIT_INLINE)
 def _solve_n(A, r, n):
-    """Gaussian elimination with partial pivoting, in place; returns False if singular (one
-    column, or more than three)."""
+    """Gaussian elimination with partial pivoting, in place; returns False if singular."""
     for i in range(n):
         p = i
         big = abs(A[i, i])

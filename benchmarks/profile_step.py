@@ -1,0 +1,202 @@
+"""Where a string's time step spends its time, by kernel helper: a sampling profile.
+
+    python -m benchmarks.profile_step [--string 4] [--fret 5] [--no-kc] [--seconds 10]
+
+Every helper the step loop calls is inlined into ``kernels.step_block``, so a function-level
+profiler sees one function.  This script renders the scene of ``benchmarks.speed``'s component
+table (a finger at ``--fret`` and an 8 N pluck on ``--string`` at x1; ``--fret 0``: the open
+string) over and over in a child process whose kernels are compiled with line tables
+(``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with
+Linux ``perf`` on the software clock (no hardware counters needed: it works in a VM), and maps
+every sampled address inside ``step_block`` to its line of ``engine/kernels.py`` (binutils'
+``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line.
+
+It also prints how many columns the step's small system has (the solves per step by size), from a
+short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
+
+Shares are of all samples of the child, so they include the Python around the kernel.  Caveats:
+the line tables change the compiled code slightly; a sample lands on the instruction that waits,
+not the one that caused the wait; "no line" is code the compiler did not attribute (spills,
+loop control).  Needs ``perf`` (Debian: linux-perf) and ``addr2line`` (binutils).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+KERNELS = Path(__file__).resolve().parent.parent / "engine" / "kernels.py"
+
+# The child: compile, report where step_block's machine code lives, then render until killed.
+CHILD = r"""
+import json, sys, numpy as np
+from engine import kernels
+from engine.guitar import RenderOptions, prepare
+from engine.scene import Scene
+string, fret, kc, ready = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
+events = [{"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
+if fret:
+    events.insert(0, {"type": "fret", "time": 0.0, "string": string, "fret": fret})
+scene = Scene.model_validate({"duration": 2.0, "output": {"body": "none"}, "events": events})
+options = RenderOptions(oversample=1, skip_decayed=False, kirchhoff_carrier=kc)
+eng = prepare(scene, options)
+for _ in eng.blocks():
+    pass
+fn = eng.voices[0]._step_block
+ov = next(o for o in kernels.step_block.overloads.values() if o.entry_point is fn)
+addr = ov.library.get_pointer_to_function(ov.fndesc.llvm_func_name)
+obj = ov.library.serialize_using_object_code()[2][0]
+with open(ready + ".o", "wb") as f:
+    f.write(obj)
+with open(ready, "w") as f:
+    json.dump({"address": addr, "symbol": ov.fndesc.llvm_func_name}, f)
+while True:
+    eng = prepare(scene, options)
+    for _ in eng.blocks():
+        pass
+"""
+
+
+# The sizes: the same scene, 0.25 s, with the kernels as Python functions, counting the solves.
+SIZES = r"""
+import collections, json, sys
+from engine import kernels
+from engine.guitar import RenderOptions, prepare
+from engine.scene import Scene
+string, fret, kc = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
+events = [{"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
+if fret:
+    events.insert(0, {"type": "fret", "time": 0.0, "string": string, "fret": fret})
+scene = Scene.model_validate({"duration": 0.25, "output": {"body": "none"}, "events": events})
+kernels.entry_point = lambda dispatcher, args: dispatcher  # plain Python: no types to resolve
+sizes = collections.Counter()
+solve = kernels._solve
+def counted(A, r, n):
+    sizes[n] += 1
+    return solve(A, r, n)
+kernels._solve = counted
+eng = prepare(scene, RenderOptions(oversample=1, skip_decayed=False, kirchhoff_carrier=kc))
+for _ in eng.blocks():
+    pass
+print(json.dumps({"steps": eng.voices[0].step, "sizes": sizes}))
+"""
+
+
+def _helpers() -> list[tuple[int, str]]:
+    """(first line, name) of every top-level def in kernels.py, in order."""
+    lines = KERNELS.read_text().splitlines()
+    return [(i + 1, m.group(1)) for i, line in enumerate(lines)
+            if (m := re.match(r"def (\w+)", line))]
+
+
+def _helper_of(line: int | None, helpers: list[tuple[int, str]]) -> str:
+    if line is None:
+        return "(no line)"
+    name = "(no line)"
+    for first, nm in helpers:
+        if first <= line:
+            name = nm
+    return name
+
+
+def _symbol_size(obj: str, symbol: str) -> tuple[int, int]:
+    """Offset and size of ``symbol`` in the object's text."""
+    out = subprocess.run(["nm", "-S", obj], capture_output=True, text=True, check=True).stdout
+    for row in out.splitlines():
+        parts = row.split()
+        if len(parts) == 4 and parts[3] == symbol:
+            return int(parts[0], 16), int(parts[1], 16)
+    raise SystemExit(f"{symbol} not found in the compiled object")
+
+
+def profile(string: int, fret: int, kc: bool, seconds: float) -> None:
+    for tool in ("perf", "addr2line", "nm"):
+        if shutil.which(tool) is None:
+            raise SystemExit(f"needs `{tool}` on PATH (Debian: linux-perf, binutils)")
+    with tempfile.TemporaryDirectory() as tmp:
+        ready = os.path.join(tmp, "ready.json")
+        env = {**os.environ, "NUMBA_DEBUGINFO": "1", "NUMBA_CACHE_DIR": os.path.join(tmp, "nc"),
+               "PYTHONPATH": str(KERNELS.parent.parent)}
+        child = subprocess.Popen([sys.executable, "-c", CHILD, str(string), str(fret),
+                                  "1" if kc else "0", ready], env=env,
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            t0 = time.monotonic()
+            while not os.path.exists(ready):
+                if child.poll() is not None or time.monotonic() - t0 > 600:
+                    raise SystemExit("the child did not start rendering (compile failed?)")
+                time.sleep(0.5)
+            time.sleep(0.5)  # the json is written after the object
+            info = json.loads(Path(ready).read_text())
+            data = os.path.join(tmp, "perf.data")
+            subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "20000", "-p",
+                            str(child.pid), "-o", data, "--", "sleep", str(seconds)],
+                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        finally:
+            child.kill()
+            child.wait()
+        ips = subprocess.run(["perf", "script", "-i", data, "-F", "ip"], capture_output=True,
+                             text=True, check=True).stdout.split()
+        obj = ready + ".o"
+        start, size = _symbol_size(obj, info["symbol"])
+        offsets = collections.Counter()
+        for ip in ips:
+            off = int(ip, 16) - info["address"]
+            if 0 <= off < size:
+                offsets[start + off] += 1
+        addrs = sorted(offsets)
+        lines: dict[int, int | None] = {}
+        for i in range(0, len(addrs), 2000):
+            chunk = addrs[i:i + 2000]
+            out = subprocess.run(["addr2line", "-e", obj, *[hex(a) for a in chunk]],
+                                 capture_output=True, text=True, check=True).stdout.splitlines()
+            for a, loc in zip(chunk, out, strict=True):
+                m = re.search(r"kernels\.py:(\d+)", loc)
+                lines[a] = int(m.group(1)) if m else None
+    sizes = json.loads(subprocess.run(
+        [sys.executable, "-c", SIZES, str(string), str(fret), "1" if kc else "0"],
+        env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(KERNELS.parent.parent)},
+        capture_output=True, text=True, check=True).stdout)
+    helpers = _helpers()
+    by_helper: collections.Counter = collections.Counter()
+    for a, n in offsets.items():
+        by_helper[_helper_of(lines[a], helpers)] += n
+    total = len(ips)
+    inside = sum(offsets.values())
+    what = f"finger at fret {fret}" if fret else "open string"
+    print(f"string {string} at x1, {what}, 8 N pluck, Kirchhoff-Carrier {'on' if kc else 'off'}: "
+          f"{total} samples over {seconds:g} s (perf, software clock)")
+    print("where                                       | share of samples")
+    print(f"{'outside step_block (Python, decimation)':43s} | {100 * (total - inside) / total:15.1f} %")
+    for name, n in by_helper.most_common():
+        label = "step_block's own lines" if name == "step_block" else name
+        print(f"{label:43s} | {100 * n / total:15.1f} %")
+    steps = sizes["steps"]
+    print(f"\nsolves of the small system per time step, by its size (columns), over the first 0.25 s "
+          f"({steps} steps)")
+    print("columns | solves per step")
+    for n, count in sorted((int(k), v) for k, v in sizes["sizes"].items()):
+        print(f"{n:7d} | {count / steps:15.3f}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--string", type=int, default=4)
+    ap.add_argument("--fret", type=int, default=5)
+    ap.add_argument("--no-kc", action="store_true", help="switch Kirchhoff-Carrier off")
+    ap.add_argument("--seconds", type=float, default=10.0)
+    args = ap.parse_args()
+    profile(args.string, args.fret, not args.no_kc, args.seconds)
+
+
+if __name__ == "__main__":
+    main()

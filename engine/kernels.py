@@ -1412,11 +1412,8 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
                     s += scr[cidx[f]] * cval[f]
                 for e in range(cstart[i], cstart[i + 1]):
                     scr[cidx[e]] = 0.0
-            s *= lam
-            if cslot[i] >= 0 and cslot[i] == cslot[j]:
-                s += lam_f
-            G[i, j] = s
-            G[j, i] = s
+            G[i, j] = lam * s  # a finger slot has one column: lam_f only on the diagonal
+            G[j, i] = lam * s
 
 
 @njit(**JIT_INLINE)

@@ -439,14 +439,22 @@ def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, f
 def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """The rigid frets' active-set check: the fret outside the active set that the predicted
     u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
-    fret is looked at: which fret is added must not depend on the skip's margin."""
+    fret is looked at: which fret is added must not depend on the skip's margin.
+
+    The indices are cast to unsigned: numba then leaves out the wrap-around of negative indices,
+    which in this loop cost a measurable share of a fretted step (``benchmarks.speed``).  A fret
+    in the first grid interval has p = 1 and w0 = 0 (``interp``), so its q index is clamped at 0
+    rather than wrapped to the far end (the product is zero either way)."""
     add = -1
     wval = -1e-12
     for q in range(fret_p.shape[0]):
         p_ = fret_p[q]
-        pv = fret_w0[q] * (UF[p_] + du[p_]) + fret_w1[q] * (UF[p_ + 1] + du[p_ + 1])
+        p0 = np.uint64(p_)
+        p1 = np.uint64(p_ + 1)
+        pv = fret_w0[q] * (UF[p0] + du[p0]) + fret_w1[q] * (UF[p1] + du[p1])
         if with_q:
-            pv += kq * (fret_w0[q] * Q[p_ - 2] + fret_w1[q] * Q[p_ - 1])
+            pv += kq * (fret_w0[q] * Q[np.uint64(max(p_ - 2, 0))]
+                        + fret_w1[q] * Q[np.uint64(p_ - 1)])
         viol = pv - fret_m0[q]
         if viol < wval and fret_active[q] == 0:
             wval = viol

@@ -677,7 +677,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     cc = np.empty(ncap)
     vfree = np.empty(ncap)
     v1 = np.empty(ncap)
-    cidx = np.empty(cap, np.int64)
+    cidx = np.empty(cap, np.uint64)  # node indices, unsigned: no wrap-around (see _fret_hit)
     cval = np.empty(cap)
     G = np.empty((ncap, ncap))
     A = np.empty((ncap, ncap))
@@ -1392,7 +1392,8 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
                     continue
                 t = 0.0
                 for e in range(cstart[j], cstart[j + 1]):
-                    t += Q[cidx[e] - 2] * cval[e]
+                    # a column's node 1 (p = 1, weight 0 there) is clamped, not wrapped
+                    t += Q[np.uint64(max(np.int64(cidx[e]) - 2, 0))] * cval[e]
                 G[i, j] = lam * t
                 G[j, i] = lam * t
             continue

@@ -186,7 +186,10 @@ def entry_point(dispatcher, args):
     Resolving the types once per string (numba's ``typeof`` of some sixty arrays) was itself a
     visible share of a short render, so the result is kept per process, keyed by ``_type_key``,
     which is much cheaper to compute.  Only for arguments of exactly these types (it unboxes by the
-    signature it was compiled for)."""
+    signature it was compiled for).  With ``NUMBA_DISABLE_JIT=1`` the kernels are Python, indexed
+    with numpy's bounds checks (``tests/engine/test_kernels.py`` renders that way)."""
+    if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: a plain Python function
+        return dispatcher
     key = (dispatcher, _type_key(args))
     fn = _ENTRIES.get(key)
     if fn is None:
@@ -436,25 +439,33 @@ def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, f
 
 
 @njit(**JIT_INLINE)
+def _q_index(p, nq):
+    """Index into Q (q = D u^n at the N - 1 interior nodes, Q[j] at node j + 1) of padded node p
+    (U[p]), unsigned so that numba leaves out the wrap-around of negative indices.  An interpolant
+    in the first or last grid interval has p = 1 or p + 1 = N + 1, a fixed end with no q, where
+    ``interp`` gives it weight 0: clamped to the nearest interior node, the product stays 0 and
+    the read stays inside Q (wrapped, it read the far end; past the end, memory beyond Q)."""
+    return np.uint64(min(max(p - 2, 0), nq - 1))
+
+
+@njit(**JIT_INLINE)
 def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """The rigid frets' active-set check: the fret outside the active set that the predicted
     u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
     fret is looked at: which fret is added must not depend on the skip's margin.
 
-    The indices are cast to unsigned: numba then leaves out the wrap-around of negative indices,
-    which in this loop cost a measurable share of a fretted step (``benchmarks.speed``).  A fret
-    in the first grid interval has p = 1 and w0 = 0 (``interp``), so its q index is clamped at 0
-    rather than wrapped to the far end (the product is zero either way)."""
+    The indices are unsigned (see ``_q_index``): numba's wrap-around of negative indices cost a
+    measurable share of a fretted step in this loop (``benchmarks.speed``)."""
     add = -1
     wval = -1e-12
+    nq = Q.shape[0]
     for q in range(fret_p.shape[0]):
         p_ = fret_p[q]
         p0 = np.uint64(p_)
         p1 = np.uint64(p_ + 1)
         pv = fret_w0[q] * (UF[p0] + du[p0]) + fret_w1[q] * (UF[p1] + du[p1])
         if with_q:
-            pv += kq * (fret_w0[q] * Q[np.uint64(max(p_ - 2, 0))]
-                        + fret_w1[q] * Q[np.uint64(p_ - 1)])
+            pv += kq * (fret_w0[q] * Q[_q_index(p_, nq)] + fret_w1[q] * Q[_q_index(p_ + 1, nq)])
         viol = pv - fret_m0[q]
         if viol < wval and fret_active[q] == 0:
             wval = viol
@@ -771,7 +782,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 UF[p_] += lam * pl_w0[e] * f
                 UF[p_ + 1] += lam * pl_w1[e] * f
                 if c.kc > 0.0:  # keep q.u_free current
-                    quf += lam * f * (pl_w0[e] * Q[p_ - 2] + pl_w1[e] * Q[p_ - 1])
+                    quf += lam * f * (pl_w0[e] * Q[_q_index(p_, n - 1)]
+                                      + pl_w1[e] * Q[_q_index(p_ + 1, n - 1)])
         # ---- fingers: life cycle, free update, eq. (39) -------------------------------------
         inject = 0.0
         for s in range(nslot):
@@ -1384,6 +1396,7 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
     columns meet on the nodes they share: found by comparing indices when either is narrow (a
     finger's or a fret's two nodes), by scattering one into ``scr`` when both are wide (the
     fretboard against the penalty frets)."""
+    nq = Q.shape[0]
     for i in range(nc):
         if kind[i] == KC:
             G[i, i] = lam * qq
@@ -1392,8 +1405,7 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
                     continue
                 t = 0.0
                 for e in range(cstart[j], cstart[j + 1]):
-                    # a column's node 1 (p = 1, weight 0 there) is clamped, not wrapped
-                    t += Q[np.uint64(max(np.int64(cidx[e]) - 2, 0))] * cval[e]
+                    t += Q[_q_index(np.int64(cidx[e]), nq)] * cval[e]
                 G[i, j] = lam * t
                 G[j, i] = lam * t
             continue

@@ -1,4 +1,10 @@
-"""engine.kernels' entry points: the kept compiled function is the one numba would pick."""
+"""engine.kernels: the kept entry point is the one numba would pick; the small solve; indices."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -73,3 +79,28 @@ def test_small_solve_reports_singular_systems():
     for n in (1, 2, 3, 4):
         a = np.ones((n, n)) if n > 1 else np.zeros((1, 1))
         assert not kernels._solve(a.copy(), np.ones(n), n)
+
+
+# A pluck at 0.98 L on a string of N = 9 (a D6 string on a bass scale at 22.05 kHz; the soak's
+# case 1769 found this string) lies in the last grid interval: its right-hand node is the fixed
+# end, with weight 0 and no q.
+LAST_INTERVAL_PLUCK = {
+    "duration": 0.005, "sample_rate": 22050, "quality": "draft",
+    "guitar": {"preset": "bass", "strings": [{"string": 3, "radius_m": 7.19e-05, "note": "D6"}]},
+    "output": {"body": "none", "normalize": False},
+    "events": [{"type": "pluck", "time": 0.0, "string": 3, "position": 0.98, "force": 2.0}],
+}
+
+
+def test_kernels_stay_inside_their_arrays_at_the_fixed_ends():
+    """The compiled kernels run without bounds checks, so a read past an array's end passes
+    silently (the excitation read q one past its end here, multiplied by weight 0).  Run as
+    Python (``NUMBA_DISABLE_JIT=1``), every index is checked by numpy."""
+    code = ("import json, sys, numpy as np, engine\n"
+            "a = engine.render(json.loads(sys.argv[1]))\n"
+            "assert np.all(np.isfinite(a)) and np.abs(a).max() > 0\n")
+    env = {**os.environ, "NUMBA_DISABLE_JIT": "1",
+           "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
+    run = subprocess.run([sys.executable, "-c", code, json.dumps(LAST_INTERVAL_PLUCK)], env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]

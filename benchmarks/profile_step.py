@@ -34,20 +34,19 @@ import tempfile
 import time
 from pathlib import Path
 
+from engine.guitar import RenderOptions
+from engine.scene import Scene
+
 KERNELS = Path(__file__).resolve().parent.parent / "engine" / "kernels.py"
 
 # The child: compile, report where step_block's machine code lives, then render until killed.
 CHILD = r"""
-import json, sys, numpy as np
+import json, sys
+from benchmarks.profile_step import scene_and_options
 from engine import kernels
-from engine.guitar import RenderOptions, prepare
-from engine.scene import Scene
+from engine.guitar import prepare
 string, fret, kc, ready = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
-events = [{"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
-if fret:
-    events.insert(0, {"type": "fret", "time": 0.0, "string": string, "fret": fret})
-scene = Scene.model_validate({"duration": 2.0, "output": {"body": "none"}, "events": events})
-options = RenderOptions(oversample=1, skip_decayed=False, kirchhoff_carrier=kc)
+scene, options = scene_and_options(string, fret, kc, 2.0)
 eng = prepare(scene, options)
 for _ in eng.blocks():
     pass
@@ -66,29 +65,45 @@ while True:
 """
 
 
-# The sizes: the same scene, 0.25 s, with the kernels as Python functions, counting the solves.
+# The sizes: the same scene, 0.25 s, with the kernels as Python functions, counting the solves of
+# the step loop (not the one inside ``_ray_blocked``, which solves without the new fret).
 SIZES = r"""
 import collections, json, sys
+from benchmarks.profile_step import scene_and_options
 from engine import kernels
-from engine.guitar import RenderOptions, prepare
-from engine.scene import Scene
+from engine.guitar import prepare
 string, fret, kc = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
-events = [{"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
-if fret:
-    events.insert(0, {"type": "fret", "time": 0.0, "string": string, "fret": fret})
-scene = Scene.model_validate({"duration": 0.25, "output": {"body": "none"}, "events": events})
-kernels.entry_point = lambda dispatcher, args: dispatcher  # plain Python: no types to resolve
 sizes = collections.Counter()
-solve = kernels._solve
+inner = [False]
+solve, ray_blocked = kernels._solve, kernels._ray_blocked
 def counted(A, r, n):
-    sizes[n] += 1
+    if not inner[0]:
+        sizes[n] += 1
     return solve(A, r, n)
-kernels._solve = counted
-eng = prepare(scene, RenderOptions(oversample=1, skip_decayed=False, kirchhoff_carrier=kc))
+def ray_blocked_uncounted(*args):
+    inner[0] = True
+    try:
+        return ray_blocked(*args)
+    finally:
+        inner[0] = False
+kernels._solve, kernels._ray_blocked = counted, ray_blocked_uncounted
+eng = prepare(*scene_and_options(string, fret, kc, 0.25))
 for _ in eng.blocks():
     pass
 print(json.dumps({"steps": eng.voices[0].step, "sizes": sizes}))
 """
+
+
+def scene_and_options(string: int, fret: int, kc: bool,
+                      seconds: float) -> tuple[Scene, RenderOptions]:
+    """``benchmarks.speed``'s component scene: a finger at ``fret`` (0: none) and an 8 N pluck at
+    0.05 s on ``string``, body 'none', at x1; Kirchhoff-Carrier on or off."""
+    events = [{"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
+    if fret:
+        events.insert(0, {"type": "fret", "time": 0.0, "string": string, "fret": fret})
+    scene = Scene.model_validate({"duration": seconds, "output": {"body": "none"},
+                                  "events": events})
+    return scene, RenderOptions(oversample=1, skip_decayed=False, kirchhoff_carrier=kc)
 
 
 def _helpers() -> list[tuple[int, str]]:

@@ -183,8 +183,9 @@ class Voice:
     def __post_init__(self):
         n = self.coefs.n
         nslot = len(self.ctl.arrays.fs_on)
+        # q: the N - 1 interior nodes' q, and a 0 for the fixed end N + 1 (kernels._q_index)
         self.state = kernels.State(
-            u=np.zeros(n + 3), u1=np.zeros(n + 3), uf=np.zeros(n + 3), q=np.zeros(n - 1),
+            u=np.zeros(n + 3), u1=np.zeros(n + 3), uf=np.zeros(n + 3), q=np.zeros(n),
             psi=np.zeros(2), gprev_b=np.zeros(n + 3), gprev_f=np.zeros(n + 3),
             has_gprev=np.zeros(2, np.int64),
             fret_active=np.zeros(len(self.geom.fret_p), np.int64),

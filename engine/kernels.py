@@ -145,7 +145,7 @@ class State(NamedTuple):
     u: np.ndarray  # u^n (padded)
     u1: np.ndarray  # u^(n-1)
     uf: np.ndarray  # scratch
-    q: np.ndarray  # scratch: D u^n
+    q: np.ndarray  # scratch: D u^n at the N - 1 interior nodes, then a 0 (``_q_index``)
     psi: np.ndarray  # [fretboard, penalty frets]
     gprev_b: np.ndarray  # last contact gradients (for the out-of-contact rule)
     gprev_f: np.ndarray
@@ -439,13 +439,14 @@ def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, f
 
 
 @njit(**JIT_INLINE)
-def _q_index(p, nq):
-    """Index into Q (q = D u^n at the N - 1 interior nodes, Q[j] at node j + 1) of padded node p
-    (U[p]), unsigned so that numba leaves out the wrap-around of negative indices.  An interpolant
-    in the first or last grid interval has p = 1 or p + 1 = N + 1, a fixed end with no q, where
-    ``interp`` gives it weight 0: clamped to the nearest interior node, the product stays 0 and
-    the read stays inside Q (wrapped, it read the far end; past the end, memory beyond Q)."""
-    return np.uint64(min(max(p - 2, 0), nq - 1))
+def _q_index(p):
+    """Index into Q (q = D u^n; Q[j] at node j + 1, so at padded node p = j + 2) of padded node p,
+    unsigned so that numba leaves out the wrap-around of negative indices.  An interpolant in the
+    first or last grid interval touches a fixed end (p = 1, or p + 1 = N + 1), which has no q and
+    weight 0 (``interp``): node 1 is clamped to Q[0], and node N + 1 reads Q[N - 1], the element
+    ``State.q`` carries past the N - 1 interior nodes, which stays 0.  (Wrapped, node 1 read the
+    far end; without that element, node N + 1 read memory past Q.)"""
+    return np.uint64(max(p - 2, 0))
 
 
 @njit(**JIT_INLINE)
@@ -458,14 +459,13 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
     measurable share of a fretted step in this loop (``benchmarks.speed``)."""
     add = -1
     wval = -1e-12
-    nq = Q.shape[0]
     for q in range(fret_p.shape[0]):
         p_ = fret_p[q]
         p0 = np.uint64(p_)
         p1 = np.uint64(p_ + 1)
         pv = fret_w0[q] * (UF[p0] + du[p0]) + fret_w1[q] * (UF[p1] + du[p1])
         if with_q:
-            pv += kq * (fret_w0[q] * Q[_q_index(p_, nq)] + fret_w1[q] * Q[_q_index(p_ + 1, nq)])
+            pv += kq * (fret_w0[q] * Q[_q_index(p_)] + fret_w1[q] * Q[_q_index(p_ + 1)])
         viol = pv - fret_m0[q]
         if viol < wval and fret_active[q] == 0:
             wval = viol
@@ -782,8 +782,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 UF[p_] += lam * pl_w0[e] * f
                 UF[p_ + 1] += lam * pl_w1[e] * f
                 if c.kc > 0.0:  # keep q.u_free current
-                    quf += lam * f * (pl_w0[e] * Q[_q_index(p_, n - 1)]
-                                      + pl_w1[e] * Q[_q_index(p_ + 1, n - 1)])
+                    quf += lam * f * (pl_w0[e] * Q[_q_index(p_)]
+                                      + pl_w1[e] * Q[_q_index(p_ + 1)])
         # ---- fingers: life cycle, free update, eq. (39) -------------------------------------
         inject = 0.0
         for s in range(nslot):
@@ -1396,7 +1396,6 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
     columns meet on the nodes they share: found by comparing indices when either is narrow (a
     finger's or a fret's two nodes), by scattering one into ``scr`` when both are wide (the
     fretboard against the penalty frets)."""
-    nq = Q.shape[0]
     for i in range(nc):
         if kind[i] == KC:
             G[i, i] = lam * qq
@@ -1405,7 +1404,7 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
                     continue
                 t = 0.0
                 for e in range(cstart[j], cstart[j + 1]):
-                    t += Q[_q_index(np.int64(cidx[e]), nq)] * cval[e]
+                    t += Q[_q_index(np.int64(cidx[e]))] * cval[e]
                 G[i, j] = lam * t
                 G[j, i] = lam * t
             continue

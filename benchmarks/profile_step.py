@@ -14,7 +14,9 @@ every sampled address inside ``step_block`` to its line of ``engine/kernels.py``
 It also prints how many columns the step's small system has (the solves per step by size), from a
 short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
 
-Shares are of all samples of the child, so they include the Python around the kernel.  Caveats:
+Shares are of all samples of the child.  "Outside step_block" is the Python around the kernel
+and every other compiled function; the build with line tables may place code there that an
+ordinary build keeps inside ``step_block``, so compare shares within one run.  Caveats:
 the line tables change the compiled code slightly; a sample lands on the instruction that waits,
 not the one that caused the wait; "no line" is code the compiler did not attribute (spills,
 loop control).  Needs ``perf`` (Debian: linux-perf) and ``addr2line`` (binutils).
@@ -191,7 +193,7 @@ def profile(string: int, fret: int, kc: bool, seconds: float) -> None:
     print(f"string {string} at x1, {what}, 8 N pluck, Kirchhoff-Carrier {'on' if kc else 'off'}: "
           f"{total} samples over {seconds:g} s (perf, software clock)")
     print("where                                       | share of samples")
-    print(f"{'outside step_block (Python, decimation)':43s} | {100 * (total - inside) / total:15.1f} %")
+    print(f"{'outside step_block':43s} | {100 * (total - inside) / total:15.1f} %")
     for name, n in by_helper.most_common():
         label = "step_block's own lines" if name == "step_block" else name
         print(f"{label:43s} | {100 * n / total:15.1f} %")

@@ -34,15 +34,21 @@ def test_type_key_tells_apart_what_typeof_tells_apart():
             assert (kernels._type_key(x) == kernels._type_key(y)) == same_type, (x, y)
 
 
-def test_strings_share_one_entry_point_and_it_renders_as_the_dispatcher():
+def test_strings_share_one_entry_point_and_it_renders_as_the_dispatcher(monkeypatch):
     sc = Scene.model_validate(scene([fret(2, 5), pluck(2, force=8.0), pluck(5)], duration=0.01))
     eng = prepare(sc, RenderOptions(skip_decayed=False))
     a, b = eng.voices
     args_a, args_b = _voice_args(a), _voice_args(b)
     fn = kernels.entry_point(kernels.step_block, args_a)
-    assert kernels.entry_point(kernels.step_block, args_b) is fn
     assert kernels.step_block.compile(
         tuple(kernels.step_block.typeof_pyval(x) for x in args_b)) is fn
+
+    def no_typeof(_value):
+        raise AssertionError("the second string resolved its argument types again")
+
+    monkeypatch.setattr(kernels.step_block, "typeof_pyval", no_typeof)
+    assert kernels.entry_point(kernels.step_block, args_b) is fn
+    monkeypatch.undo()
 
     twin = prepare(sc, RenderOptions(skip_decayed=False)).voices[0]
     args_t = _voice_args(twin)

@@ -17,7 +17,7 @@ import pathlib
 import sys
 import time
 
-from benchmarks import accuracy, articulations, intonation, pareto, skips, soak, speed
+from benchmarks import accuracy, articulations, fret_modes, intonation, pareto, skips, soak, speed
 
 OUT = pathlib.Path(__file__).parent / "out"
 
@@ -29,11 +29,17 @@ RUNS = [
     ("articulations", articulations.main, []),
     ("intonation_steel", intonation.main, ["--preset", "steel-acoustic"]),
     ("intonation_nylon", intonation.main, ["--preset", "nylon-classical"]),
+    ("fret_modes_steel", fret_modes.main, ["--preset", "steel-acoustic", "--quality", "draft"]),
+    ("fret_modes_nylon", fret_modes.main, ["--preset", "nylon-classical", "--quality", "standard"]),
     ("pareto", pareto.main, []),
     ("soak", soak.main, ["--minutes", "3"]),
 ]
 # outputs copied verbatim into docs/accuracy.md (marker name -> section title)
-DOCS = {"skips": "Skips: speed-up and largest output difference"}
+DOCS = {
+    "skips": "Skips: speed-up and largest output difference",
+    "fret_modes_steel": "Fretted notes on a coarse grid: the held string's modes",
+    "fret_modes_nylon": "Fretted notes on a coarse grid: nylon at quality 'standard'",
+}
 
 
 def main() -> None:
@@ -54,7 +60,8 @@ def main() -> None:
         text = buf.getvalue()
         (OUT / f"{name}.txt").write_text(text)
         if name in DOCS:
-            pareto.write_docs(DOCS[name], name, f"Printed by `python -m benchmarks.{name}`.\n\n"
+            command = " ".join(["python -m", fn.__module__, *argv])
+            pareto.write_docs(DOCS[name], name, f"Printed by `{command}`.\n\n"
                               f"```text\n{text.rstrip()}\n```")
         print(f"===== {name} ({time.perf_counter() - t:.0f} s)\n{text}", flush=True)
     print(f"===== all benchmarks: {time.perf_counter() - t0:.0f} s")

@@ -124,6 +124,7 @@ class StringControls:
     last_step: int  # the last step at which any control changes (for the decay skip)
     max_pluck_force: float  # the largest sum of |force| of the pluck pulses acting at one step
     fingers: tuple[FingerMotion, ...] = ()
+    frets: tuple[int, ...] = ()  # the frets the fingers stop (a slide: every fret on its way)
 
     @property
     def silent(self) -> bool:
@@ -146,6 +147,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
     slots: list[dict] = []
     dampers: list[tuple] = []
     bends: list[tuple[int, float]] = []
+    stopped: set[int] = set()
     last = 0
 
     def add_pluck(t, x_m, force, duration):
@@ -183,6 +185,10 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 x0 = x1 = finger_x_m(preset, e.fret)
                 ms = me = 0
             fret = e.to_fret if isinstance(e, Slide) else e.fret
+            if isinstance(e, Slide):
+                stopped.update(range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1))
+            else:
+                stopped.add(e.fret)
             force = e.force if e.force is not None else preset.finger.press_force_n
             slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
                               gap=v0 * TAP_GAP_S, fret=fret))
@@ -225,7 +231,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                                  abs(s["x1"] - s["x0"]) * rate / max(s["me"] - s["ms"], 1))
                     for s in slots)
     return StringControls(_arrays(plucks, slots, dampers, bends, h, n), last,
-                          _peak_total_force(plucks), fingers)
+                          _peak_total_force(plucks), fingers, tuple(sorted(stopped - {0})))
 
 
 def _peak_total_force(plucks) -> float:

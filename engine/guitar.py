@@ -33,6 +33,7 @@ from scipy import signal
 
 from . import kernels
 from .controls import NEVER, StringControls, events_on, max_tension_ratio, string_controls
+from .intonation import fret_shifts
 from .output import Body, default_pan, pan_gains
 from .presets import Preset
 from .scene import Scene
@@ -69,12 +70,17 @@ class Quality:
     # quiet steps leave Kirchhoff-Carrier out while its tension rise is below this share of T0:
     # the pitch it would add is then below about 866 x this many cents (``string.kc_skip_level``)
     kc_tolerance: float = 0.0
+    # the interpolants of the frets a scene's fingers stop are calibrated on the string's grid
+    # (``engine.intonation``): the held note gets the fine grid's pitch
+    calibrate_frets: bool = False
 
 
 QUALITY = {
-    "draft": Quality(max_h_m=1.0, kc_tolerance=1e-3),
-    "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8, kc_tolerance=1e-4),
-    "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16),
+    "draft": Quality(max_h_m=1.0, kc_tolerance=1e-3, calibrate_frets=True),
+    "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8, kc_tolerance=1e-4,
+                        calibrate_frets=True),
+    "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16,
+                    calibrate_frets=True),
 }
 
 
@@ -100,6 +106,7 @@ class RenderOptions:
     # (``GAMMA_RULES``) and the tuning of tension and stiffness against the grid's dispersion
     gamma_rule: str = "joint"
     compensate_dispersion: bool = True
+    calibrate_frets: bool | None = None  # overrides ``Quality.calibrate_frets``
 
 
 GAMMA_RULES = {"joint": kernels.GAMMA_JOINT, "own": kernels.GAMMA_OWN,
@@ -357,8 +364,10 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
                               partial(tension_ratio_for_cents, model))
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
+        calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
+        shifts = fret_shifts(model, preset, ctl.frets) if calibrate and fret_mode != 0 else None
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                        fretboard=opts.fretboard, quiet=opts.skip_contacts)
+                        fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
     frames = frame_count(scene)

@@ -398,19 +398,23 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
-             margin: float = math.inf, fretboard: bool = True, quiet: bool = True) -> Geo:
+             margin: float = math.inf, fretboard: bool = True, quiet: bool = True,
+             fret_shifts: dict[int, float] | None = None) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
     ``Geo.s_crit`` bounds the contacts that exist (``fretboard``, frets within ``margin``);
-    ``quiet`` False sends every step through the kernel's general path."""
+    ``quiet`` False sends every step through the kernel's general path.  ``fret_shifts`` (fret ->
+    metres, ``engine.intonation.fret_shifts``) moves those frets' interpolants along the string;
+    their heights stay those at x_q."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q)
+    shifts = fret_shifts or {}
     p = np.empty(len(q), np.int64)
     w0 = np.empty(len(q))
     w1 = np.empty(len(q))
     for i, xf in enumerate(xq):
-        p[i], w0[i], w1[i] = interp(xf, h, n)
+        p[i], w0[i], w1[i] = interp(xf + shifts.get(int(q[i]), 0.0), h, n)
     m0 = -np.asarray(preset.clearance_m(xq), dtype=float)
     xn = np.arange(1, n) * h
     board = -(np.asarray(preset.clearance_m(xn), dtype=float) + preset.fret_height_m)

@@ -1,0 +1,218 @@
+"""Fret interpolants calibrated on the grid, so that a fretted note has the pitch of a fine grid.
+
+On a coarse grid (a plain string at 44.1 kHz has h = 8-10 mm, a large part of a fret spacing) a
+fretted note comes out sharp by an amount that jumps from fret to fret: where the fret's and the
+finger's interpolants (eq. (15)) fall between the nodes changes the held string's mode.  That error
+is linear, and this module computes it.  The held note is modelled as
+
+* the scheme's stiffness and mass on the grid, h (T D^T D + E I (D^T D)^2) and rho A h per node
+  (the tuned T and E I of ``engine.string.tune``), fixed and simply supported at both ends;
+* the frets on both sides of the finger as equality constraints j_q^T u = 0 on their interpolants
+  (a pressed string rests on both; docs/engine.md);
+* the finger (eqs. (9)-(10)) as its mass on its contact spring, linearised at its pressing force
+  (dF/d eta = alpha F / eta), with its contact damping, which keeps the finger's own resonance from
+  ringing (without it, that resonance splits some notes into two modes);
+
+and the note is its mode within a semitone of the target that a pluck at 0.8 L drives and the
+pickup hears most, its frequency w mapped through the explicit scheme's dispersion, (2 / k)
+asin(k w / 2).  Loss, Kirchhoff-Carrier and the fretboard are left out: they move every grid alike.
+``benchmarks/fret_modes.py`` compares the model with rendered notes (docs/accuracy.md, "Fretted
+notes on a coarse grid").
+
+``fret_shifts`` moves each stopped fret's interpolant (not its height) along the string, towards
+the nut where the grid is sharp, until the model's note on the grid has the pitch of the same note
+on a fine grid (h <= ``REFERENCE_H_M``, the reference of ``benchmarks/intonation.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+from scipy import sparse
+from scipy.sparse import linalg as sparse_linalg
+
+from .controls import finger_x_m
+from .kernels import interp
+from .presets import Preset
+from .string import StringModel, tune
+
+REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are matched to
+PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmarks.intonation's)
+TOLERANCE_CENTS = 0.02  # a shift is refined until the model's note is this close to the reference
+
+
+def _interpolant(x: float, model: StringModel) -> list[tuple[int, float]]:
+    """j(x) as (interior node index 0..N-2, weight) pairs: the kernel's interpolant, with the
+    weights on the fixed ends dropped."""
+    p, w0, w1 = interp(x, model.h, model.n)
+    return [(node - 1, w) for node, w in ((p - 1, w0), (p, w1)) if w > 0.0]
+
+
+def _vector(pairs: list[tuple[int, float]], size: int) -> np.ndarray:
+    v = np.zeros(size)
+    for i, w in pairs:
+        v[i] += w
+    return v
+
+
+def _null_basis(constraints: list[list[tuple[int, float]]], size: int) -> sparse.csr_matrix:
+    """A sparse basis Z of {u : j^T u = 0 for every constraint j}: each constraint eliminates its
+    node of largest weight, which then follows the nodes kept (u = Z u_kept)."""
+    expr: dict[int, dict[int, float]] = {}  # eliminated node -> {kept node: coefficient}
+    for pairs in constraints:
+        row: dict[int, float] = {}
+        for i, w in pairs:  # in terms of the nodes still kept
+            for j, c in (expr[i].items() if i in expr else ((i, 1.0),)):
+                row[j] = row.get(j, 0.0) + w * c
+        row = {j: c for j, c in row.items() if c != 0.0}
+        if not row:
+            continue  # dependent on the constraints before it
+        i = max(row, key=lambda j: abs(row[j]))
+        sub = {j: -c / row[i] for j, c in row.items() if j != i}
+        for e in expr.values():  # earlier eliminations that used node i
+            if i in e:
+                c = e.pop(i)
+                for j, cj in sub.items():
+                    e[j] = e.get(j, 0.0) + c * cj
+        expr[i] = sub
+    kept = [i for i in range(size) if i not in expr]
+    col = {i: m for m, i in enumerate(kept)}
+    rows, cols, vals = [], [], []
+    for i in range(size):
+        for j, c in (expr[i].items() if i in expr else ((i, 1.0),)):
+            rows.append(i)
+            cols.append(col[j])
+            vals.append(c)
+    return sparse.csr_matrix((vals, (rows, cols)), shape=(size, len(kept)))
+
+
+def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
+                   fret_x: float | None = None, prev_x: float | None = None) -> float:
+    """Frequency (Hz) of the note the model above gives for ``fret`` on ``model``'s grid, the mode
+    nearest ``target`` (Hz) that the pluck and the pickup hear most; NaN if none is within a
+    semitone.  ``fret_x`` and ``prev_x`` place the interpolants of the fret and of the one behind
+    it (default: where they are, ``Preset.fret_x_m``)."""
+    n, h, k = model.n, model.h, model.k
+    size = n  # nodes 1..N-1 and the finger
+    if fret_x is None:
+        fret_x = float(preset.fret_x_m(fret))
+    if prev_x is None and fret > 1:
+        prev_x = float(preset.fret_x_m(fret - 1))
+    d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
+    fg = preset.finger
+    eta = (fg.press_force_n / fg.stiffness) ** (1.0 / fg.alpha)
+    kf = fg.alpha * fg.press_force_n / eta
+    jf = _vector(_interpolant(finger_x_m(preset, fret), model), size)
+    jf[n - 1] = -1.0  # the spring stretches by (string under the finger) - (finger)
+    stiff = sparse.block_diag([h * (-model.tension_n * d2 + model.ei * (d2 @ d2)),
+                               sparse.csr_matrix((1, 1))]).tocsr()
+    jfs = sparse.csr_matrix(jf)
+    stiff = stiff + kf * (jfs.T @ jfs)
+    damp = fg.damping_n_s_m * (jfs.T @ jfs)
+    mass = sparse.diags(np.append(np.full(n - 1, model.rho_a * h), fg.mass_kg))
+    z = _null_basis([_interpolant(x, model) for x in (fret_x, prev_x) if x is not None], size)
+    ks, cs, ms = (z.T @ a @ z for a in (stiff, damp, mass))
+    nz = z.shape[1]
+    eye = sparse.identity(nz)
+    a = sparse.bmat([[None, eye], [-ks, -cs]], format="csc").astype(complex)
+    b = sparse.block_diag([eye, ms], format="csc").astype(complex)
+    w = 2.0 / k * math.sin(min(k * math.pi * target, 0.5 * math.pi))  # maps to the target
+    # a fixed start vector: ARPACK's default is random, and the shifts (so the audio) would differ
+    # in the last bits from one process to the next
+    start = np.ones(2 * nz, complex)
+    s, v = sparse_linalg.eigs(a, k=min(6, 2 * nz - 2), M=b, sigma=1j * w, v0=start)
+    up = s.imag > 0.0
+    u = z @ v[:nz, up]
+    f = 2.0 / k * np.arcsin(np.minimum(k * s[up].imag / 2.0, 1.0)) / (2.0 * math.pi)
+    pluck = _vector(_interpolant(PLUCK * model.length_m, model), size)
+    pickup = _vector(_interpolant(preset.pickup_position * model.length_m, model), size)
+    modal = np.abs(np.einsum("im,i,im->m", u, mass.diagonal(), u))
+    heard = np.abs((pluck @ u) * (pickup @ u)) / modal
+    near = np.abs(1200.0 * np.log2(np.maximum(f, 1e-9) / target)) < 100.0
+    if not near.any():
+        return math.nan
+    return float(f[near][np.argmax(heard[near])])
+
+
+def reference_model(model: StringModel) -> StringModel:
+    """The same string tuned on the fine grid (h <= ``REFERENCE_H_M``): the internal rate raised
+    by the smallest integer factor that gets there."""
+    factor = 1
+    while True:
+        fine = tune(model.spec, model.length_m, factor / model.k)
+        if fine.h <= REFERENCE_H_M or factor >= 64:
+            return fine
+        factor += 1
+
+
+@lru_cache(maxsize=4096)
+def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
+    """Metres to move the interpolant of ``fret`` (towards the bridge if positive) so that the
+    model's note at that fret on ``model``'s grid has the pitch it has on the fine grid.
+
+    The fret behind stays where it is in the model (each fret is calibrated on its own, so a scene
+    calibrates only the frets it stops).  The shift is searched in steps of h / 8 in the direction
+    that corrects the error, no further than half way to the finger or to the next fret and at most
+    h / 2, then refined by regula falsi (Illinois) to ``TOLERANCE_CENTS``; if no shift within those
+    bounds reaches the fine grid's pitch, the one that comes closest is taken.  Cached per process.
+    """
+    spec = model.spec
+    target = spec.frequency_hz * 2.0 ** (fret / 12.0)
+    want = held_frequency(reference_model(model), preset, fret, target)
+    x0 = float(preset.fret_x_m(fret))
+
+    def err(d: float) -> float:
+        f = held_frequency(model, preset, fret, target, fret_x=x0 + d)
+        return 1200.0 * math.log2(f / want) if f > 0.0 else math.nan
+
+    e0 = err(0.0)
+    if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= TOLERANCE_CENTS:
+        return 0.0
+    if e0 > 0.0:  # sharp: a longer speaking length, towards the nut
+        limit = min(0.5 * model.h, 0.5 * (x0 - finger_x_m(preset, fret)))
+        sign = -1.0
+    else:
+        nxt = float(preset.fret_x_m(fret + 1)) if fret < preset.frets else model.length_m
+        limit = min(0.5 * model.h, 0.5 * (nxt - x0))
+        sign = 1.0
+    best, ebest = 0.0, e0
+    a, ea = 0.0, e0
+    step = model.h / 8.0
+    d = 0.0
+    while abs(d) < limit:
+        d = sign * min(abs(d) + step, limit)
+        e = err(d)
+        if not math.isfinite(e):
+            break
+        if abs(e) < abs(ebest):
+            best, ebest = d, e
+        if e * ea <= 0.0:  # bracketed between a and d: Illinois
+            b, eb = d, e
+            side = 0
+            for _ in range(30):
+                c = b - eb * (b - a) / (eb - ea)
+                ec = err(c)
+                if not math.isfinite(ec):
+                    break
+                if abs(ec) < abs(ebest):
+                    best, ebest = c, ec
+                if abs(ec) <= TOLERANCE_CENTS:
+                    break
+                if ec * eb < 0.0:
+                    a, ea = b, eb
+                    side = 0
+                else:
+                    side += 1
+                    if side >= 1:
+                        ea *= 0.5
+                b, eb = c, ec
+            break
+        a, ea = d, e
+    return best
+
+
+def fret_shifts(model: StringModel, preset: Preset, frets) -> dict[int, float]:
+    """``fret_shift`` of each of ``frets`` (those the scene's fingers stop)."""
+    return {q: fret_shift(model, preset, q) for q in sorted(set(frets)) if 1 <= q <= preset.frets}

@@ -92,10 +92,10 @@ def glide(quality: str) -> None:
 
 
 def board_depth(velocity: float, oversample: int, rule: str = "joint",
-                force: float = 10.0) -> tuple[float, float]:
-    """A tap at fret 12 of string 1, stepped one internal step at a time: the deepest any node goes
-    below the fretboard (m) and the static depth of the whole force on one grid cell (m)."""
-    sc = Scene.model_validate(scene([tap(1, 12, force=force, velocity=velocity)], 0.015))
+                force: float = 10.0, fret: int = 12) -> tuple[float, float]:
+    """A tap at ``fret`` of string 1, stepped one internal step at a time: the deepest any node
+    goes below the fretboard (m) and the static depth of the whole force on one grid cell (m)."""
+    sc = Scene.model_validate(scene([tap(1, fret, force=force, velocity=velocity)], 0.015))
     eng = prepare(sc, RenderOptions(oversample=oversample, gamma_rule=rule))
     v = eng.voices[0]
     c = v.coefs

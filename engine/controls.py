@@ -124,21 +124,37 @@ class StringControls:
     last_step: int  # the last step at which any control changes (for the decay skip)
     max_pluck_force: float  # the largest sum of |force| of the pluck pulses acting at one step
     fingers: tuple[FingerMotion, ...] = ()
-    frets: tuple[int, ...] = ()  # the frets the fingers stop (a slide: every fret on its way)
 
     @property
     def silent(self) -> bool:
         return self.arrays.pl_start.size == 0 and self.arrays.fs_on.size == 0
 
 
+def stopped_frets(events: list) -> tuple[int, ...]:
+    """The frets that the fingers of ``events`` stop (a slide: every fret on its way), sorted."""
+    frets: set[int] = set()
+    for e in events:
+        if isinstance(e, Slide):
+            frets.update(range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1))
+        elif isinstance(e, Fret | Tap):
+            frets.add(e.fret)
+    return tuple(sorted(frets - {0}))
+
+
 def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
-                    impedance: float, ratio_for_cents) -> StringControls:
+                    impedance: float, ratio_for_cents,
+                    fret_shifts: dict[int, float] | None = None) -> StringControls:
     """Compile ``events`` (already on ``string``, sorted) for a grid of spacing h at ``rate`` Hz.
 
     ``impedance`` is sqrt(T rho A); ``ratio_for_cents(c)`` the tension ratio that raises the pitch
-    by c cents.
+    by c cents.  ``fret_shifts`` (fret -> metres, ``engine.intonation``) moves a finger stopping
+    a calibrated fret along with that fret's interpolant.
     """
     length_m = preset.string_length_m(string)
+    shifts = fret_shifts or {}
+
+    def finger_at(fret: int) -> float:
+        return finger_x_m(preset, fret) + shifts.get(fret, 0.0)
 
     def step(t: float) -> int:
         return int(round(t * rate))
@@ -147,7 +163,6 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
     slots: list[dict] = []
     dampers: list[tuple] = []
     bends: list[tuple[int, float]] = []
-    stopped: set[int] = set()
     last = 0
 
     def add_pluck(t, x_m, force, duration):
@@ -178,17 +193,13 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 last = max(last, rel)
             v0 = e.velocity if isinstance(e, Tap) else 0.0
             if isinstance(e, Slide):
-                x0, x1 = finger_x_m(preset, e.from_fret), finger_x_m(preset, e.to_fret)
+                x0, x1 = finger_at(e.from_fret), finger_at(e.to_fret)
                 ms, me = on, on + max(step(e.duration), 1)
                 last = max(last, me)
             else:
-                x0 = x1 = finger_x_m(preset, e.fret)
+                x0 = x1 = finger_at(e.fret)
                 ms = me = 0
             fret = e.to_fret if isinstance(e, Slide) else e.fret
-            if isinstance(e, Slide):
-                stopped.update(range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1))
-            else:
-                stopped.add(e.fret)
             force = e.force if e.force is not None else preset.finger.press_force_n
             slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
                               gap=v0 * TAP_GAP_S, fret=fret))
@@ -231,7 +242,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                                  abs(s["x1"] - s["x0"]) * rate / max(s["me"] - s["ms"], 1))
                     for s in slots)
     return StringControls(_arrays(plucks, slots, dampers, bends, h, n), last,
-                          _peak_total_force(plucks), fingers, tuple(sorted(stopped - {0})))
+                          _peak_total_force(plucks), fingers)
 
 
 def _peak_total_force(plucks) -> float:

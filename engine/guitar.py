@@ -32,7 +32,14 @@ import numpy as np
 from scipy import signal
 
 from . import kernels
-from .controls import NEVER, StringControls, events_on, max_tension_ratio, string_controls
+from .controls import (
+    NEVER,
+    StringControls,
+    events_on,
+    max_tension_ratio,
+    stopped_frets,
+    string_controls,
+)
 from .intonation import fret_shifts
 from .output import Body, default_pan, pan_gains
 from .presets import Preset
@@ -360,12 +367,13 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
                                kc_s_skip=kc_skip_level(model, kc_tol))
         impedance = math.sqrt(model.tension_n * model.rho_a)
+        calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
+        shifts = (fret_shifts(model, preset, stopped_frets(events))
+                  if calibrate and fret_mode == FRET_RIGID else None)
         ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
-                              partial(tension_ratio_for_cents, model))
+                              partial(tension_ratio_for_cents, model), shifts)
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
-        calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
-        shifts = fret_shifts(model, preset, ctl.frets) if calibrate and fret_mode != 0 else None
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
                         fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),

@@ -19,9 +19,10 @@ asin(k w / 2).  Loss, Kirchhoff-Carrier and the fretboard are left out: they mov
 ``benchmarks/fret_modes.py`` compares the model with rendered notes (docs/accuracy.md, "Fretted
 notes on a coarse grid").
 
-``fret_shifts`` moves each stopped fret's interpolant (not its height) along the string, towards
-the nut where the grid is sharp, until the model's note on the grid has the pitch of the same note
-on a fine grid (h <= ``REFERENCE_H_M``, the reference of ``benchmarks/intonation.py``).
+``fret_shifts`` moves each stopped fret's interpolant (not its height), and the finger that stops
+it, along the string, towards the nut where the grid is sharp, until the model's note on the grid
+has the pitch of the same note on a fine grid (h <= ``REFERENCE_H_M``, the reference of
+``benchmarks/intonation.py``).
 """
 
 from __future__ import annotations
@@ -89,22 +90,26 @@ def _null_basis(constraints: list[list[tuple[int, float]]], size: int) -> sparse
 
 
 def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
-                   fret_x: float | None = None, prev_x: float | None = None) -> float:
+                   fret_x: float | None = None, prev_x: float | None = None,
+                   finger_x: float | None = None) -> float:
     """Frequency (Hz) of the note the model above gives for ``fret`` on ``model``'s grid, the mode
     nearest ``target`` (Hz) that the pluck and the pickup hear most; NaN if none is within a
-    semitone.  ``fret_x`` and ``prev_x`` place the interpolants of the fret and of the one behind
-    it (default: where they are, ``Preset.fret_x_m``)."""
+    semitone.  ``fret_x``, ``prev_x`` and ``finger_x`` place the interpolants of the fret, of the
+    one behind it and of the finger (default: where they are, ``Preset.fret_x_m`` and
+    ``controls.finger_x_m``)."""
     n, h, k = model.n, model.h, model.k
     size = n  # nodes 1..N-1 and the finger
     if fret_x is None:
         fret_x = float(preset.fret_x_m(fret))
     if prev_x is None and fret > 1:
         prev_x = float(preset.fret_x_m(fret - 1))
+    if finger_x is None:
+        finger_x = finger_x_m(preset, fret)
     d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
     fg = preset.finger
     eta = (fg.press_force_n / fg.stiffness) ** (1.0 / fg.alpha)
     kf = fg.alpha * fg.press_force_n / eta
-    jf = _vector(_interpolant(finger_x_m(preset, fret), model), size)
+    jf = _vector(_interpolant(finger_x, model), size)
     jf[n - 1] = -1.0  # the spring stretches by (string under the finger) - (finger)
     stiff = sparse.block_diag([h * (-model.tension_n * d2 + model.ei * (d2 @ d2)),
                                sparse.csr_matrix((1, 1))]).tocsr()
@@ -149,29 +154,33 @@ def reference_model(model: StringModel) -> StringModel:
 
 @lru_cache(maxsize=4096)
 def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
-    """Metres to move the interpolant of ``fret`` (towards the bridge if positive) so that the
-    model's note at that fret on ``model``'s grid has the pitch it has on the fine grid.
+    """Metres to move the interpolants of ``fret`` and of the finger stopping it, together
+    (towards the bridge if positive), so that the model's note at that fret on ``model``'s grid has
+    the pitch it has on the fine grid.  Moving the finger with the fret keeps the distance between
+    them, which sets how a tap or a pressed finger drives the string.
 
     The fret behind stays where it is in the model (each fret is calibrated on its own, so a scene
     calibrates only the frets it stops).  The shift is searched in steps of h / 8 in the direction
-    that corrects the error, no further than half way to the finger or to the next fret and at most
-    h / 2, then refined by regula falsi (Illinois) to ``TOLERANCE_CENTS``; if no shift within those
-    bounds reaches the fine grid's pitch, the one that comes closest is taken.  Cached per process.
+    that corrects the error, at most h / 2 and no further than half way to the next fret (the
+    finger: to the fret behind it), then refined by regula falsi (Illinois) to
+    ``TOLERANCE_CENTS``; if no shift within those bounds reaches the fine grid's pitch, the one that
+    comes closest is taken.  Cached per process.
     """
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
     want = held_frequency(reference_model(model), preset, fret, target)
     x0 = float(preset.fret_x_m(fret))
+    xf = finger_x_m(preset, fret)
 
     def err(d: float) -> float:
-        f = held_frequency(model, preset, fret, target, fret_x=x0 + d)
+        f = held_frequency(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d)
         return 1200.0 * math.log2(f / want) if f > 0.0 else math.nan
 
     e0 = err(0.0)
     if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= TOLERANCE_CENTS:
         return 0.0
     if e0 > 0.0:  # sharp: a longer speaking length, towards the nut
-        limit = min(0.5 * model.h, 0.5 * (x0 - finger_x_m(preset, fret)))
+        limit = min(0.5 * model.h, 0.5 * (xf - float(preset.fret_x_m(fret - 1))))
         sign = -1.0
     else:
         nxt = float(preset.fret_x_m(fret + 1)) if fret < preset.frets else model.length_m

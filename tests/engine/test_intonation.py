@@ -10,7 +10,7 @@ import pytest
 
 import engine
 from engine.analysis import cents, spectrum_peak
-from engine.controls import events_on, string_controls
+from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
 from engine.guitar import QUALITY, RenderOptions
 from engine.intonation import TOLERANCE_CENTS, fret_shift, held_frequency, reference_model
 from engine.scene import Scene
@@ -62,7 +62,8 @@ def test_a_calibrated_fret_gives_the_fine_grids_note_in_the_model(steel):
         target = steel.strings[1].frequency_hz * 2 ** (q / 12)
         d = fret_shift(m, steel, q)
         assert 0.0 < abs(d) <= 0.5 * m.h
-        got = held_frequency(m, steel, q, target, fret_x=float(steel.fret_x_m(q)) + d)
+        got = held_frequency(m, steel, q, target, fret_x=float(steel.fret_x_m(q)) + d,
+                             finger_x=finger_x_m(steel, q) + d)
         want = held_frequency(fine, steel, q, target)
         assert abs(1200 * math.log2(got / want)) <= TOLERANCE_CENTS
 
@@ -79,16 +80,22 @@ def test_a_shift_moves_that_frets_interpolant_only(steel):
     assert np.array_equal(plain.fret_m0, moved.fret_m0)  # the heights stay
 
 
-def test_the_stopped_frets_are_the_ones_calibrated(steel):
+def test_the_stopped_frets_are_calibrated_and_their_fingers_move_with_them(steel):
     sc = Scene.model_validate({"duration": 1.0, "events": [
         {"type": "fret", "time": 0.0, "string": 2, "fret": 0},
         {"type": "fret", "time": 0.1, "string": 2, "fret": 9},
         {"type": "slide", "time": 0.2, "string": 2, "from_fret": 7, "to_fret": 3,
          "duration": 0.1},
         {"type": "tap", "time": 0.5, "string": 2, "fret": 12}]})
+    events = events_on(sc, 6, 2)
+    assert stopped_frets(events) == (3, 4, 5, 6, 7, 9, 12)
     m = _string(steel, 2)
-    ctl = string_controls(events_on(sc, 6, 2), steel, 2, m.h, m.n, SR, 1.0, lambda c: 1.0)
-    assert ctl.frets == (3, 4, 5, 6, 7, 9, 12)
+    plain = string_controls(events, steel, 2, m.h, m.n, SR, 1.0, lambda c: 1.0).arrays
+    moved = string_controls(events, steel, 2, m.h, m.n, SR, 1.0, lambda c: 1.0,
+                            {7: -1e-3, 9: 2e-3}).arrays
+    # slots: fret 9, the slide 7 -> 3, the tap at 12
+    assert np.allclose(moved.fs_x0 - plain.fs_x0, [2e-3, -1e-3, 0.0])
+    assert np.allclose(moved.fs_x1 - plain.fs_x1, [2e-3, 0.0, 0.0])
 
 
 def test_the_shifts_are_the_same_in_every_process(steel):

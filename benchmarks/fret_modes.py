@@ -26,7 +26,7 @@ import numpy as np
 
 from benchmarks.intonation import FRETS, SR, print_table, table
 from engine.guitar import QUALITY, Quality, oversample_for
-from engine.intonation import REFERENCE_H_M, held_frequency
+from engine.intonation import REFERENCE_H_M, fret_shift, fret_shifts, held_frequency
 from engine.presets import Preset, get_preset
 
 # benchmarks.intonation's reference grid, without calibration
@@ -56,6 +56,11 @@ def main(argv: list[str] | None = None) -> None:
     quality = QUALITY[args.quality]
     t0 = time.perf_counter()
     model = predicted(preset, quality)
+    fret_shift.cache_clear()
+    t1 = time.perf_counter()
+    for i, spec in enumerate(preset.strings, start=1):
+        fret_shifts(oversample_for(spec, preset.string_length_m(i), SR, quality)[1], preset, FRETS)
+    calibration = time.perf_counter() - t1
     raw = replace(quality, calibrate_frets=False)
     calibrated = replace(quality, calibrate_frets=True)
     with Pool(2) as pool:
@@ -70,6 +75,9 @@ def main(argv: list[str] | None = None) -> None:
     print_table("1. frets where they are, the model: quality minus reference", model)
     print_table("1. model minus rendered", model - rendered)
     print_table("2. frets calibrated, rendered notes: quality minus reference", after)
+    n = preset.n_strings * len(FRETS)
+    print(f"\ncalibrating the {n} frets (engine.intonation.fret_shifts, one process, empty cache): "
+          f"{calibration:.1f} s, {calibration / n * 1e3:.0f} ms per fret")
     print(f"\n({time.perf_counter() - t0:.0f} s on this machine)")
 
 

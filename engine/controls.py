@@ -131,11 +131,12 @@ class StringControls:
 
 
 def stopped_frets(events: list) -> tuple[int, ...]:
-    """The frets that the fingers of ``events`` stop (a slide: every fret on its way), sorted."""
+    """The frets that the fingers of ``events`` stop, sorted: a slide stops at its two ends (on
+    its way the finger is between the frets' stopping positions, where no calibration applies)."""
     frets: set[int] = set()
     for e in events:
         if isinstance(e, Slide):
-            frets.update(range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1))
+            frets.update((e.from_fret, e.to_fret))
         elif isinstance(e, Fret | Tap):
             frets.add(e.fret)
     return tuple(sorted(frets - {0}))

@@ -33,6 +33,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import sparse
 from scipy.sparse import linalg as sparse_linalg
+from threadpoolctl import threadpool_limits
 
 from .controls import finger_x_m
 from .kernels import interp
@@ -223,5 +224,12 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
 
 
 def fret_shifts(model: StringModel, preset: Preset, frets) -> dict[int, float]:
-    """``fret_shift`` of each of ``frets`` (those the scene's fingers stop)."""
-    return {q: fret_shift(model, preset, q) for q in sorted(set(frets)) if 1 <= q <= preset.frets}
+    """``fret_shift`` of each of ``frets`` (those the scene's fingers stop), with BLAS on one
+    thread: the solves are small, and OpenBLAS's own threads, one set per process, fought over the
+    cores when two worker processes calibrated at once (the soak's random scenes ran many times
+    slower than one at a time)."""
+    wanted = sorted(q for q in set(frets) if 1 <= q <= preset.frets)
+    if not wanted:
+        return {}
+    with threadpool_limits(limits=1, user_api="blas"):
+        return {q: fret_shift(model, preset, q) for q in wanted}

@@ -78,7 +78,10 @@ class Quality:
     # the pitch it would add is then below about 866 x this many cents (``string.kc_skip_level``)
     kc_tolerance: float = 0.0
     # the interpolants of the frets a scene's fingers stop are calibrated on the string's grid
-    # (``engine.intonation``): the held note gets the fine grid's pitch
+    # (``engine.intonation``): the held note gets the fine grid's pitch.  On at draft and standard,
+    # where it takes the grid's 13.8 and 4.9 cents out of the fretted pitch (against x8 everywhere,
+    # benchmarks/pareto.py); off at high, whose fine grid leaves 1.7 cents and where it cost more
+    # spectral accuracy (tap, fret buzz) than it bought (docs/accuracy.md)
     calibrate_frets: bool = False
 
 
@@ -86,8 +89,7 @@ QUALITY = {
     "draft": Quality(max_h_m=1.0, kc_tolerance=1e-3, calibrate_frets=True),
     "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8, kc_tolerance=1e-4,
                         calibrate_frets=True),
-    "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16,
-                    calibrate_frets=True),
+    "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16),
 }
 
 

@@ -28,6 +28,7 @@ has the pitch of the same note on a fine grid (h <= ``REFERENCE_H_M``, the refer
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from functools import lru_cache
 
 import numpy as np
@@ -200,7 +201,6 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
             best, ebest = d, e
         if e * ea <= 0.0:  # bracketed between a and d: Illinois
             b, eb = d, e
-            side = 0
             for _ in range(30):
                 c = b - eb * (b - a) / (eb - ea)
                 ec = err(c)
@@ -212,18 +212,15 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
                     break
                 if ec * eb < 0.0:
                     a, ea = b, eb
-                    side = 0
-                else:
-                    side += 1
-                    if side >= 1:
-                        ea *= 0.5
+                else:  # the same end kept twice: halve its value (Illinois)
+                    ea *= 0.5
                 b, eb = c, ec
             break
         a, ea = d, e
     return best
 
 
-def fret_shifts(model: StringModel, preset: Preset, frets) -> dict[int, float]:
+def fret_shifts(model: StringModel, preset: Preset, frets: Iterable[int]) -> dict[int, float]:
     """``fret_shift`` of each of ``frets`` (those the scene's fingers stop), with BLAS on one
     thread: the solves are small, and OpenBLAS's own threads, one set per process, fought over the
     cores when two worker processes calibrated at once (the soak's random scenes ran many times

@@ -3,13 +3,15 @@
 ``engine.intonation`` models a held note as a linear system on the string's grid (the scheme's
 stiffness and mass, the frets on both sides of the finger as constraints, the finger as a damped
 mass on its contact spring) and calibrates the stopped frets' interpolants with it.  This script
-checks the model and the calibration against rendered notes (``benchmarks.intonation``'s scene),
-for every string and frets 1-12 on the grids of one quality level:
+checks the model and the calibration against rendered notes (``benchmarks.intonation``'s scene)
+for every string and frets 1-12 on the grids of one quality level, and prints what calibrating
+those frets costs (once, in one process):
 
 1. the grid's share of the error, frets left where they are: the rendered pitch on the quality's
    grid minus that on the reference grid (h <= 1.5 mm), and the model's same difference;
-2. with the frets calibrated (what the quality levels render): the rendered pitch minus the
-   reference grid's, which the calibration aims to make zero.
+2. with the stopped frets calibrated, their fingers moved with them (what `draft` and `standard`
+   render): the rendered pitch minus the reference grid's, which the calibration aims to make
+   zero.
 
     python -m benchmarks.fret_modes [--preset steel-acoustic] [--quality draft]
 """

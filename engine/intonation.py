@@ -91,6 +91,19 @@ def _null_basis(constraints: list[list[tuple[int, float]]], size: int) -> sparse
     return sparse.csr_matrix((vals, (rows, cols)), shape=(size, len(kept)))
 
 
+@lru_cache(maxsize=64)
+def _string_matrices(model: StringModel, finger_mass: float):
+    """The string's stiffness h (T D^T D + E I (D^T D)^2) and the mass matrix, over nodes 1..N-1
+    and the finger (its row and column of the stiffness empty): the same for every fret, so a
+    calibration builds them once."""
+    n, h = model.n, model.h
+    d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
+    stiff = sparse.block_diag([h * (-model.tension_n * d2 + model.ei * (d2 @ d2)),
+                               sparse.csr_matrix((1, 1))]).tocsr()
+    mass = sparse.diags(np.append(np.full(n - 1, model.rho_a * h), finger_mass))
+    return stiff, mass
+
+
 def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
                    fret_x: float | None = None, prev_x: float | None = None,
                    finger_x: float | None = None) -> float:
@@ -99,7 +112,7 @@ def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
     semitone.  ``fret_x``, ``prev_x`` and ``finger_x`` place the interpolants of the fret, of the
     one behind it and of the finger (default: where they are, ``Preset.fret_x_m`` and
     ``controls.finger_x_m``)."""
-    n, h, k = model.n, model.h, model.k
+    n, k = model.n, model.k
     size = n  # nodes 1..N-1 and the finger
     if fret_x is None:
         fret_x = float(preset.fret_x_m(fret))
@@ -107,18 +120,15 @@ def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
         prev_x = float(preset.fret_x_m(fret - 1))
     if finger_x is None:
         finger_x = finger_x_m(preset, fret)
-    d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
     fg = preset.finger
     eta = (fg.press_force_n / fg.stiffness) ** (1.0 / fg.alpha)
     kf = fg.alpha * fg.press_force_n / eta
     jf = _vector(_interpolant(finger_x, model), size)
     jf[n - 1] = -1.0  # the spring stretches by (string under the finger) - (finger)
-    stiff = sparse.block_diag([h * (-model.tension_n * d2 + model.ei * (d2 @ d2)),
-                               sparse.csr_matrix((1, 1))]).tocsr()
+    string_stiff, mass = _string_matrices(model, fg.mass_kg)
     jfs = sparse.csr_matrix(jf)
-    stiff = stiff + kf * (jfs.T @ jfs)
+    stiff = string_stiff + kf * (jfs.T @ jfs)
     damp = fg.damping_n_s_m * (jfs.T @ jfs)
-    mass = sparse.diags(np.append(np.full(n - 1, model.rho_a * h), fg.mass_kg))
     z = _null_basis([_interpolant(x, model) for x in (fret_x, prev_x) if x is not None], size)
     ks, cs, ms = (z.T @ a @ z for a in (stiff, damp, mass))
     nz = z.shape[1]

@@ -11,7 +11,10 @@ those frets costs (once, in one process):
    grid minus that on the reference grid (h <= 1.5 mm), and the model's same difference;
 2. with the stopped frets calibrated, their fingers moved with them (what `draft` and `standard`
    render): the rendered pitch minus the reference grid's, which the calibration aims to make
-   zero.
+   zero;
+3. the decay of the rendered fundamental (dB/s, 0.2-1.15 s) minus the reference grid's, frets
+   where they are and calibrated: the same sub-grid geometry sets how much of the sounding string
+   reaches the finger's contact damping, which the calibration does not aim at.
 
     python -m benchmarks.fret_modes [--preset steel-acoustic] [--quality draft]
 """
@@ -26,7 +29,7 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from benchmarks.intonation import FRETS, SR, print_table, table
+from benchmarks.intonation import FRETS, SR, print_table, tables
 from engine.guitar import QUALITY, Quality, oversample_for
 from engine.intonation import REFERENCE_H_M, fret_shift, fret_shifts, held_frequency
 from engine.presets import Preset, get_preset
@@ -66,9 +69,11 @@ def main(argv: list[str] | None = None) -> None:
     raw = replace(quality, calibrate_frets=False)
     calibrated = replace(quality, calibrate_frets=True)
     with Pool(2) as pool:
-        reference = table(args.preset, REFERENCE, False, pool)
-        rendered = table(args.preset, raw, False, pool) - reference
-        after = table(args.preset, calibrated, False, pool) - reference
+        reference, ref_decay = tables(args.preset, REFERENCE, False, pool)
+        raw_cents, raw_decay = tables(args.preset, raw, False, pool)
+        cal_cents, cal_decay = tables(args.preset, calibrated, False, pool)
+    rendered = raw_cents - reference
+    after = cal_cents - reference
     grid = ", ".join(f"{oversample_for(s, preset.string_length_m(i), SR, quality)[1].h * 1e3:.2f}"
                      for i, s in enumerate(preset.strings, start=1))
     print(f"{args.preset}, quality '{args.quality}' (h in mm by string: {grid}) against the "
@@ -77,6 +82,9 @@ def main(argv: list[str] | None = None) -> None:
     print_table("1. frets where they are, the model: quality minus reference", model)
     print_table("1. model minus rendered", model - rendered)
     print_table("2. frets calibrated, rendered notes: quality minus reference", after)
+    print_table("3. decay of the fundamental (dB/s; negative: dies faster), frets where they are: "
+                "quality minus reference", raw_decay - ref_decay, "dB/s")
+    print_table("3. the same, frets calibrated", cal_decay - ref_decay, "dB/s")
     n = preset.n_strings * len(FRETS)
     print(f"\ncalibrating the {n} frets (engine.intonation.fret_shifts, one process, empty cache): "
           f"{calibration:.1f} s, {calibration / n * 1e3:.0f} ms per fret")

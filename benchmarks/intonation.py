@@ -31,7 +31,9 @@ FRETS = tuple(range(1, 13))
 SR = 44100
 
 
-def fretted_cents(args) -> tuple[int, int, float]:
+def fretted_note(args) -> tuple[int, int, float, float]:
+    """One fretted note (the finger with the preset's force, a 1 N pluck at 0.8 L): its pitch in
+    cents from 12-TET, measured from 0.2 s, and the decay of its fundamental in dB/s."""
     preset_name, string, fret, quality, zero_setback = args
     guitar: dict = {"preset": preset_name}
     if zero_setback:
@@ -50,25 +52,46 @@ def fretted_cents(args) -> tuple[int, int, float]:
     audio = engine.render(scene, options=RenderOptions(quality=quality))
     target = get_preset(preset_name).strings[string - 1].frequency_hz * 2 ** (fret / 12)
     f = spectrum_peak(audio[int(0.2 * SR) :], SR, target, 0.08)
-    return string, fret, float(cents(f, target))
+    return string, fret, float(cents(f, target)), decay_db_per_s(audio, f)
 
 
-def table(preset_name: str, quality: Quality, zero_setback: bool, pool) -> np.ndarray:
+def decay_db_per_s(audio: np.ndarray, f: float, start: float = 0.2, stop: float = 1.15) -> float:
+    """Slope (dB/s) of a line fitted to the level of the component at f Hz in 0.1 s Hann windows
+    every 0.05 s from ``start`` to ``stop`` seconds."""
+    n = int(0.1 * SR)
+    window = np.hanning(n)
+    tone = np.exp(-2j * np.pi * f * np.arange(n) / SR)
+    times = np.arange(start, stop - 0.1 + 1e-9, 0.05)
+    level = [20.0 * np.log10(abs(np.sum(audio[int(t * SR):int(t * SR) + n] * window * tone)))
+             for t in times]
+    return float(np.polyfit(times, level, 1)[0])
+
+
+def tables(preset_name: str, quality: Quality, zero_setback: bool,
+           pool) -> tuple[np.ndarray, np.ndarray]:
+    """Cents from 12-TET and decay (dB/s) of frets 1-12 on every string."""
     n = get_preset(preset_name).n_strings
     jobs = [(preset_name, s, q, quality, zero_setback) for s in range(1, n + 1) for q in FRETS]
     err = np.zeros((n, len(FRETS)))
-    for s, q, c in pool.map(fretted_cents, jobs):
+    decay = np.zeros((n, len(FRETS)))
+    for s, q, c, d in pool.map(fretted_note, jobs):
         err[s - 1, FRETS.index(q)] = c
-    return err
+        decay[s - 1, FRETS.index(q)] = d
+    return err, decay
 
 
-def print_table(title: str, err: np.ndarray) -> None:
+def table(preset_name: str, quality: Quality, zero_setback: bool, pool) -> np.ndarray:
+    """Cents from 12-TET of frets 1-12 on every string."""
+    return tables(preset_name, quality, zero_setback, pool)[0]
+
+
+def print_table(title: str, err: np.ndarray, unit: str = "cents") -> None:
     print(f"\n{title}")
     print("string | " + " ".join(f"{q:>6d}" for q in FRETS) + " |  worst")
     for s, row in enumerate(err, start=1):
         worst = row[np.argmax(np.abs(row))]
         print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst:+6.1f}")
-    print(f"all strings: worst {err.flat[np.argmax(np.abs(err))]:+.1f} cents")
+    print(f"all strings: worst {err.flat[np.argmax(np.abs(err))]:+.1f} {unit}")
 
 
 def setback_effect(scale: float, setback: float) -> np.ndarray:

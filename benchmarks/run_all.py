@@ -30,6 +30,8 @@ RUNS = [
     ("intonation_steel", intonation.main, ["--preset", "steel-acoustic"]),
     ("intonation_nylon", intonation.main, ["--preset", "nylon-classical"]),
     ("fret_modes_steel", fret_modes.main, ["--preset", "steel-acoustic", "--quality", "draft"]),
+    ("fret_modes_steel_standard", fret_modes.main,
+     ["--preset", "steel-acoustic", "--quality", "standard"]),
     ("fret_modes_nylon", fret_modes.main, ["--preset", "nylon-classical", "--quality", "standard"]),
     ("pareto", pareto.main, []),
     ("soak", soak.main, ["--minutes", "3"]),
@@ -38,6 +40,7 @@ RUNS = [
 DOCS = {
     "skips": "Skips: speed-up and largest output difference",
     "fret_modes_steel": "Fretted notes on a coarse grid: the held string's modes",
+    "fret_modes_steel_standard": "Fretted notes on a coarse grid: steel at quality 'standard'",
     "fret_modes_nylon": "Fretted notes on a coarse grid: nylon at quality 'standard'",
 }
 

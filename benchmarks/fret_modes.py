@@ -29,13 +29,10 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from benchmarks.intonation import FRETS, SR, print_table, tables
+from benchmarks.intonation import FRETS, REFERENCE, SR, print_table, tables
 from engine.guitar import QUALITY, Quality, oversample_for
-from engine.intonation import REFERENCE_H_M, fret_shift, fret_shifts, held_frequency
+from engine.intonation import fret_shift, fret_shifts, held_frequency
 from engine.presets import Preset, get_preset
-
-# benchmarks.intonation's reference grid, without calibration
-REFERENCE = Quality(max_h_m=REFERENCE_H_M, max_oversample=16)
 
 
 def predicted(preset: Preset, quality: Quality) -> np.ndarray:

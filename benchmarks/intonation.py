@@ -25,10 +25,13 @@ import numpy as np
 import engine
 from engine.analysis import cents, spectrum_peak
 from engine.guitar import QUALITY, Quality, RenderOptions
+from engine.intonation import REFERENCE_H_M
 from engine.presets import get_preset
 
 FRETS = tuple(range(1, 13))
 SR = 44100
+# the fine reference grid (engine.intonation calibrates against the same spacing), uncalibrated
+REFERENCE = Quality(max_h_m=REFERENCE_H_M, max_oversample=16)
 
 
 def fretted_note(args) -> tuple[int, int, float, float]:
@@ -116,7 +119,7 @@ def main() -> None:
     ap.add_argument("--fit-only", action="store_true")
     args = ap.parse_args()
     preset = get_preset(args.preset)
-    reference = Quality(max_h_m=1.5e-3, max_oversample=16)
+    reference = REFERENCE
     t0 = time.perf_counter()
     with Pool(2) as pool:
         raw = table(args.preset, reference, True, pool)

@@ -155,9 +155,11 @@ def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
     return float(f[near][np.argmax(heard[near])])
 
 
+@lru_cache(maxsize=64)
 def reference_model(model: StringModel) -> StringModel:
     """The same string tuned on the fine grid (h <= ``REFERENCE_H_M``): the internal rate raised
-    by the smallest integer factor that gets there."""
+    by the smallest integer factor that gets there.  Cached: every fret of a string asks for it,
+    and each factor tried is a tuning."""
     factor = 1
     while True:
         fine = tune(model.spec, model.length_m, factor / model.k)

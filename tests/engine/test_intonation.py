@@ -76,7 +76,8 @@ def test_a_shift_moves_that_frets_interpolant_only(steel):
     p, w0, w1 = plain.fret_p.copy(), plain.fret_w0.copy(), plain.fret_w1.copy()
     assert moved.fret_p[4] * m.h - m.h + moved.fret_w1[4] * m.h == pytest.approx(x5)
     p[4], w0[4], w1[4] = moved.fret_p[4], moved.fret_w0[4], moved.fret_w1[4]
-    assert np.array_equal(p, moved.fret_p) and np.array_equal(w1, moved.fret_w1)
+    assert np.array_equal(p, moved.fret_p) and np.array_equal(w0, moved.fret_w0)
+    assert np.array_equal(w1, moved.fret_w1)
     assert np.array_equal(plain.fret_m0, moved.fret_m0)  # the heights stay
 
 

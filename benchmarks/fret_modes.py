@@ -1,4 +1,5 @@
-"""Why a coarse grid puts fretted notes out of tune, and the calibration that takes it out.
+"""Why a coarse grid puts fretted notes out of tune and shortens them, and the calibration that
+takes the pitch error out.
 
 ``engine.intonation`` models a held note as a linear system on the string's grid (the scheme's
 stiffness and mass, the frets on both sides of the finger as constraints, the finger as a damped
@@ -12,9 +13,11 @@ those frets costs (once, in one process):
 2. with the stopped frets calibrated, their fingers moved with them (what `draft` and `standard`
    render): the rendered pitch minus the reference grid's, which the calibration aims to make
    zero;
-3. the decay of the rendered fundamental (dB/s, 0.2-1.15 s) minus the reference grid's, frets
-   where they are and calibrated: the same sub-grid geometry sets how much of the sounding string
-   reaches the finger's contact damping, which the calibration does not aim at.
+3. the decay of the fundamental (dB/s; rendered: a line fitted over 0.2-1.15 s; the model: its
+   mode's decay by the finger's contact damping) minus the reference grid's, frets where they are
+   (rendered and the model) and calibrated (rendered).  The same sub-grid geometry sets how much
+   of the sounding string reaches the finger's damping: on a coarse grid a fretted note dies
+   faster.  The calibration does not aim at it.
 
     python -m benchmarks.fret_modes [--preset steel-acoustic] [--quality draft]
 """
@@ -31,22 +34,26 @@ import numpy as np
 
 from benchmarks.intonation import FRETS, REFERENCE, SR, print_table, tables
 from engine.guitar import QUALITY, Quality, oversample_for
-from engine.intonation import fret_shift, fret_shifts, held_frequency
+from engine.intonation import fret_shift, fret_shifts, held_note
 from engine.presets import Preset, get_preset
 
 
-def predicted(preset: Preset, quality: Quality) -> np.ndarray:
-    """The model's grid error (cents): the quality's grid against the reference grid."""
+def predicted(preset: Preset, quality: Quality) -> tuple[np.ndarray, np.ndarray]:
+    """The model's grid error, frets where they are: the quality's grid against the reference
+    grid, in cents and in dB/s of decay."""
     err = np.zeros((preset.n_strings, len(FRETS)))
+    decay = np.zeros((preset.n_strings, len(FRETS)))
     for s, spec in enumerate(preset.strings, start=1):
         length = preset.string_length_m(s)
         _, coarse = oversample_for(spec, length, SR, quality)
         _, fine = oversample_for(spec, length, SR, REFERENCE)
         for i, q in enumerate(FRETS):
             target = spec.frequency_hz * 2.0 ** (q / 12.0)
-            err[s - 1, i] = 1200.0 * math.log2(held_frequency(coarse, preset, q, target)
-                                               / held_frequency(fine, preset, q, target))
-    return err
+            got = held_note(coarse, preset, q, target)
+            want = held_note(fine, preset, q, target)
+            err[s - 1, i] = 1200.0 * math.log2(got.frequency_hz / want.frequency_hz)
+            decay[s - 1, i] = got.decay_db_s - want.decay_db_s
+    return err, decay
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -57,7 +64,7 @@ def main(argv: list[str] | None = None) -> None:
     preset = get_preset(args.preset)
     quality = QUALITY[args.quality]
     t0 = time.perf_counter()
-    model = predicted(preset, quality)
+    model, model_decay = predicted(preset, quality)
     fret_shift.cache_clear()
     t1 = time.perf_counter()
     for i, spec in enumerate(preset.strings, start=1):
@@ -79,9 +86,13 @@ def main(argv: list[str] | None = None) -> None:
     print_table("1. frets where they are, the model: quality minus reference", model)
     print_table("1. model minus rendered", model - rendered)
     print_table("2. frets calibrated, rendered notes: quality minus reference", after)
-    print_table("3. decay of the fundamental (dB/s; negative: dies faster), frets where they are: "
-                "quality minus reference", raw_decay - ref_decay, "dB/s")
-    print_table("3. the same, frets calibrated", cal_decay - ref_decay, "dB/s")
+    decay = raw_decay - ref_decay
+    print_table("3. decay of the fundamental (dB/s; negative: dies faster), frets where they are, "
+                "rendered notes: quality minus reference", decay, "dB/s")
+    print_table("3. frets where they are, the model: quality minus reference", model_decay, "dB/s")
+    print_table("3. model minus rendered", model_decay - decay, "dB/s")
+    print_table("3. frets calibrated, rendered notes: quality minus reference",
+                cal_decay - ref_decay, "dB/s")
     n = preset.n_strings * len(FRETS)
     print(f"\ncalibrating the {n} frets (engine.intonation.fret_shifts, one process, empty cache): "
           f"{calibration:.1f} s, {calibration / n * 1e3:.0f} ms per fret")

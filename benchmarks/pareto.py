@@ -16,7 +16,9 @@ errors each against an exact or converged reference:
   * partials 1-20 of each open string against the stiff-string formula f_n = n f0 sqrt(1 + B n^2):
     from the scheme's own dispersion relation (exact for the linear scheme), worst over strings;
     and partials 1-10 and the fundamental measured on rendered audio (0.2 N pluck);
-  * fretted pitch, all six strings, frets 1-12 (the ``benchmarks.intonation`` scene), cents;
+  * fretted pitch, all six strings, frets 1-12 (the ``benchmarks.intonation`` scene), cents, and
+    the same notes' decay (dB/s of the fundamental, ``benchmarks.intonation.decay_db_per_s``)
+    against the converged x8 render;
   * sink: how far a string goes below a fret tip and below the fretboard (um), sampled at every
     output sample, in pressed notes (3 N at frets 5 and 12), slams (10 N taps at 5 m/s) and a
     fret-buzz scene;
@@ -50,7 +52,7 @@ import engine.guitar
 import engine.kernels
 import engine.string
 from benchmarks.accuracy import ENERGY_SCENES
-from benchmarks.intonation import FRETS
+from benchmarks.intonation import FRETS, decay_db_per_s
 from engine.analysis import cents, partials, spectrum_peak
 from engine.guitar import FRET_PENALTY, QUALITY, Quality, RenderOptions, prepare
 from engine.presets import get_preset
@@ -99,10 +101,12 @@ CONFIGS = [
     Config("standard", LEVEL, "standard"),
     Config("high", LEVEL, "high"),
     *[Config(f"x{k} everywhere", "oversampling", _forced(k), oversample=k) for k in (2, 3, 4, 6, 8)],
+    # standard and high with one knob turned (their other knobs as they are: Kirchhoff-Carrier's
+    # skip tolerance, the fret calibration)
     *[Config(f"fingered h <= {h:g} mm", "contact grid rule",
-             Quality(max_h_m=h * 1e-3, max_dispersion_cents=0.8)) for h in (7.0, 4.5, 3.5)],
+             replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in (7.0, 4.5, 3.5)],
     Config("high, open strings too (dispersion <= 0.004 c)", "dispersion bound",
-           Quality(max_h_m=2.5e-3, max_dispersion_cents=0.004, max_oversample=16)),
+           replace(QUALITY["high"], max_dispersion_cents=0.004)),
     Config("x1, h = 1.25 h_min", "grid spacing", _forced(1, 1.25), oversample=1),
     Config("x2, h = 1.5 h_min", "grid spacing", _forced(2, 1.5), oversample=2),
     Config("x4, h = 2 h_min", "grid spacing", _forced(4, 2.0), oversample=4),
@@ -186,12 +190,13 @@ def render(cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
 
 
 def job_fretted(name: str, s: int, q: int):
-    """The benchmarks.intonation scene: finger pressed behind fret q, pluck, pitch from 0.2 s."""
+    """The benchmarks.intonation scene: finger pressed behind fret q, pluck; pitch from 0.2 s and
+    the fundamental's decay."""
     cfg = BY_NAME[name]
     audio, _ = render(cfg, scene([fret(s, q), pluck(s, 0.05, force=1.0)], 1.2))
     target = get_preset(PRESET).strings[s - 1].frequency_hz * 2 ** (q / 12)
     f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
-    return ("fretted", name, (s, q)), float(cents(f, target))
+    return ("fretted", name, (s, q)), (float(cents(f, target)), decay_db_per_s(audio, f))
 
 
 def job_open(name: str, s: int):
@@ -307,6 +312,7 @@ def timing_noise(cost: dict) -> float:
 METRICS = [  # key, label, tolerance below which two values count as equal
     ("fretted", "fretted pitch vs 12-TET, worst |cents|", 0.05),
     ("fretted_vs_fine", "fretted pitch vs x8, worst |cents|", 0.05),
+    ("decay_vs_fine", "fretted decay vs x8, worst |dB/s|", 0.5),
     ("p20", "partials 1-20, worst |cents|", 0.005),
     ("spectral", "spectral error, mean of 4 scenes (dB)", 0.1),
     ("fret_sink", "sink below a fret tip, playing (um)", 0.5),
@@ -316,15 +322,18 @@ SLAM = [("slam_fret_sink", "sink below a fret tip, 5 m/s taps (um)", 0.5),
         ("slam_board_sink", "sink below the fretboard, 5 m/s taps (um)", 0.5)]
 
 
-def fretted_table(res, name) -> np.ndarray:
-    return np.array([[res["fretted", name, (s, q)] for q in FRETS] for s in STRINGS])
+def fretted_table(res, name, i: int = 0) -> np.ndarray:
+    """Cents from 12-TET (i = 0) or decay in dB/s (i = 1) of the fretted notes."""
+    return np.array([[res["fretted", name, (s, q)][i] for q in FRETS] for s in STRINGS])
 
 
 def summarise(names, res, cost) -> dict:
     rows = {}
     fine = fretted_table(res, FINE)
+    fine_decay = fretted_table(res, FINE, 1)
     for name in names:
         fr = fretted_table(res, name)
+        decay = fretted_table(res, name, 1) - fine_decay
         op = [res["open", name, s] for s in STRINGS]
         sinks = [res["sink", name, k] for k in SINK if not k.startswith("slam")]
         slams = [res["sink", name, k] for k in SINK if k.startswith("slam")]
@@ -338,6 +347,8 @@ def summarise(names, res, cost) -> dict:
             "fretted": float(np.max(np.abs(fr))),
             "fretted_rms": float(np.sqrt(np.mean(fr**2))),
             "fretted_vs_fine": float(np.max(np.abs(fr - fine))),
+            "decay_table": decay,
+            "decay_vs_fine": float(np.max(np.abs(decay))),
             "f0": max(abs(o["f0"]) for o in op),
             "p10_measured": max(o["p10_measured"] for o in op),
             "p10": max(o["p10"] for o in op),
@@ -389,9 +400,9 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
     out = []
     head = ["configuration", "knob", "x per string (fingered)", "ms/s per string",
             "ms/s six strings", "partials 1-20 (c)", "partials 1-10 meas. (c)", "open f0 (c)",
-            "fretted vs 12-TET (c)", "fretted rms (c)", "fretted vs x8 (c)", "spectral (dB)",
-            "fret sink (um)", "board sink (um)", "slam: fret sink (um)", "slam: board sink (um)",
-            "energy"]
+            "fretted vs 12-TET (c)", "fretted rms (c)", "fretted vs x8 (c)",
+            "fretted decay vs x8 (dB/s)", "spectral (dB)", "fret sink (um)", "board sink (um)",
+            "slam: fret sink (um)", "slam: board sink (um)", "energy"]
     body = []
     for c in configs:
         r = rows[c.name]
@@ -399,8 +410,9 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
             c.name, c.knob, ",".join(str(r["os"].get(s, "-")) for s in STRINGS),
             f"{r['cost_string']:.1f}", f"{r['cost_six']:.1f}", f"{r['p20']:.3f}",
             f"{r['p10_measured']:.3f}", f"{r['f0']:.3f}", f"{r['fretted']:.2f}",
-            f"{r['fretted_rms']:.2f}", f"{r['fretted_vs_fine']:.2f}", f"{r['spectral']:.1f}",
-            fmt_sink(r["fret_sink"]), fmt_sink(r["board_sink"]), fmt_sink(r["slam_fret_sink"]),
+            f"{r['fretted_rms']:.2f}", f"{r['fretted_vs_fine']:.2f}",
+            f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", fmt_sink(r["fret_sink"]),
+            fmt_sink(r["board_sink"]), fmt_sink(r["slam_fret_sink"]),
             fmt_sink(r["slam_board_sink"]), f"{r['energy']:.1e}"])
     out += ["### All configurations", md_table(head, body)]
 
@@ -413,13 +425,13 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
         levels.append([c.name, params, ",".join(str(r["os"].get(s, "-")) for s in STRINGS),
                        f"{r['cost_six']:.1f}", f"{r['cost_string']:.1f}", f"{r['f0']:.3f}",
                        f"{r['p10']:.3f} / {r['p10_measured']:.3f}", f"{r['p20']:.3f}",
-                       f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}", f"{r['spectral']:.1f}",
-                       f"{r['energy']:.1e}"])
+                       f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}",
+                       f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", f"{r['energy']:.1e}"])
     out += ["### Quality levels (the scene's `quality`; `engine.guitar.QUALITY`)",
             md_table(["level", "Quality", "x per string (fingered)", "ms/s six strings",
                       "ms/s per string", "open f0 (c)", "partials 1-10 exact / measured (c)",
                       "partials 1-20 (c)", "fretted vs 12-TET (c)", "fretted vs x8 (c)",
-                      "spectral (dB)", "energy"], levels)]
+                      "fretted decay vs x8 (dB/s)", "spectral (dB)", "energy"], levels)]
     if "standard" in rows:
         r = rows["standard"]
         targets = [("open strings within +-1 cent", r["f0"], 1.0),
@@ -453,6 +465,16 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
     out += ["### Fretted pitch per string and fret, quality levels (cents from 12-TET)",
             md_table(["level", "string", *[f"fret {q}" for q in FRETS], "worst"], fr)]
 
+    dec = []
+    for c in [c for c in configs if c.knob in (LEVEL, "contact grid rule")]:
+        for s in STRINGS[:3]:
+            row = rows[c.name]["decay_table"][s - 1]
+            dec.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
+                        f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    out += [f"### Fretted decay per string and fret, strings 1-3 (dB/s of the fundamental against "
+            f"{FINE}; negative: dies faster)",
+            md_table(["configuration", "string", *[f"fret {q}" for q in FRETS], "worst"], dec)]
+
     out += ["### Pareto fronts (six-string cost against each error, cheapest first)",
             md_table(["error", "configurations on the front"],
                      [[label, " -> ".join(front(rows, key))] for key, label, _ in METRICS + SLAM])]
@@ -461,14 +483,15 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
     notes = [f"timing noise in this run: two measurements of the same work differ by "
              f"{100 * noise:.1f} % (median); 'faster' below means cheaper by more than "
              f"{100 * margin:.0f} %, 'more accurate' no error larger and one smaller (beyond "
-             f"the tolerances: 0.05 cents for fretted pitch, 0.005 cents for partials, 0.1 dB, "
-             "0.5 um)."]
+             f"the tolerances: 0.05 cents for fretted pitch, 0.5 dB/s for fretted decay, 0.005 "
+             "cents for partials, 0.1 dB, 0.5 um)."]
     std = rows.get("standard")
     if std is not None:
         notes.append(
             f"standard: {std['cost_six']:.1f} ms per second of audio for the six-string scene, "
             f"{std['cost_string']:.1f} per fingered string; fretted notes within "
-            f"{std['fretted']:.2f} cents of 12-TET ({std['fretted_vs_fine']:.2f} from {FINE}), "
+            f"{std['fretted']:.2f} cents of 12-TET ({std['fretted_vs_fine']:.2f} from {FINE}) "
+            f"and their decay within {std['decay_vs_fine']:.1f} dB/s of {FINE}'s, "
             f"partials 1-20 within {std['p20']:.3f} cents (1-10: {std['p10']:.3f} exact, "
             f"{std['p10_measured']:.3f} measured), open strings within {std['f0']:.3f} cents, "
             f"spectral error {std['spectral']:.1f} dB, sink {fmt_sink(std['fret_sink'])} um at "
@@ -502,6 +525,7 @@ def plot(rows: dict, configs: list[Config], path: pathlib.Path) -> None:
 
     panels = [("fretted", "fretted pitch vs 12-TET, worst |cents|", "linear"),
               ("fretted_vs_fine", f"fretted pitch vs {FINE}, worst |cents|", "linear"),
+              ("decay_vs_fine", f"fretted decay vs {FINE}, worst |dB/s|", "linear"),
               ("p20", "partials 1-20 vs stiff string, worst |cents|", "log"),
               ("spectral", "spectral error vs x16, mean of 4 scenes (dB)", "linear"),
               ("fret_sink", "sink below a fret tip, playing (um)", "symlog"),
@@ -510,7 +534,7 @@ def plot(rows: dict, configs: list[Config], path: pathlib.Path) -> None:
               ("slam_board_sink", "sink below the fretboard, 5 m/s taps (um)", "symlog")]
     knobs = list(dict.fromkeys(c.knob for c in configs))
     colours = dict(zip(knobs, plt.rcParams["axes.prop_cycle"].by_key()["color"] * 2, strict=False))
-    fig, axes = plt.subplots(2, 4, figsize=(20, 9))
+    fig, axes = plt.subplots(3, 3, figsize=(18, 13))
     for ax, (key, label, scale) in zip(axes.flat, panels, strict=True):
         for c in configs:
             r = rows[c.name]

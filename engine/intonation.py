@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 from scipy import sparse
@@ -104,13 +105,19 @@ def _string_matrices(model: StringModel, finger_mass: float):
     return stiff, mass
 
 
-def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
-                   fret_x: float | None = None, prev_x: float | None = None,
-                   finger_x: float | None = None) -> float:
-    """Frequency (Hz) of the note the model above gives for ``fret`` on ``model``'s grid, the mode
-    nearest ``target`` (Hz) that the pluck and the pickup hear most; NaN if none is within a
-    semitone.  ``fret_x``, ``prev_x`` and ``finger_x`` place the interpolants of the fret, of the
-    one behind it and of the finger (default: where they are, ``Preset.fret_x_m`` and
+class HeldNote(NamedTuple):
+    frequency_hz: float  # through the scheme's dispersion, (2 / k) asin(k w / 2)
+    decay_db_s: float  # of the mode's amplitude by the finger's contact damping (the string's own
+    # loss is left out of the model), negative: dying
+
+
+def held_note(model: StringModel, preset: Preset, fret: int, target: float,
+              fret_x: float | None = None, prev_x: float | None = None,
+              finger_x: float | None = None) -> HeldNote:
+    """The note the model above gives for ``fret`` on ``model``'s grid: the mode nearest
+    ``target`` (Hz) that the pluck and the pickup hear most; NaNs if none is within a semitone.
+    ``fret_x``, ``prev_x`` and ``finger_x`` place the interpolants of the fret, of the one behind
+    it and of the finger (default: where they are, ``Preset.fret_x_m`` and
     ``controls.finger_x_m``)."""
     n, k = model.n, model.k
     size = n  # nodes 1..N-1 and the finger
@@ -151,8 +158,9 @@ def held_frequency(model: StringModel, preset: Preset, fret: int, target: float,
     heard = np.abs((pluck @ u) * (pickup @ u)) / modal
     near = np.abs(1200.0 * np.log2(np.maximum(f, 1e-9) / target)) < 100.0
     if not near.any():
-        return math.nan
-    return float(f[near][np.argmax(heard[near])])
+        return HeldNote(math.nan, math.nan)
+    i = np.flatnonzero(near)[np.argmax(heard[near])]
+    return HeldNote(float(f[i]), float(20.0 / math.log(10.0) * s[up][i].real))
 
 
 @lru_cache(maxsize=64)
@@ -184,12 +192,12 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
     """
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
-    want = held_frequency(reference_model(model), preset, fret, target)
+    want = held_note(reference_model(model), preset, fret, target).frequency_hz
     x0 = float(preset.fret_x_m(fret))
     xf = finger_x_m(preset, fret)
 
     def err(d: float) -> float:
-        f = held_frequency(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d)
+        f = held_note(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d).frequency_hz
         return 1200.0 * math.log2(f / want) if f > 0.0 else math.nan
 
     e0 = err(0.0)

@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 import engine
+from benchmarks.intonation import decay_db_per_s
 from engine.analysis import cents, spectrum_peak
 from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
 from engine.guitar import QUALITY, RenderOptions
-from engine.intonation import TOLERANCE_CENTS, fret_shift, held_frequency, reference_model
+from engine.intonation import TOLERANCE_CENTS, fret_shift, held_note, reference_model
 from engine.scene import Scene
 from engine.string import geometry, tune
 
@@ -23,13 +24,19 @@ def _string(preset, s, rate=SR):
     return tune(preset.strings[s - 1], preset.string_length_m(s), rate)
 
 
-def _pitch(s, q, steel, **opts):
-    """Cents from 12-TET of fret q on string s, plucked (benchmarks.intonation's scene)."""
+def _note(s, q, steel, **opts):
+    """Fret q on string s, plucked (benchmarks.intonation's scene): cents from 12-TET, and the
+    decay of the fundamental in dB/s."""
     sc = {**scene([fret(s, q), pluck(s, time=0.05, force=1.0)], duration=1.2),
           "output": {"body": "none"}}
     audio = engine.render(sc, options=RenderOptions(**opts))
     target = steel.strings[s - 1].frequency_hz * 2 ** (q / 12)
-    return float(cents(spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08), target))
+    f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
+    return float(cents(f, target)), decay_db_per_s(audio, f)
+
+
+def _pitch(s, q, steel, **opts):
+    return _note(s, q, steel, **opts)[0]
 
 
 @pytest.mark.parametrize("q", [1, 7, 11])
@@ -37,11 +44,24 @@ def test_the_model_predicts_how_the_grid_moves_a_fretted_note(steel, q):
     """String 1 at 1x (h = 10 mm) and at 2x, frets left where they are: the rendered pitch
     difference between the two grids is the model's, to half a cent (several cents apart)."""
     target = steel.strings[0].frequency_hz * 2 ** (q / 12)
-    model = 1200 * math.log2(held_frequency(_string(steel, 1), steel, q, target)
-                             / held_frequency(_string(steel, 1, 2 * SR), steel, q, target))
+    coarse = held_note(_string(steel, 1), steel, q, target)
+    fine = held_note(_string(steel, 1, 2 * SR), steel, q, target)
+    model = 1200 * math.log2(coarse.frequency_hz / fine.frequency_hz)
     rendered = (_pitch(1, q, steel, oversample=1, calibrate_frets=False)
                 - _pitch(1, q, steel, oversample=2, calibrate_frets=False))
     assert abs(model - rendered) <= 0.5, (model, rendered)
+
+
+@pytest.mark.parametrize("q", [7, 11])
+def test_the_model_predicts_how_the_grid_shortens_a_fretted_note(steel, q):
+    """The same notes' decay: on the coarse grid more of the sounding string reaches the finger's
+    contact damping.  The rendered difference (tens of dB/s) is the model's to half a dB/s."""
+    target = steel.strings[0].frequency_hz * 2 ** (q / 12)
+    model = (held_note(_string(steel, 1), steel, q, target).decay_db_s
+             - held_note(_string(steel, 1, 2 * SR), steel, q, target).decay_db_s)
+    rendered = (_note(1, q, steel, oversample=1, calibrate_frets=False)[1]
+                - _note(1, q, steel, oversample=2, calibrate_frets=False)[1])
+    assert model < -10.0 and abs(model - rendered) <= 0.5, (model, rendered)
 
 
 @pytest.mark.parametrize("q", [1, 7, 11])
@@ -62,9 +82,9 @@ def test_a_calibrated_fret_gives_the_fine_grids_note_in_the_model(steel):
         target = steel.strings[1].frequency_hz * 2 ** (q / 12)
         d = fret_shift(m, steel, q)
         assert 0.0 < abs(d) <= 0.5 * m.h
-        got = held_frequency(m, steel, q, target, fret_x=float(steel.fret_x_m(q)) + d,
-                             finger_x=finger_x_m(steel, q) + d)
-        want = held_frequency(fine, steel, q, target)
+        got = held_note(m, steel, q, target, fret_x=float(steel.fret_x_m(q)) + d,
+                        finger_x=finger_x_m(steel, q) + d).frequency_hz
+        want = held_note(fine, steel, q, target).frequency_hz
         assert abs(1200 * math.log2(got / want)) <= TOLERANCE_CENTS
 
 

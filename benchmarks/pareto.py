@@ -391,8 +391,11 @@ def fmt_sink(x: float) -> str:
 
 
 def md_table(head: list[str], rows: list[list[str]]) -> str:
-    return "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-                     + ["| " + " | ".join(r) + " |" for r in rows])
+    """A markdown table; a '|' in a cell (the labels' |cents|) is escaped, or it splits the cell."""
+    def line(cells: list[str]) -> str:
+        return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
+
+    return "\n".join([line(head), "|" + "---|" * len(head)] + [line(r) for r in rows])
 
 
 def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> str:
@@ -560,7 +563,7 @@ def plot(rows: dict, configs: list[Config], path: pathlib.Path) -> None:
         ax.grid(True, which="both", alpha=0.3)
     axes.flat[0].legend(fontsize=8)
     fig.suptitle("Run time against error (steel-acoustic, 44.1 kHz; black: Pareto front)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.97))  # room for the title
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -17,7 +17,17 @@ import pathlib
 import sys
 import time
 
-from benchmarks import accuracy, articulations, fret_modes, intonation, pareto, skips, soak, speed
+from benchmarks import (
+    accuracy,
+    articulations,
+    fret_modes,
+    intonation,
+    pareto,
+    seating,
+    skips,
+    soak,
+    speed,
+)
 
 OUT = pathlib.Path(__file__).parent / "out"
 
@@ -33,6 +43,8 @@ RUNS = [
     ("fret_modes_steel_standard", fret_modes.main,
      ["--preset", "steel-acoustic", "--quality", "standard"]),
     ("fret_modes_nylon", fret_modes.main, ["--preset", "nylon-classical", "--quality", "standard"]),
+    ("seating_steel", seating.main, ["--preset", "steel-acoustic", "--quality", "standard"]),
+    ("seating_nylon", seating.main, ["--preset", "nylon-classical", "--quality", "standard"]),
     ("pareto", pareto.main, []),
     ("soak", soak.main, ["--minutes", "3"]),
 ]
@@ -42,6 +54,8 @@ DOCS = {
     "fret_modes_steel": "Fretted notes on a coarse grid: the held string's modes",
     "fret_modes_steel_standard": "Fretted notes on a coarse grid: steel at quality 'standard'",
     "fret_modes_nylon": "Fretted notes on a coarse grid: nylon at quality 'standard'",
+    "seating_steel": "Pressing force: when a fretted note holds",
+    "seating_nylon": "Pressing force: nylon",
 }
 
 

@@ -144,15 +144,23 @@ def stopped_frets(events: list) -> tuple[int, ...]:
 
 def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
                     impedance: float, ratio_for_cents,
-                    fret_shifts: dict[int, float] | None = None) -> StringControls:
+                    fret_shifts: dict[int, float] | None = None,
+                    press_force=None) -> StringControls:
     """Compile ``events`` (already on ``string``, sorted) for a grid of spacing h at ``rate`` Hz.
 
     ``impedance`` is sqrt(T rho A); ``ratio_for_cents(c)`` the tension ratio that raises the pitch
     by c cents.  ``fret_shifts`` (fret -> metres, ``engine.intonation``) moves a finger stopping
-    a calibrated fret along with that fret's interpolant.
+    a calibrated fret along with that fret's interpolant.  ``press_force(fret)`` is the force of a
+    finger whose event gives none (``engine.intonation.press_force``; default: the preset's); a
+    slide presses with the largest over the frets it crosses.
     """
     length_m = preset.string_length_m(string)
     shifts = fret_shifts or {}
+
+    def default_force(frets: range) -> float:
+        if press_force is None:
+            return preset.finger.press_force_n
+        return max(press_force(q) for q in frets)
 
     def finger_at(fret: int) -> float:
         return finger_x_m(preset, fret) + shifts.get(fret, 0.0)
@@ -201,7 +209,9 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 x0 = x1 = finger_at(e.fret)
                 ms = me = 0
             fret = e.to_fret if isinstance(e, Slide) else e.fret
-            force = e.force if e.force is not None else preset.finger.press_force_n
+            lo, hi = ((min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret))
+                      if isinstance(e, Slide) else (fret, fret))
+            force = e.force if e.force is not None else default_force(range(lo, hi + 1))
             slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
                               gap=v0 * TAP_GAP_S, fret=fret))
         elif isinstance(e, PullOff):

@@ -40,7 +40,7 @@ from .controls import (
     stopped_frets,
     string_controls,
 )
-from .intonation import fret_shifts
+from .intonation import fret_shifts, press_force
 from .output import Body, default_pan, pan_gains
 from .presets import Preset
 from .scene import Scene
@@ -373,7 +373,8 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         shifts = (fret_shifts(model, preset, stopped_frets(events))
                   if calibrate and fret_mode == FRET_RIGID else None)
         ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
-                              partial(tension_ratio_for_cents, model), shifts)
+                              partial(tension_ratio_for_cents, model), shifts,
+                              partial(press_force, model, preset))
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,

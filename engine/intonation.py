@@ -23,6 +23,11 @@ notes on a coarse grid").
 it, along the string, towards the nut where the grid is sharp, until the model's note on the grid
 has the pitch of the same note on a fine grid (h <= ``REFERENCE_H_M``, the reference of
 ``benchmarks/intonation.py``).
+
+The same string at rest gives ``seating_force``: how hard the finger must press for the string to
+rest on its fret at all (a lighter press leaves a dead or buzzing note), and ``press_force``, the
+force a finger presses with when a scene does not say: the preset's, or more where the action is
+higher than that force can overcome.
 """
 
 from __future__ import annotations
@@ -45,6 +50,11 @@ from .string import StringModel, tune
 REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are matched to
 PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmarks.intonation's)
 TOLERANCE_CENTS = 0.02  # a shift is refined until the model's note is this close to the reference
+# a finger that presses with no force of its own presses with at least this multiple of the
+# seating force: the static force leaves the vibrating string no margin, and on the steel set's
+# strings rendered notes held only from up to 1.20 times it after a 1 N pluck, 1.23 after a 4 N
+# one (``benchmarks/seating.py`` at standard)
+SEAT_MARGIN = 1.25
 
 
 def _interpolant(x: float, model: StringModel) -> list[tuple[int, float]]:
@@ -128,8 +138,9 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     if finger_x is None:
         finger_x = finger_x_m(preset, fret)
     fg = preset.finger
-    eta = (fg.press_force_n / fg.stiffness) ** (1.0 / fg.alpha)
-    kf = fg.alpha * fg.press_force_n / eta
+    force = press_force(model, preset, fret)
+    eta = (force / fg.stiffness) ** (1.0 / fg.alpha)
+    kf = fg.alpha * force / eta
     jf = _vector(_interpolant(finger_x, model), size)
     jf[n - 1] = -1.0  # the spring stretches by (string under the finger) - (finger)
     string_stiff, mass = _string_matrices(model, fg.mass_kg)
@@ -161,6 +172,49 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
         return HeldNote(math.nan, math.nan)
     i = np.flatnonzero(near)[np.argmax(heard[near])]
     return HeldNote(float(f[i]), float(20.0 / math.log(10.0) * s[up][i].real))
+
+
+@lru_cache(maxsize=4096)
+def seating_force(model: StringModel, preset: Preset, fret: int) -> float:
+    """Newtons: the least force with which a finger stopping ``fret`` (where
+    ``controls.finger_x_m`` puts it) holds the string at rest on that fret.
+
+    Statics of the string on ``model``'s grid (its stiffness, ``_string_matrices``): the rest line
+    runs from the nut to the saddle, the fret tips are their clearance below it
+    (``Preset.clearance_m``; the nut is on the line), and the finger pushes down with F at its
+    interpolant while the string rests on the fret behind it (or the nut) and on ``fret``.  The
+    reactions of those two supports are affine in F; the one on ``fret``, a F + b, is negative for
+    a light press (the string would have to be pulled down onto the fret), and the force is the F
+    at which it reaches zero.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
+    n = model.n
+    stiff = _string_matrices(model, preset.finger.mass_kg)[0][: n - 1, : n - 1].tocsc()
+    x_q = float(preset.fret_x_m(fret))
+    supports = [(x_q, -float(preset.clearance_m(x_q)))]
+    if fret > 1:
+        x_prev = float(preset.fret_x_m(fret - 1))
+        supports.insert(0, (x_prev, -float(preset.clearance_m(x_prev))))
+    j = np.column_stack([_vector(_interpolant(x, model), n - 1) for x, _ in supports])
+    heights = np.array([m0 for _, m0 in supports])
+    finger = _vector(_interpolant(finger_x_m(preset, fret), model), n - 1)
+    solved = sparse_linalg.splu(stiff).solve(np.column_stack([finger, j]))
+    # u = K^-1 (-F j_f + J R) with J^T u = heights: G R = heights + F c
+    gram = j.T @ solved[:, 1:]
+    c = j.T @ solved[:, 0]
+    b = np.linalg.solve(gram, heights)[-1]
+    a = np.linalg.solve(gram, c)[-1]
+    if b >= 0.0 or a <= 0.0:
+        return 0.0
+    return float(-b / a)
+
+
+def press_force(model: StringModel, preset: Preset, fret: int) -> float:
+    """The force a finger stopping ``fret`` presses with when the scene gives none: the preset's
+    (``FingerSpec.press_force_n``), or ``SEAT_MARGIN`` times the seating force where that is more
+    (the high frets, where the action is highest, and the first, where the nut stands above the
+    frets)."""
+    if fret < 1:
+        return preset.finger.press_force_n
+    return max(preset.finger.press_force_n, SEAT_MARGIN * seating_force(model, preset, fret))
 
 
 @lru_cache(maxsize=64)

@@ -66,15 +66,18 @@ class Pluck(_Event):
 class Fret(_Event):
     """A finger pressed behind fret ``fret`` with ``force`` towards the fretboard (sec. 2.5).
 
-    A small force (below about 0.3 N) leaves the finger resting on the string without seating it
-    on the fret: a dead note.
+    A force below the string's seating force at that fret (``engine.intonation.seating_force``;
+    ``benchmarks/seating.py`` prints 1.17-2.51 N at frets 1, 5 and 12 of the steel preset and up
+    to 3.66 N at fret 20) leaves the finger pushing the string down without seating it on the
+    fret: a dead or buzzing note.
     """
 
     type: Literal["fret"] = "fret"
     fret: int = Field(ge=0, le=24, description="0 lifts the finger")
     force: float | None = Field(
         None, gt=0.0, le=MAX_FINGER_FORCE_N,
-        description="pressing force, N (default: the preset's, enough to seat the string)",
+        description="pressing force, N (default: the preset's, or 1.25 times the seating force "
+                    "where the string needs more to rest on the fret)",
     )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
 
@@ -90,7 +93,8 @@ class Tap(_Event):
     fret: int = Field(ge=1, le=24)
     force: float | None = Field(
         None, gt=0.0, le=MAX_FINGER_FORCE_N,
-        description="pressing force, N (default: the preset's, enough to seat the string)",
+        description="pressing force, N (default: the preset's, or 1.25 times the seating force "
+                    "where the string needs more to rest on the fret)",
     )
     velocity: float = Field(
         1.0, gt=0.0, le=MAX_TAP_VELOCITY_M_S, description="speed towards the fretboard, m/s"
@@ -138,7 +142,8 @@ class Slide(_Event):
     duration: float = Field(0.15, gt=0.0, le=10.0, description="glide time, s")
     force: float | None = Field(
         None, gt=0.0, le=MAX_FINGER_FORCE_N,
-        description="pressing force, N (default: the preset's, enough to seat the string)",
+        description="pressing force, N (default: the preset's, or 1.25 times the seating force "
+                    "where the string needs more to rest on the fret)",
     )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
 

@@ -10,10 +10,19 @@ import pytest
 
 import engine
 from benchmarks.intonation import decay_db_per_s
+from benchmarks.seating import note
 from engine.analysis import cents, spectrum_peak
 from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
-from engine.guitar import QUALITY, RenderOptions
-from engine.intonation import TOLERANCE_CENTS, fret_shift, held_note, reference_model
+from engine.guitar import QUALITY, RenderOptions, oversample_for
+from engine.intonation import (
+    SEAT_MARGIN,
+    TOLERANCE_CENTS,
+    fret_shift,
+    held_note,
+    press_force,
+    reference_model,
+    seating_force,
+)
 from engine.scene import Scene
 from engine.string import geometry, tune
 
@@ -22,6 +31,12 @@ from .conftest import SR, fret, pluck, scene
 
 def _string(preset, s, rate=SR):
     return tune(preset.strings[s - 1], preset.string_length_m(s), rate)
+
+
+def _standard_string(preset, s):
+    """String s as the default quality ('standard') grids it when a finger touches it."""
+    return oversample_for(preset.strings[s - 1], preset.string_length_m(s), SR,
+                          QUALITY["standard"])[1]
 
 
 def _note(s, q, steel, **opts):
@@ -127,3 +142,52 @@ def test_the_shifts_are_the_same_in_every_process(steel):
             "print(repr(fret_shift(tune(p.strings[0], p.string_length_m(1), 44100), p, 5)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == repr(fret_shift(_string(steel, 1), steel, 5))
+
+
+def _holds(s, q, force, pluck_n=1.0):
+    """benchmarks.seating's criterion: the fundamental within 10 cents of the same note pressed
+    firmly (8 N) and no more than 20 dB weaker (an unseated string leaves it 45-55 dB weaker)."""
+    f, level = note("steel-acoustic", "standard", s, q, force, pluck_n)
+    f_ref, l_ref = note("steel-acoustic", "standard", s, q, 8.0, pluck_n)
+    return abs(float(cents(f, f_ref))) <= 10.0 and level >= l_ref - 20.0
+
+
+@pytest.mark.parametrize("s,q", [(1, 17), (3, 7), (6, 5)])
+def test_the_seating_force_is_where_a_pressed_string_starts_to_hold(steel, s, q):
+    """Below the static force the string cannot rest on its fret and the note does not sound;
+    with SEAT_MARGIN times it, it does.  (String 3 fret 7 is the tap of API.md's example scene,
+    whose 0.9 N is below the 1.7 N it takes.)"""
+    static = seating_force(_standard_string(steel, s), steel, q)
+    assert 1.0 < static < 3.0
+    assert not _holds(s, q, 0.9 * static)
+    assert _holds(s, q, SEAT_MARGIN * static)
+
+
+def test_a_finger_with_no_force_of_its_own_holds_the_high_frets(steel):
+    """The preset's 3 N cannot hold string 3 at fret 19 (the action is highest there); a fret
+    event with no force presses with SEAT_MARGIN times the seating force where that is more."""
+    m = _standard_string(steel, 3)
+    assert steel.finger.press_force_n < seating_force(m, steel, 19)
+    assert press_force(m, steel, 19) == pytest.approx(SEAT_MARGIN * seating_force(m, steel, 19))
+    assert press_force(m, steel, 5) == steel.finger.press_force_n
+    assert not _holds(3, 19, steel.finger.press_force_n)
+    no_force = {"type": "fret", "time": 0.0, "string": 3, "fret": 19}
+    sc = scene([no_force, pluck(3, time=0.05, force=1.0)], duration=1.0)
+    audio = engine.render(sc)
+    target = steel.strings[2].frequency_hz * 2 ** (19 / 12)
+    f_ref, _ = note("steel-acoustic", "standard", 3, 19, 8.0, 1.0)
+    f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
+    assert abs(float(cents(f, f_ref))) <= 10.0
+
+
+def test_a_slide_presses_with_the_largest_default_force_of_the_frets_it_crosses(steel):
+    sc = Scene.model_validate({"duration": 1.0, "events": [
+        {"type": "slide", "time": 0.1, "string": 3, "from_fret": 12, "to_fret": 19,
+         "duration": 0.2},
+        {"type": "fret", "time": 0.5, "string": 3, "fret": 12, "force": 2.5}]})
+    events = events_on(sc, 6, 3)
+    m = _standard_string(steel, 3)
+    ctl = string_controls(events, steel, 3, m.h, m.n, SR, 1.0, lambda c: 1.0, None,
+                          lambda q: press_force(m, steel, q)).arrays
+    assert ctl.fs_force[0] == max(press_force(m, steel, q) for q in range(12, 20))
+    assert ctl.fs_force[1] == 2.5  # a force the scene gives is the force

@@ -115,9 +115,10 @@ def main(argv: list[str] | None = None) -> None:
             cells.append(f"{f:18.2f} | {f / static:8.2f}")
         print(f"{string:6d} | {fret:4d} | {static:6.2f} | {default:7.2f} | " + " | ".join(cells))
     if bottom:
-        print("* the note's pitch already at half the static force: at fret 12 the unseated "
-              "string's second partial\n  has the fretted note's pitch (the finger touches it "
-              "where a harmonic is played)")
+        print("* the criterion is met already at half the static force, where the string cannot "
+              "rest on the fret, so the cell\n  says nothing about the threshold (at fret 12 the "
+              "unseated string's second partial has the note's pitch:\n  the finger touches it "
+              "where the harmonic is played); left out of the ratios below")
     for p, r in zip(PLUCKS_N, ratios, strict=True):
         print(f"{p:g} N pluck: the rendered note holds from at most {max(r):.2f} times the static "
               f"force (median {np.median(r):.2f})")

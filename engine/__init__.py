@@ -15,20 +15,20 @@ Layers, low to high: ``kernels`` (the time-step loop) -> ``string`` (coefficient
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import guitar
-from .guitar import FIXED_GAIN, QUALITY, RenderOptions, prepare
+from .guitar import FIXED_GAIN, QUALITY, RenderOptions, prepare, scene_warnings
 from .output import convolve_ir
 from .presets import PRESETS, Preset, get_preset
 from .scene import Scene, parse_scene
 from .string import tune
 
 __all__ = ["FIXED_GAIN", "PRESETS", "QUALITY", "RenderOptions", "RenderResult", "Scene",
-           "blocks", "frame_count", "get_preset", "parse_scene", "render", "to_output_scale",
-           "tuned_tension", "warmup"]
+           "blocks", "frame_count", "get_preset", "parse_scene", "render", "scene_warnings",
+           "to_output_scale", "tuned_tension", "warmup"]
 
 PEAK_DBFS = -1.0
 
@@ -40,6 +40,7 @@ class RenderResult:
     sample_rate: int
     seconds: float  # wall time of the simulation
     oversample: dict[int, int]  # string -> internal oversampling factor
+    warnings: list[str] = field(default_factory=list)  # ``scene_warnings``
 
 
 def to_output_scale(velocity: np.ndarray, normalize: bool) -> np.ndarray:
@@ -80,7 +81,7 @@ def render(scene: Scene | dict, diagnostics: bool | None = None,
     if not diag:
         return audio
     return RenderResult(audio, eng.energy_error(), sc.sample_rate, seconds,
-                        {v.index: v.oversample for v in eng.voices})
+                        {v.index: v.oversample for v in eng.voices}, scene_warnings(sc))
 
 
 def blocks(scene: Scene | dict, block_frames: int = 4096, options: RenderOptions | None = None):

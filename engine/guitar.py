@@ -40,10 +40,10 @@ from .controls import (
     stopped_frets,
     string_controls,
 )
-from .intonation import fret_shifts, press_force
+from .intonation import SEAT_MARGIN, fret_shifts, press_force, seating_force
 from .output import Body, default_pan, pan_gains
 from .presets import Preset
-from .scene import Scene
+from .scene import HammerOn, Scene, Slide, Tap
 from .string import (
     FRET_PENALTY,
     FRET_RIGID,
@@ -327,6 +327,45 @@ def frame_count(scene: Scene) -> int:
     return int(round(scene.duration * scene.sample_rate))
 
 
+def scene_warnings(scene: Scene) -> list[str]:
+    """What the scene asks for that may not sound as a player would mean it: a finger pressing
+    with less than ``SEAT_MARGIN`` times the force at which its string rests on the fret at all
+    (``intonation.seating_force``, on the string's grid at the scene's quality; a slide: the
+    largest over the frets it crosses).  Below that force rendered notes were found not to hold
+    (``benchmarks/seating.py``): the finger pushes the string down without stopping it, and the
+    note sounds dead or buzzes.  Fingers with no force of their own press hard enough
+    (``intonation.press_force``).  In time order."""
+    preset = scene.preset()
+    q = QUALITY[scene.quality]
+    out = []
+    for i, spec in enumerate(preset.strings, start=1):
+        model = None
+        for e in events_on(scene, preset.n_strings, i):
+            if e.type not in FINGER_EVENTS or e.force is None:
+                continue
+            if isinstance(e, Slide):
+                frets = range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1)
+            else:
+                frets = range(e.fret, e.fret + 1)
+            if frets.start < 1:
+                continue  # fret 0 lifts the finger
+            if model is None:
+                model = oversample_for(spec, preset.string_length_m(i), float(scene.sample_rate),
+                                       q)[1]
+            rests = max(seating_force(model, preset, f) for f in frets)
+            if e.force < SEAT_MARGIN * rests:
+                kind = ("hammer-on" if isinstance(e, HammerOn) else "tap" if isinstance(e, Tap)
+                        else e.type)
+                where = (f"frets {e.from_fret}-{e.to_fret}" if isinstance(e, Slide)
+                         else f"fret {e.fret}")
+                out.append((e.time, i, f"string {i}: the {kind} at {e.time:g} s presses "
+                                       f"{e.force:g} N; holding the string on {where} takes "
+                                       f"about {SEAT_MARGIN * rests:.1f} N (it rests on the fret "
+                                       f"from {rests:.2f} N when still): the note may sound dead "
+                                       "or buzz"))
+    return [text for _, _, text in sorted(out)]
+
+
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     """Tune and grid every string, compile the controls, allocate state."""
     opts = options or RenderOptions()
@@ -390,4 +429,4 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
 
 
 __all__ = ["Engine", "FIXED_GAIN", "frame_count", "QUALITY", "Quality", "RenderOptions", "prepare",
-           "FRET_PENALTY", "FRET_RIGID"]
+           "FRET_PENALTY", "FRET_RIGID", "scene_warnings"]

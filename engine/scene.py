@@ -76,7 +76,7 @@ class Fret(_Event):
     fret: int = Field(ge=0, le=24, description="0 lifts the finger")
     force: float | None = Field(
         None, gt=0.0, le=MAX_FINGER_FORCE_N,
-        description="pressing force, N (default: the preset's, or 1.25 times the seating force "
+        description="pressing force, N (default: the preset's, or 1.35 times the seating force "
                     "where the string needs more to rest on the fret)",
     )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
@@ -93,7 +93,7 @@ class Tap(_Event):
     fret: int = Field(ge=1, le=24)
     force: float | None = Field(
         None, gt=0.0, le=MAX_FINGER_FORCE_N,
-        description="pressing force, N (default: the preset's, or 1.25 times the seating force "
+        description="pressing force, N (default: the preset's, or 1.35 times the seating force "
                     "where the string needs more to rest on the fret)",
     )
     velocity: float = Field(
@@ -142,7 +142,7 @@ class Slide(_Event):
     duration: float = Field(0.15, gt=0.0, le=10.0, description="glide time, s")
     force: float | None = Field(
         None, gt=0.0, le=MAX_FINGER_FORCE_N,
-        description="pressing force, N (default: the preset's, or 1.25 times the seating force "
+        description="pressing force, N (default: the preset's, or 1.35 times the seating force "
                     "where the string needs more to rest on the fret)",
     )
     release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")

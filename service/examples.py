@@ -30,11 +30,11 @@ _WORKED: dict[str, dict[str, Any]] = {
         "value": {
             "duration": 1.5,
             "events": [
-                {"type": "fret", "time": 0.0, "string": 2, "fret": 1, "force": 2.0},
+                {"type": "fret", "time": 0.0, "string": 2, "fret": 1, "force": 3.0},
                 {"type": "pluck", "time": 0.02, "string": 2, "force": 2.0},
-                {"type": "fret", "time": 0.5, "string": 2, "fret": 3, "force": 2.0},
+                {"type": "fret", "time": 0.5, "string": 2, "fret": 3, "force": 3.0},
                 {"type": "pluck", "time": 0.52, "string": 2, "force": 2.0},
-                {"type": "fret", "time": 1.0, "string": 2, "fret": 5, "force": 2.0,
+                {"type": "fret", "time": 1.0, "string": 2, "fret": 5, "force": 3.0,
                  "release": 1.4},
                 {"type": "pluck", "time": 1.02, "string": 2, "force": 2.0},
             ],
@@ -47,9 +47,9 @@ _WORKED: dict[str, dict[str, Any]] = {
             "duration": 1.5,
             "guitar": {"preset": "nylon-classical"},
             "events": [
-                {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 0.9,
+                {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 2.5,
                  "velocity": 1.5},
-                {"type": "tap", "time": 0.6, "string": 3, "fret": 9, "force": 0.9,
+                {"type": "tap", "time": 0.6, "string": 3, "fret": 9, "force": 2.5,
                  "release": 1.2},
             ],
         },

@@ -397,8 +397,23 @@ function showErrors(detail) {
 }
 
 // ---- render --------------------------------------------------------------------------------
+// X-Render-Warnings: a JSON array of what the scene asks for that will not sound as meant (a
+// finger pressing too lightly to seat its string).
+function showWarnings(header) {
+  const list = $("#warnings");
+  list.replaceChildren();
+  const warnings = header ? JSON.parse(header) : [];
+  for (const w of warnings) {
+    const item = document.createElement("li");
+    item.textContent = w;
+    list.append(item);
+  }
+  list.hidden = warnings.length === 0;
+}
+
 async function render() {
   clearErrors();
+  showWarnings(null);
   const scene = buildScene();
   const button = $("#render");
   button.disabled = true;
@@ -415,6 +430,7 @@ async function render() {
       $("#status").textContent = `Not rendered (${r.status}).`;
       return;
     }
+    showWarnings(r.headers.get("x-render-warnings"));
     const seconds = Number(r.headers.get("x-render-seconds"));
     const rtf = Number(r.headers.get("x-realtime-factor"));
     const blob = await r.blob();

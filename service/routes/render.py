@@ -6,10 +6,12 @@ to the worker pool, turn the result into a response.  Status codes for failures:
 
 from __future__ import annotations
 
+import json
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Request, Response
+from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
 from starlette.requests import ClientDisconnect
 from starlette.types import Receive, Scope, Send
@@ -40,13 +42,24 @@ def _realtime_factor(audio_s: float, render_s: float) -> str:
     return f"{audio_s / render_s:.2f}" if render_s > 0 else "inf"
 
 
+async def _warnings(scene: engine.Scene) -> dict[str, str]:
+    """``X-Render-Warnings``: a JSON array of what the scene asks for that will not sound as meant
+    (``engine.scene_warnings``: a finger pressing too lightly to seat its string), when there is
+    any.  Worked out from the scene alone, off the event loop (a small solve per fretted string),
+    before the render starts."""
+    warnings = await run_in_threadpool(engine.scene_warnings, scene)
+    return {"X-Render-Warnings": json.dumps(warnings)} if warnings else {}
+
+
 @router.post(
     "/render",
     response_class=Response,
     responses={
         200: {
-            "description": "the audio file; headers X-Render-Seconds, X-Realtime-Factor and, "
-                           "with diagnostics, X-Energy-Error",
+            "description": "the audio file; headers X-Render-Seconds, X-Realtime-Factor, "
+                           "X-Render-Warnings when the scene has fingers pressing too lightly to "
+                           "seat their strings (a JSON array of messages) and, with diagnostics, "
+                           "X-Energy-Error",
             "content": {t: {} for t in audio.MEDIA_TYPES.values()},
         },
         **_ERRORS,
@@ -58,6 +71,7 @@ async def render(
     """Render a scene to a WAV, FLAC or Ogg Vorbis file."""
     settings, pool = request.state.settings, request.state.pool
     check_limits(scene, settings)
+    warnings = await _warnings(scene)
     out = await pool.render(
         {
             "scene": scene.model_dump(mode="json"),
@@ -75,6 +89,7 @@ async def render(
         "X-Render-Seconds": _seconds(out.render_seconds),
         "X-Realtime-Factor": _realtime_factor(audio_s, out.render_seconds),
         "Content-Disposition": f'inline; filename="guitar.{scene.output.format}"',
+        **warnings,
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)  # e.g. 6.24e-15
@@ -106,7 +121,7 @@ class _StreamResponse(StreamingResponse):
             "description": "a WAV file sent block by block as the engine computes it, at the "
                            "fixed gain; Content-Length is exact. X-Render-Seconds is the time to "
                            "the first block (prepare + first block): the total is not known when "
-                           "headers are sent",
+                           "headers are sent. X-Render-Warnings as for /render",
             "content": {"audio/wav": {}},
         },
         **_ERRORS,
@@ -121,6 +136,7 @@ async def render_stream(
     settings, pool = request.state.settings, request.state.pool
     check_limits(scene, settings)
     check_streamable(scene)
+    warnings = await _warnings(scene)
     rate, subtype, channels = scene.sample_rate, scene.output.subtype, scene.output.channels
     frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
@@ -131,6 +147,12 @@ async def render_stream(
         settings.time_limit_s(scene.duration))
     audio_s = frames / rate
     request.state.audio_seconds = audio_s
+    headers = {
+        "Content-Length": str(audio.wav_size(frames, subtype, channels)),
+        "X-Render-Seconds": _seconds(stream.first_block_seconds),
+        "Content-Disposition": 'inline; filename="guitar.wav"',
+        **warnings,
+    }
 
     async def body() -> AsyncIterator[bytes]:
         yield header
@@ -144,9 +166,5 @@ async def render_stream(
         body(),
         on_close=stream.close,
         media_type="audio/wav",
-        headers={
-            "Content-Length": str(audio.wav_size(frames, subtype, channels)),
-            "X-Render-Seconds": _seconds(stream.first_block_seconds),
-            "Content-Disposition": 'inline; filename="guitar.wav"',
-        },
+        headers=headers,
     )

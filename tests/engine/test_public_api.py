@@ -1,4 +1,4 @@
-"""The public helpers the service uses: frame_count, tuned_tension and warmup."""
+"""The public helpers the service uses: frame_count, tuned_tension, scene_warnings and warmup."""
 
 import json
 import subprocess
@@ -127,3 +127,40 @@ def test_warmup_returns_its_time():
     assert all(isinstance(s, dict) for s in engine.WARMUP_SCENES)
     for sc in engine.WARMUP_SCENES:
         assert np.isfinite(engine.render(sc, diagnostics=False)).all()
+
+
+API_EXAMPLE = {  # the scene of ../shared/API.md
+    "duration": 2.0, "sample_rate": 44100, "guitar": {"preset": "steel-acoustic"},
+    "events": [
+        {"type": "fret", "time": 0.0, "string": 5, "fret": 3, "force": 2.0},
+        {"type": "pluck", "time": 0.05, "string": 5, "position": 0.8, "force": 2.0,
+         "duration": 0.001},
+        {"type": "tap", "time": 1.0, "string": 3, "fret": 7, "force": 0.9}],
+    "output": {"format": "wav"}, "diagnostics": False}
+
+
+def test_scene_warnings_name_a_finger_too_light_to_seat_its_string():
+    """API.md's tap presses 0.9 N where string 3 rests on fret 7 from about 1.7 N (the fret at
+    2 N on string 5 at fret 3 is enough); the warning says so, and diagnostics carry the same
+    list."""
+    sc = engine.parse_scene(API_EXAMPLE)
+    warnings = engine.scene_warnings(sc)
+    assert len(warnings) == 1
+    assert warnings[0].startswith("string 3: the tap at 1 s presses 0.9 N; holding the string on "
+                                  "fret 7 takes about 2.3 N (it rests on the fret from 1.")
+    short = {**API_EXAMPLE, "duration": 1.1}
+    assert engine.render(short, diagnostics=True).warnings == warnings
+
+
+def test_no_warning_for_a_firm_or_a_default_press_and_the_slides_worst_fret():
+    events = [{"type": "fret", "time": 0.0, "string": 3, "fret": 19},  # default force: enough
+              {"type": "fret", "time": 0.1, "string": 4, "fret": 7, "force": 3.0},
+              {"type": "fret", "time": 0.2, "string": 4, "fret": 0, "force": 0.1},  # lifts
+              {"type": "slide", "time": 0.3, "string": 2, "from_fret": 5, "to_fret": 19,
+               "duration": 0.2, "force": 2.5},
+              {"type": "hammer_on", "time": 0.6, "string": 1, "fret": 9, "force": 0.5}]
+    warnings = engine.scene_warnings(engine.parse_scene({"duration": 1.0, "events": events}))
+    assert len(warnings) == 2  # the slide (fret 19) and the hammer-on, in time order
+    assert warnings[0].startswith("string 2: the slide at 0.3 s presses 2.5 N; holding the "
+                                  "string on frets 5-19 takes about 3.")
+    assert warnings[1].startswith("string 1: the hammer-on at 0.6 s presses 0.5 N")

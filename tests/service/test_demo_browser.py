@@ -189,3 +189,19 @@ def test_errors_of_articulation_fields_are_shown_next_to_them(page: Any) -> None
     _expect_field_error(page, "events[4].strings", "outside 1..6",
                         "#events tr[data-index='4'] .err[data-for~='events[4].strings']")
     assert page.errors == []
+
+
+def test_a_finger_too_light_to_seat_its_string_is_pointed_out(page: Any) -> None:
+    """The render's X-Render-Warnings are listed under the form, and cleared by the next render."""
+    page.click("button[data-example='tap']")
+    page.fill("input[data-field='events[0].force']", "0.9")
+    page.click("#render")
+    page.wait_for_selector("#warnings:not([hidden])", timeout=60_000)
+    items = page.eval_on_selector_all("#warnings li", "els => els.map(e => e.textContent)")
+    assert len(items) == 1 and items[0].startswith("string 3: the tap at 0 s presses 0.9 N")
+    page.fill("input[data-field='events[0].force']", "3")
+    page.click("#render")
+    page.wait_for_function("document.querySelector('#status').textContent.startsWith('Rendered')",
+                           timeout=60_000)
+    assert page.is_hidden("#warnings")
+    assert page.errors == []

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
 import pytest
 from svc_helpers import brief, chord_scene, decode, pluck_scene, same_bytes
+
+import engine
 
 NUMBER = re.compile(r"^-?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?$")
 
@@ -73,6 +76,22 @@ def test_render_headers(harness) -> None:
     assert 0 < seconds < 10
     assert float(r.headers["x-realtime-factor"]) == pytest.approx(0.2 / seconds, rel=0.02)
     assert "x-energy-error" not in r.headers  # only with diagnostics
+    assert "x-render-warnings" not in r.headers  # only when a finger presses too lightly
+
+
+def light_tap_scene() -> dict:
+    """API.md's tap: 0.9 N on string 3 at fret 7, where the string rests on the fret from 1.7 N."""
+    return {"duration": 0.3, "events": [
+        {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 0.9}]}
+
+
+@pytest.mark.parametrize("path", ["/render", "/render/stream"])
+def test_warnings_header_names_a_finger_too_light_to_seat_its_string(harness, path: str) -> None:
+    r = harness.post(path, json=light_tap_scene())
+    assert r.status_code == 200, brief(r)
+    warnings = json.loads(r.headers["x-render-warnings"])
+    assert warnings == engine.scene_warnings(engine.parse_scene(light_tap_scene()))
+    assert len(warnings) == 1 and warnings[0].startswith("string 3: the tap at 0 s presses 0.9 N")
 
 
 def test_diagnostics_energy_error_header(harness) -> None:

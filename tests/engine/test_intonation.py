@@ -146,10 +146,10 @@ def test_the_shifts_are_the_same_in_every_process(steel):
 
 def _holds(s, q, force, pluck_n=1.0):
     """benchmarks.seating's criterion: the fundamental within 10 cents of the same note pressed
-    firmly (8 N) and no more than 20 dB weaker (an unseated string leaves it 45-55 dB weaker)."""
+    firmly (8 N) and no more than 30 dB weaker."""
     f, level = note("steel-acoustic", "standard", s, q, force, pluck_n)
     f_ref, l_ref = note("steel-acoustic", "standard", s, q, 8.0, pluck_n)
-    return abs(float(cents(f, f_ref))) <= 10.0 and level >= l_ref - 20.0
+    return abs(float(cents(f, f_ref))) <= 10.0 and level >= l_ref - 30.0
 
 
 @pytest.mark.parametrize("s,q", [(1, 17), (3, 7), (6, 5)])

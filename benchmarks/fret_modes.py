@@ -81,7 +81,8 @@ def main(argv: list[str] | None = None) -> None:
     grid = ", ".join(f"{oversample_for(s, preset.string_length_m(i), SR, quality)[1].h * 1e3:.2f}"
                      for i, s in enumerate(preset.strings, start=1))
     print(f"{args.preset}, quality '{args.quality}' (h in mm by string: {grid}) against the "
-          f"reference grid (h <= 1.5 mm), cents, frets 1-12, finger {preset.finger.press_force_n} N")
+          f"reference grid (h <= 1.5 mm), cents, frets 1-12, finger "
+          f"{preset.finger.press_force_n:g} N or more (intonation.press_force)")
     print_table("1. frets where they are, rendered notes: quality minus reference", rendered)
     print_table("1. frets where they are, the model: quality minus reference", model)
     print_table("1. model minus rendered", model - rendered)

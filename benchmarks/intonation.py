@@ -124,7 +124,8 @@ def main() -> None:
     with Pool(2) as pool:
         raw = table(args.preset, reference, True, pool)
         print_table(f"{args.preset}: no compensation, reference grid h <= 1.5 mm, "
-                    f"finger {preset.finger.press_force_n} N (cents from 12-TET)", raw)
+                    f"finger {preset.finger.press_force_n:g} N or more (intonation.press_force) "
+                    "(cents from 12-TET)", raw)
         fit = fit_setbacks(raw, preset.scale_length_m)
         print("\nsaddle setback that minimises the worst error (mm): "
               + ", ".join(f"string {s}: {d * 1e3:.2f}" for s, d in enumerate(fit, start=1)))

@@ -42,12 +42,18 @@ def _realtime_factor(audio_s: float, render_s: float) -> str:
     return f"{audio_s / render_s:.2f}" if render_s > 0 else "inf"
 
 
+MAX_HEADER_WARNINGS = 10  # a scene of 500 light taps would otherwise send a 90 kB header
+
+
 async def _warnings(scene: engine.Scene) -> dict[str, str]:
-    """``X-Render-Warnings``: a JSON array of what the scene asks for that will not sound as meant
+    """``X-Render-Warnings``: a JSON array of what the scene asks for that may not sound as meant
     (``engine.scene_warnings``: a finger pressing too lightly to seat its string), when there is
-    any.  Worked out from the scene alone, off the event loop (a small solve per fretted string),
-    before the render starts."""
+    any; the first ``MAX_HEADER_WARNINGS`` and a count of the rest.  Worked out from the scene
+    alone, off the event loop (a small solve per fretted string), before the render starts."""
     warnings = await run_in_threadpool(engine.scene_warnings, scene)
+    if len(warnings) > MAX_HEADER_WARNINGS:
+        more = len(warnings) - MAX_HEADER_WARNINGS
+        warnings = [*warnings[:MAX_HEADER_WARNINGS], f"and {more} more warnings like these"]
     return {"X-Render-Warnings": json.dumps(warnings)} if warnings else {}
 
 

@@ -112,3 +112,14 @@ def test_silent_scene_is_valid_audio(harness) -> None:
     r = harness.post("/render", json={"duration": 0.1})
     x, _, _ = decode(r.content)
     assert len(x) == 4410 and not np.any(x)
+
+
+def test_warnings_header_keeps_the_first_ten(harness) -> None:
+    """Up to 500 events could each warn: the header carries ten and counts the rest."""
+    taps = [{"type": "tap", "time": 0.01 * i, "string": 3, "fret": 7, "force": 0.9}
+            for i in range(15)]
+    r = harness.post("/render", json={"duration": 0.2, "events": taps})
+    assert r.status_code == 200, brief(r)
+    warnings = json.loads(r.headers["x-render-warnings"])
+    assert len(warnings) == 11 and warnings[-1] == "and 5 more warnings like these"
+    assert all(w.startswith("string 3: the tap at") for w in warnings[:10])

@@ -142,6 +142,13 @@ def stopped_frets(events: list) -> tuple[int, ...]:
     return tuple(sorted(frets - {0}))
 
 
+def frets_pressed(e) -> range:
+    """The frets a finger event presses on: its fret, or every fret a slide crosses."""
+    if isinstance(e, Slide):
+        return range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1)
+    return range(e.fret, e.fret + 1)
+
+
 def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
                     impedance: float, ratio_for_cents,
                     fret_shifts: dict[int, float] | None = None,
@@ -209,9 +216,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 x0 = x1 = finger_at(e.fret)
                 ms = me = 0
             fret = e.to_fret if isinstance(e, Slide) else e.fret
-            lo, hi = ((min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret))
-                      if isinstance(e, Slide) else (fret, fret))
-            force = e.force if e.force is not None else default_force(range(lo, hi + 1))
+            force = e.force if e.force is not None else default_force(frets_pressed(e))
             slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
                               gap=v0 * TAP_GAP_S, fret=fret))
         elif isinstance(e, PullOff):

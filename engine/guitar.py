@@ -36,6 +36,7 @@ from .controls import (
     NEVER,
     StringControls,
     events_on,
+    frets_pressed,
     max_tension_ratio,
     stopped_frets,
     string_controls,
@@ -327,31 +328,49 @@ def frame_count(scene: Scene) -> int:
     return int(round(scene.duration * scene.sample_rate))
 
 
-def scene_warnings(scene: Scene) -> list[str]:
+def string_model(preset: Preset, string: int, events: list, rate: float, q: Quality,
+                 opts: RenderOptions) -> tuple[int, StringModel]:
+    """The internal oversampling factor and the tuned string on its grid for ``events`` (those
+    on ``string``): built for the highest tension the scene's bends reach."""
+    spec = preset.strings[string - 1]
+    length = preset.string_length_m(string)
+    comp = opts.compensate_dispersion
+    probe = tune(spec, length, rate, q.grid_scale, comp)
+    rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
+    if opts.oversample:
+        return opts.oversample, tune(spec, length, rate * opts.oversample, q.grid_scale, comp,
+                                     rmax)
+    # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
+    # finger touches in this scene needs only the dispersion criterion.
+    fingered = any(e.type in FINGER_EVENTS for e in events)
+    q_string = q if fingered else replace(q, max_h_m=math.inf)
+    return oversample_for(spec, length, rate, q_string, rmax, comp)
+
+
+def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[str]:
     """What the scene asks for that may not sound as a player would mean it: a finger pressing
     with less than ``SEAT_MARGIN`` times the force at which its string rests on the fret at all
-    (``intonation.seating_force``, on the string's grid at the scene's quality; a slide: the
-    largest over the frets it crosses).  Below that force rendered notes were found not to hold
+    (``intonation.seating_force``, on the string's grid as ``prepare`` builds it, at the string's
+    tension at rest: a bend that raises it asks for more; a slide: the largest over the frets it
+    crosses).  Below that force rendered notes were found not to hold
     (``benchmarks/seating.py``): the finger pushes the string down without stopping it, and the
     note sounds dead or buzzes.  Fingers with no force of their own press hard enough
     (``intonation.press_force``).  In time order."""
+    opts = options or RenderOptions()
     preset = scene.preset()
-    q = QUALITY[scene.quality]
+    q = opts.quality or QUALITY[scene.quality]
     out = []
-    for i, spec in enumerate(preset.strings, start=1):
+    for i in range(1, preset.n_strings + 1):
+        events = events_on(scene, preset.n_strings, i)
         model = None
-        for e in events_on(scene, preset.n_strings, i):
+        for e in events:
             if e.type not in FINGER_EVENTS or e.force is None:
                 continue
-            if isinstance(e, Slide):
-                frets = range(min(e.from_fret, e.to_fret), max(e.from_fret, e.to_fret) + 1)
-            else:
-                frets = range(e.fret, e.fret + 1)
+            frets = frets_pressed(e)
             if frets.start < 1:
                 continue  # fret 0 lifts the finger
             if model is None:
-                model = oversample_for(spec, preset.string_length_m(i), float(scene.sample_rate),
-                                       q)[1]
+                model = string_model(preset, i, events, float(scene.sample_rate), q, opts)[1]
             rests = max(seating_force(model, preset, f) for f in frets)
             if e.force < SEAT_MARGIN * rests:
                 kind = ("hammer-on" if isinstance(e, HammerOn) else "tap" if isinstance(e, Tap)
@@ -372,7 +391,6 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
     q = opts.quality or QUALITY[scene.quality]
     if opts.gamma_rule not in GAMMA_RULES:
         raise ValueError(f"gamma_rule must be one of {sorted(GAMMA_RULES)}")
-    comp = opts.compensate_dispersion
     kc_tol = q.kc_tolerance if opts.kc_tolerance is None else opts.kc_tolerance
     if not kc_tol >= 0.0:
         raise ValueError("kc_tolerance must be >= 0")
@@ -387,22 +405,11 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         gains = np.ones(1)
     nstr = preset.n_strings
     voices = []
-    for i, spec in enumerate(preset.strings, start=1):
+    for i in range(1, nstr + 1):
         events = events_on(scene, nstr, i)
         if opts.skip_silent and not events:
             continue
-        L = preset.string_length_m(i)
-        probe = tune(spec, L, rate, q.grid_scale, comp)
-        rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
-        # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
-        # finger touches in this scene needs only the dispersion criterion.
-        fingered = any(e.type in FINGER_EVENTS for e in events)
-        q_string = q if fingered else replace(q, max_h_m=math.inf)
-        if opts.oversample:
-            os_ = opts.oversample
-            model = tune(spec, L, rate * os_, q.grid_scale, comp, rmax)
-        else:
-            os_, model = oversample_for(spec, L, rate, q_string, rmax, comp)
+        os_, model = string_model(preset, i, events, rate, q, opts)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
         coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],

@@ -139,6 +139,8 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     if finger_x is None:
         finger_x = finger_x_m(preset, fret)
     fg = preset.finger
+    # the contact spring linearised at the force a finger with no force of its own presses with;
+    # for alpha = 1 (every preset) it is K_FG whatever the force
     force = press_force(model, preset, fret)
     eta = (force / fg.stiffness) ** (1.0 / fg.alpha)
     kf = fg.alpha * force / eta
@@ -183,32 +185,35 @@ def seating_force(model: StringModel, preset: Preset, fret: int) -> float:
     Statics of the string on ``model``'s grid (its stiffness, ``_string_matrices``): the rest line
     runs from the nut to the saddle, the fret tips are their clearance below it
     (``Preset.clearance_m``; the nut is on the line), and the finger pushes down with F at its
-    interpolant while the string rests on the fret behind it (or the nut) and on ``fret``.  The
-    reactions of those two supports are affine in F; the one on ``fret``, a F + b, is negative for
-    a light press (the string would have to be pulled down onto the fret), and the force is the F
-    at which it reaches zero.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
+    interpolant while the string rests on ``fret`` and on the fret behind it.  The supports'
+    reactions are affine in F; the one on ``fret``, a F + b, is negative for a light press (the
+    string would have to be pulled down onto the fret), and the force is the F at which it reaches
+    zero.  A fret can only push: where the fret behind would have to pull at that force (near the
+    nut, which stands above the frets, the pressed string leaves it), the string is solved again
+    without it.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
     n = model.n
-    stiff = _string_matrices(model, preset.finger.mass_kg)[0][: n - 1, : n - 1].tocsc()
-    x_q = float(preset.fret_x_m(fret))
-    supports = [(x_q, -float(preset.clearance_m(x_q)))]
-    if fret > 1:
-        x_prev = float(preset.fret_x_m(fret - 1))
-        supports.insert(0, (x_prev, -float(preset.clearance_m(x_prev))))
-    j = np.column_stack([_vector(_interpolant(x, model), n - 1) for x, _ in supports])
-    heights = np.array([m0 for _, m0 in supports])
+    lu = sparse_linalg.splu(
+        _string_matrices(model, preset.finger.mass_kg)[0][: n - 1, : n - 1].tocsc())
     finger = _vector(_interpolant(finger_x_m(preset, fret), model), n - 1)
-    solved = sparse_linalg.splu(stiff).solve(np.column_stack([finger, j]))
-    # u = K^-1 (-F j_f + J R) with J^T u = heights: G R = heights + F c
-    gram = j.T @ solved[:, 1:]
-    c = j.T @ solved[:, 0]
-    try:
-        b = np.linalg.solve(gram, heights)[-1]
-        a = np.linalg.solve(gram, c)[-1]
-    except np.linalg.LinAlgError:  # both supports on the same nodes: the grid cannot tell
-        return 0.0
-    if b >= 0.0 or a <= 0.0:
-        return 0.0
-    return float(-b / a)
+    frets = [fret - 1, fret] if fret > 1 else [fret]
+    while True:
+        xs = [float(preset.fret_x_m(q)) for q in frets]
+        j = np.column_stack([_vector(_interpolant(x, model), n - 1) for x in xs])
+        heights = -np.asarray(preset.clearance_m(np.array(xs)), dtype=float)
+        solved = lu.solve(np.column_stack([finger, j]))
+        # u = K^-1 (-F j_f + J R) with J^T u = heights: G R = heights + F c, R = b + a F
+        gram = j.T @ solved[:, 1:]
+        try:
+            b = np.linalg.solve(gram, heights)
+            a = np.linalg.solve(gram, j.T @ solved[:, 0])
+        except np.linalg.LinAlgError:  # both supports on the same nodes: the grid cannot tell
+            return 0.0
+        if b[-1] >= 0.0 or a[-1] <= 0.0:
+            return 0.0
+        force = -b[-1] / a[-1]
+        if len(frets) == 1 or b[0] + a[0] * force >= 0.0:
+            return float(force)
+        frets = [fret]  # the fret behind would pull: the string does not rest on it
 
 
 def press_force(model: StringModel, preset: Preset, fret: int) -> float:

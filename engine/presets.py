@@ -97,9 +97,9 @@ class FingerSpec:
     stiffness: float = 2.0e4  # K_FG, N/m^alpha
     alpha: float = 1.0
     damping_n_s_m: float = 8.0  # contact damping while touching (counted in the loss Q)
-    # Default pressing force: enough to seat every string of the preset on frets 1-12 (the string
-    # must be pushed below the line from the next fret to the bridge, which takes more force near
-    # the nut and on heavy strings); benchmarks/intonation.py plays with it.
+    # Default pressing force.  Where a string needs more to rest on its fret (fret 1, next to the
+    # nut, and the high frets, where the action is highest), a finger with no force of its own
+    # presses harder: ``intonation.press_force``; benchmarks/seating.py prints both.
     press_force_n: float = 3.0
 
 

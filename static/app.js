@@ -402,7 +402,12 @@ function showErrors(detail) {
 function showWarnings(header) {
   const list = $("#warnings");
   list.replaceChildren();
-  const warnings = header ? JSON.parse(header) : [];
+  let warnings = [];
+  try {
+    warnings = header ? JSON.parse(header) : [];
+  } catch {
+    warnings = [header];  // not JSON: show it as it came
+  }
   for (const w of warnings) {
     const item = document.createElement("li");
     item.textContent = w;

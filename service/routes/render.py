@@ -7,6 +7,7 @@ to the worker pool, turn the result into a response.  Status codes for failures:
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
@@ -23,6 +24,7 @@ from ..examples import scene_examples, stream_examples
 from ..validation import StrictJSONRoute, check_limits, check_streamable
 
 router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
+log = logging.getLogger(__name__)
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
     413: {"description": "request body too large"},
@@ -50,7 +52,11 @@ async def _warnings(scene: engine.Scene) -> dict[str, str]:
     (``engine.scene_warnings``: a finger pressing too lightly to seat its string), when there is
     any; the first ``MAX_HEADER_WARNINGS`` and a count of the rest.  Worked out from the scene
     alone, off the event loop (a small solve per fretted string), before the render starts."""
-    warnings = await run_in_threadpool(engine.scene_warnings, scene)
+    try:
+        warnings = await run_in_threadpool(engine.scene_warnings, scene)
+    except Exception:  # advice only: a failure here must not cost the render
+        log.exception("scene_warnings failed; the response goes without X-Render-Warnings")
+        return {}
     if len(warnings) > MAX_HEADER_WARNINGS:
         more = len(warnings) - MAX_HEADER_WARNINGS
         warnings = [*warnings[:MAX_HEADER_WARNINGS], f"and {more} more warnings like these"]

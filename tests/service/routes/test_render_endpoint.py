@@ -76,7 +76,9 @@ def test_render_headers(harness) -> None:
     assert 0 < seconds < 10
     assert float(r.headers["x-realtime-factor"]) == pytest.approx(0.2 / seconds, rel=0.02)
     assert "x-energy-error" not in r.headers  # only with diagnostics
-    assert "x-render-warnings" not in r.headers  # only when a finger presses too lightly
+    firm = harness.post("/render", json={"duration": 0.2, "events": [
+        {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 3.0}]})
+    assert "x-render-warnings" not in firm.headers  # only when a finger presses too lightly
 
 
 def light_tap_scene() -> dict:
@@ -123,3 +125,16 @@ def test_warnings_header_keeps_the_first_ten(harness) -> None:
     warnings = json.loads(r.headers["x-render-warnings"])
     assert len(warnings) == 11 and warnings[-1] == "and 5 more warnings like these"
     assert all(w.startswith("string 3: the tap at") for w in warnings[:10])
+
+
+def test_a_failure_of_the_warnings_does_not_cost_the_render(harness, monkeypatch) -> None:
+    """The warnings are advice: if working them out fails, the audio still comes, without them."""
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(engine, "scene_warnings", broken)
+    r = harness.post("/render", json=light_tap_scene())
+    assert r.status_code == 200, brief(r)
+    assert "x-render-warnings" not in r.headers
+    x, _, _ = decode(r.content)
+    assert len(x) == round(0.3 * 44100)

@@ -52,9 +52,8 @@ PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmar
 TOLERANCE_CENTS = 0.02  # a shift is refined until the model's note is this close to the reference
 # a finger that presses with no force of its own presses with at least this multiple of the
 # seating force: the static force leaves the vibrating string no margin.  ``benchmarks/seating.py``
-# (standard, 4 N pluck) found rendered notes at their pitch and at most 30 dB weaker than pressed
-# firmly from 1.14 (steel) and 1.17 (nylon) times it (run at d44b0ae); asking for at most 20 dB
-# weaker, up to 1.26 (nylon, run at 21a52ca), a criterion that also failed a firmly held note
+# (standard, run at afcb369) found rendered strings resting on their fret from at most 1.27
+# (steel) and 1.24 (nylon) times it after a 4 N pluck, 1.14 and 1.12 after a 1 N pluck
 SEAT_MARGIN = 1.35
 
 

@@ -67,8 +67,8 @@ class Fret(_Event):
     """A finger pressed behind fret ``fret`` with ``force`` towards the fretboard (sec. 2.5).
 
     A force below the string's seating force at that fret (``engine.intonation.seating_force``;
-    ``benchmarks/seating.py`` prints 1.17-2.51 N at frets 1, 5 and 12 of the steel preset and up
-    to 3.66 N at fret 20) leaves the finger pushing the string down without seating it on the
+    ``benchmarks/seating.py`` prints 1.08-2.51 N at frets 1, 2, 3, 5 and 12 of the steel preset
+    and up to 3.66 N at fret 20) leaves the finger pushing the string down without seating it on the
     fret: a dead or buzzing note.
     """
 

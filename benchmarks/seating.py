@@ -38,22 +38,28 @@ HOLD_SHARE = 0.95
 CHECK_FRAMES = 64
 
 
-def resting_share(preset_name: str, quality: str, string: int, fret: int, force: float,
-                  pluck: float) -> float:
-    """Share of the checks from 0.2 s to 1 s at which the string rests on ``fret`` (its rigid
-    constraint active), the finger pressing with ``force`` and a pluck of ``pluck`` N at 0.05 s."""
+def resting_share(preset_name: str, quality: str, string: int, fret: int, force: float | None,
+                  pluck: float, extra: tuple = (), start: float = 0.2,
+                  duration: float = 1.0) -> float:
+    """Share of the checks from ``start`` to ``duration`` seconds at which the string rests on
+    ``fret`` (its rigid constraint active), the finger pressing with ``force`` (None: the
+    default, ``intonation.press_force``), a pluck of ``pluck`` N at 0.05 s and the ``extra``
+    events (a bend, say)."""
+    finger = {"type": "fret", "time": 0.0, "string": string, "fret": fret}
+    if force is not None:
+        finger["force"] = force
     scene = Scene.model_validate({
-        "duration": 1.0, "sample_rate": SR, "guitar": {"preset": preset_name},
+        "duration": duration, "sample_rate": SR, "guitar": {"preset": preset_name},
         "output": {"body": "none", "channels": 1, "normalize": False},
-        "events": [{"type": "fret", "time": 0.0, "string": string, "fret": fret, "force": force},
-                   {"type": "pluck", "time": 0.05, "string": string, "force": pluck}]})
+        "events": [finger, {"type": "pluck", "time": 0.05, "string": string, "force": pluck},
+                   *extra]})
     eng = prepare(scene, RenderOptions(quality=QUALITY[quality], skip_decayed=False))
     voice = eng.voices[0]
     checks = []
     done = 0
     for block in eng.blocks(CHECK_FRAMES):
         done += len(block)
-        if done >= 0.2 * SR:
+        if done >= start * SR:
             checks.append(bool(voice.state.fret_active[fret - 1]))
     return float(np.mean(checks))
 

@@ -329,40 +329,40 @@ def frame_count(scene: Scene) -> int:
 
 
 def string_model(preset: Preset, string: int, events: list, rate: float, q: Quality,
-                 opts: RenderOptions) -> tuple[int, StringModel]:
-    """The internal oversampling factor and the tuned string on its grid for ``events`` (those
-    on ``string``): built for the highest tension the scene's bends reach."""
+                 opts: RenderOptions) -> tuple[int, StringModel, float]:
+    """The internal oversampling factor, the tuned string on its grid for ``events`` (those on
+    ``string``), built for the highest tension the scene's bends reach, and that tension over the
+    tuned one."""
     spec = preset.strings[string - 1]
     length = preset.string_length_m(string)
     comp = opts.compensate_dispersion
     probe = tune(spec, length, rate, q.grid_scale, comp)
     rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
     if opts.oversample:
-        return opts.oversample, tune(spec, length, rate * opts.oversample, q.grid_scale, comp,
-                                     rmax)
+        return (opts.oversample,
+                tune(spec, length, rate * opts.oversample, q.grid_scale, comp, rmax), rmax)
     # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
     # finger touches in this scene needs only the dispersion criterion.
     fingered = any(e.type in FINGER_EVENTS for e in events)
     q_string = q if fingered else replace(q, max_h_m=math.inf)
-    return oversample_for(spec, length, rate, q_string, rmax, comp)
+    return (*oversample_for(spec, length, rate, q_string, rmax, comp), rmax)
 
 
 def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[str]:
     """What the scene asks for that may not sound as a player would mean it: a finger pressing
     with less than ``SEAT_MARGIN`` times the force at which its string rests on the fret at all
-    (``intonation.seating_force``, on the string's grid as ``prepare`` builds it, at the string's
-    tension at rest: a bend that raises it asks for more; a slide: the largest over the frets it
-    crosses).  Below that force rendered notes were found not to hold
-    (``benchmarks/seating.py``): the finger pushes the string down without stopping it, and the
-    note sounds dead or buzzes.  Fingers with no force of their own press hard enough
-    (``intonation.press_force``).  In time order."""
+    (``intonation.seating_force``, on the string's grid as ``prepare`` builds it, at the highest
+    tension the scene's bends give the string; a slide: the largest over the frets it crosses).
+    Below that force rendered notes were found not to hold (``benchmarks/seating.py``): the finger
+    pushes the string down without stopping it, and the note sounds dead or buzzes.  Fingers with
+    no force of their own press hard enough (``intonation.press_force``).  In time order."""
     opts = options or RenderOptions()
     preset = scene.preset()
     q = opts.quality or QUALITY[scene.quality]
     out = []
     for i in range(1, preset.n_strings + 1):
         events = events_on(scene, preset.n_strings, i)
-        model = None
+        model = ratio = None
         for e in events:
             if e.type not in FINGER_EVENTS or e.force is None:
                 continue
@@ -370,8 +370,9 @@ def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[s
             if frets.start < 1:
                 continue  # fret 0 lifts the finger
             if model is None:
-                model = string_model(preset, i, events, float(scene.sample_rate), q, opts)[1]
-            rests = max(seating_force(model, preset, f) for f in frets)
+                _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q,
+                                               opts)
+            rests = max(seating_force(model, preset, f, ratio) for f in frets)
             if e.force < SEAT_MARGIN * rests:
                 kind = ("hammer-on" if isinstance(e, HammerOn) else "tap" if isinstance(e, Tap)
                         else e.type)
@@ -409,7 +410,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         events = events_on(scene, nstr, i)
         if opts.skip_silent and not events:
             continue
-        os_, model = string_model(preset, i, events, rate, q, opts)
+        os_, model, rmax = string_model(preset, i, events, rate, q, opts)
         fret_mode = q.fret_mode if opts.frets else 0
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
         coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
@@ -420,7 +421,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
                   if calibrate and fret_mode == FRET_RIGID else None)
         ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
                               partial(tension_ratio_for_cents, model), shifts,
-                              partial(press_force, model, preset))
+                              partial(press_force, model, preset, tension_ratio=rmax))
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,

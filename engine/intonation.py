@@ -177,9 +177,11 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
 
 
 @lru_cache(maxsize=4096)
-def seating_force(model: StringModel, preset: Preset, fret: int) -> float:
+def seating_force(model: StringModel, preset: Preset, fret: int,
+                  tension_ratio: float = 1.0) -> float:
     """Newtons: the least force with which a finger stopping ``fret`` (where
-    ``controls.finger_x_m`` puts it) holds the string at rest on that fret.
+    ``controls.finger_x_m`` puts it) holds the string at rest on that fret, the string's tension
+    ``tension_ratio`` times its tuned one (a bend raises it, and with it this force).
 
     Statics of the string on ``model``'s grid (its stiffness, ``_string_matrices``): the rest line
     runs from the nut to the saddle, the fret tips are their clearance below it
@@ -190,9 +192,10 @@ def seating_force(model: StringModel, preset: Preset, fret: int) -> float:
     zero.  A fret can only push: where the fret behind would have to pull at that force (near the
     nut, which stands above the frets, the pressed string leaves it), the string is solved again
     without it.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
-    n = model.n
+    n, h = model.n, model.h
+    d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
     lu = sparse_linalg.splu(
-        _string_matrices(model, preset.finger.mass_kg)[0][: n - 1, : n - 1].tocsc())
+        (h * (-tension_ratio * model.tension_n * d2 + model.ei * (d2 @ d2))).tocsc())
     finger = _vector(_interpolant(finger_x_m(preset, fret), model), n - 1)
     frets = [fret - 1, fret] if fret > 1 else [fret]
     while True:
@@ -215,14 +218,17 @@ def seating_force(model: StringModel, preset: Preset, fret: int) -> float:
         frets = [fret]  # the fret behind would pull: the string does not rest on it
 
 
-def press_force(model: StringModel, preset: Preset, fret: int) -> float:
+def press_force(model: StringModel, preset: Preset, fret: int,
+                tension_ratio: float = 1.0) -> float:
     """The force a finger stopping ``fret`` presses with when the scene gives none: the preset's
-    (``FingerSpec.press_force_n``), or ``SEAT_MARGIN`` times the seating force where that is more
-    (the high frets, where the action is highest, and the first, where the nut stands above the
-    frets)."""
+    (``FingerSpec.press_force_n``), or ``SEAT_MARGIN`` times the seating force at the highest
+    tension the scene gives the string (``tension_ratio``: its bends) where that is more (the high
+    frets, where the action is highest, the first, where the nut stands above the frets, and a
+    bent string)."""
     if fret < 1:
         return preset.finger.press_force_n
-    return max(preset.finger.press_force_n, SEAT_MARGIN * seating_force(model, preset, fret))
+    return max(preset.finger.press_force_n,
+               SEAT_MARGIN * seating_force(model, preset, fret, tension_ratio))
 
 
 @lru_cache(maxsize=64)

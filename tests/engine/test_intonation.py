@@ -10,7 +10,7 @@ import pytest
 
 import engine
 from benchmarks.intonation import decay_db_per_s
-from benchmarks.seating import holds
+from benchmarks.seating import holds, resting_share
 from engine.analysis import cents, spectrum_peak
 from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
 from engine.guitar import QUALITY, RenderOptions, oversample_for
@@ -188,3 +188,17 @@ def test_a_slide_presses_with_the_largest_default_force_of_the_frets_it_crosses(
                           lambda q: press_force(m, steel, q)).arrays
     assert ctl.fs_force[0] == max(press_force(m, steel, q) for q in range(12, 20))
     assert ctl.fs_force[1] == 2.5  # a force the scene gives is the force
+
+
+def test_a_bent_string_stays_on_its_fret(steel):
+    """A bend raises the tension, and with it the force that holds the string on its fret: at
+    fret 12 of string 3 a three-semitone bend lifts the string off the fret under the preset's
+    3 N; a finger with no force of its own presses for the bent tension and holds it."""
+    bend = ({"type": "bend", "time": 0.2, "string": 3, "semitones": 3.0, "duration": 0.3},)
+
+    def share(force):
+        return resting_share("steel-acoustic", "standard", 3, 12, force, 1.0, bend, start=0.6,
+                             duration=1.5)
+
+    assert share(steel.finger.press_force_n) < 0.5
+    assert share(None) >= 0.95

@@ -164,3 +164,14 @@ def test_no_warning_for_a_firm_or_a_default_press_and_the_slides_worst_fret():
     assert warnings[0].startswith("string 2: the slide at 0.3 s presses 2.5 N; holding the "
                                   "string on frets 5-19 takes about 3.")
     assert warnings[1].startswith("string 1: the hammer-on at 0.6 s presses 0.5 N")
+
+
+def test_a_press_that_holds_the_string_at_rest_but_not_bent_is_warned_about():
+    """3 N is enough for string 3 at fret 10 at rest; bent three semitones, the string needs
+    more, and the warning says so."""
+    fret10 = {"type": "fret", "time": 0.0, "string": 3, "fret": 10, "force": 3.0}
+    bend = {"type": "bend", "time": 0.2, "string": 3, "semitones": 3.0, "duration": 0.3}
+    assert engine.scene_warnings(engine.parse_scene({"duration": 1.0, "events": [fret10]})) == []
+    warned = engine.scene_warnings(engine.parse_scene({"duration": 1.0,
+                                                       "events": [fret10, bend]}))
+    assert len(warned) == 1 and warned[0].startswith("string 3: the fret at 0 s presses 3 N")

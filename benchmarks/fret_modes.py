@@ -92,6 +92,9 @@ def main(argv: list[str] | None = None) -> None:
                 "rendered notes: quality minus reference", decay, "dB/s")
     print_table("3. frets where they are, the model: quality minus reference", model_decay, "dB/s")
     print_table("3. model minus rendered", model_decay - decay, "dB/s")
+    apart = np.abs(model_decay - decay)
+    print(f"model and rendered decay within 0.5 dB/s on {int(np.sum(apart <= 0.5))} of "
+          f"{apart.size} notes, within 0.1 dB/s on {int(np.sum(apart <= 0.1))}")
     print_table("3. frets calibrated, rendered notes: quality minus reference",
                 cal_decay - ref_decay, "dB/s")
     n = preset.n_strings * len(FRETS)

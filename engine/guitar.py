@@ -44,7 +44,7 @@ from .controls import (
 from .intonation import SEAT_MARGIN, fret_shifts, press_force, seating_force
 from .output import Body, default_pan, pan_gains
 from .presets import Preset
-from .scene import HammerOn, Scene, Slide, Tap
+from .scene import Scene, Slide
 from .string import (
     FRET_PENALTY,
     FRET_RIGID,
@@ -374,8 +374,7 @@ def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[s
                                                opts)
             rests = max(seating_force(model, preset, f, ratio) for f in frets)
             if e.force < SEAT_MARGIN * rests:
-                kind = ("hammer-on" if isinstance(e, HammerOn) else "tap" if isinstance(e, Tap)
-                        else e.type)
+                kind = e.type.replace("_", "-")
                 where = (f"frets {e.from_fret}-{e.to_fret}" if isinstance(e, Slide)
                          else f"fret {e.fret}")
                 out.append((e.time, i, f"string {i}: the {kind} at {e.time:g} s presses "

@@ -103,14 +103,20 @@ def _null_basis(constraints: list[list[tuple[int, float]]], size: int) -> sparse
 
 
 @lru_cache(maxsize=64)
-def _string_matrices(model: StringModel, finger_mass: float):
-    """The string's stiffness h (T D^T D + E I (D^T D)^2) and the mass matrix, over nodes 1..N-1
-    and the finger (its row and column of the stiffness empty): the same for every fret, so a
-    calibration builds them once."""
+def _stiffness(model: StringModel, tension_ratio: float = 1.0) -> sparse.csc_matrix:
+    """The string's stiffness h (T D^T D + E I (D^T D)^2) over nodes 1..N-1, its tension
+    ``tension_ratio`` times the tuned one."""
     n, h = model.n, model.h
     d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
-    stiff = sparse.block_diag([h * (-model.tension_n * d2 + model.ei * (d2 @ d2)),
-                               sparse.csr_matrix((1, 1))]).tocsr()
+    return (h * (-tension_ratio * model.tension_n * d2 + model.ei * (d2 @ d2))).tocsc()
+
+
+@lru_cache(maxsize=64)
+def _string_matrices(model: StringModel, finger_mass: float):
+    """``_stiffness`` and the mass matrix over nodes 1..N-1 and the finger (its row and column of
+    the stiffness empty): the same for every fret, so a calibration builds them once."""
+    n, h = model.n, model.h
+    stiff = sparse.block_diag([_stiffness(model), sparse.csr_matrix((1, 1))]).tocsr()
     mass = sparse.diags(np.append(np.full(n - 1, model.rho_a * h), finger_mass))
     return stiff, mass
 
@@ -183,7 +189,7 @@ def seating_force(model: StringModel, preset: Preset, fret: int,
     ``controls.finger_x_m`` puts it) holds the string at rest on that fret, the string's tension
     ``tension_ratio`` times its tuned one (a bend raises it, and with it this force).
 
-    Statics of the string on ``model``'s grid (its stiffness, ``_string_matrices``): the rest line
+    Statics of the string on ``model``'s grid (its stiffness, ``_stiffness``): the rest line
     runs from the nut to the saddle, the fret tips are their clearance below it
     (``Preset.clearance_m``; the nut is on the line), and the finger pushes down with F at its
     interpolant while the string rests on ``fret`` and on the fret behind it.  The supports'
@@ -192,10 +198,8 @@ def seating_force(model: StringModel, preset: Preset, fret: int,
     zero.  A fret can only push: where the fret behind would have to pull at that force (near the
     nut, which stands above the frets, the pressed string leaves it), the string is solved again
     without it.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
-    n, h = model.n, model.h
-    d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
-    lu = sparse_linalg.splu(
-        (h * (-tension_ratio * model.tension_n * d2 + model.ei * (d2 @ d2))).tocsc())
+    n = model.n
+    lu = sparse_linalg.splu(_stiffness(model, tension_ratio))
     finger = _vector(_interpolant(finger_x_m(preset, fret), model), n - 1)
     frets = [fret - 1, fret] if fret > 1 else [fret]
     while True:

@@ -29,7 +29,8 @@ class Settings(BaseSettings):
     queue_timeout_s: float = Field(30.0, gt=0.0,
                                    description="longest wait for a free worker before 503")
     retry_after_s: int = Field(2, ge=1, description="Retry-After sent with a 503")
-    warmup: bool = Field(True, description="render a tiny scene in each worker at start-up")
+    warmup: bool = Field(True, description="render a tiny scene in each worker at start-up, and "
+                                           "work out one scene's warnings in the API process")
     mp_context: str = Field("spawn", pattern="^(spawn|forkserver)$",
                             description="multiprocessing start method of the workers")
 

@@ -1,13 +1,15 @@
 """Where a string's time step spends its time, by kernel helper: a sampling profile.
 
     python -m benchmarks.profile_step [--string 4] [--fret 5] [--no-kc] [--seconds 10]
+                                      [--event cpu-clock|cycles|instructions]
 
 Every helper the step loop calls is inlined into ``kernels.step_block``, so a function-level
 profiler sees one function.  This script renders the scene of ``benchmarks.speed``'s component
 table (a finger at ``--fret`` and an 8 N pluck on ``--string`` at x1; ``--fret 0``: the open
 string) over and over in a child process whose kernels are compiled with line tables
 (``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with
-Linux ``perf`` on the software clock (no hardware counters needed: it works in a VM), and maps
+Linux ``perf`` (by default on the software clock: no hardware counters needed, it works in any VM;
+``--event instructions`` counts work instead of time where the machine has counters), and maps
 every sampled address inside ``step_block`` to its line of ``engine/kernels.py`` (binutils'
 ``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line.
 
@@ -60,9 +62,11 @@ with open(ready + ".o", "wb") as f:
     f.write(obj)
 with open(ready, "w") as f:
     json.dump({"address": addr, "symbol": ov.fndesc.llvm_func_name}, f)
+# the longest scene there is: preparing it (the fret calibration) must stay a small share
+from engine.scene import MAX_DURATION_S
+scene, options = scene_and_options(string, fret, kc, MAX_DURATION_S)
 while True:
-    eng = prepare(scene, options)
-    for _ in eng.blocks():
+    for _ in prepare(scene, options).blocks():
         pass
 """
 
@@ -135,7 +139,7 @@ def _symbol_size(obj: str, symbol: str) -> tuple[int, int]:
     raise SystemExit(f"{symbol} not found in the compiled object")
 
 
-def profile(string: int, fret: int, kc: bool, seconds: float) -> None:
+def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-clock") -> None:
     for tool in ("perf", "addr2line", "nm"):
         if shutil.which(tool) is None:
             raise SystemExit(f"needs `{tool}` on PATH (Debian: linux-perf, binutils)")
@@ -155,7 +159,7 @@ def profile(string: int, fret: int, kc: bool, seconds: float) -> None:
             time.sleep(0.5)  # the json is written after the object
             info = json.loads(Path(ready).read_text())
             data = os.path.join(tmp, "perf.data")
-            subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "20000", "-p",
+            subprocess.run(["perf", "record", "-q", "-e", event, "-F", "20000", "-p",
                             str(child.pid), "-o", data, "--", "sleep", str(seconds)],
                            check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         finally:
@@ -191,7 +195,7 @@ def profile(string: int, fret: int, kc: bool, seconds: float) -> None:
     inside = sum(offsets.values())
     what = f"finger at fret {fret}" if fret else "open string"
     print(f"string {string} at x1, {what}, 8 N pluck, Kirchhoff-Carrier {'on' if kc else 'off'}: "
-          f"{total} samples over {seconds:g} s (perf, software clock)")
+          f"{total} samples over {seconds:g} s (perf, event {event})")
     print("where                                       | share of samples")
     print(f"{'outside step_block':43s} | {100 * (total - inside) / total:15.1f} %")
     for name, n in by_helper.most_common():
@@ -211,8 +215,12 @@ def main() -> None:
     ap.add_argument("--fret", type=int, default=5)
     ap.add_argument("--no-kc", action="store_true", help="switch Kirchhoff-Carrier off")
     ap.add_argument("--seconds", type=float, default=10.0)
+    ap.add_argument("--event", default="cpu-clock",
+                    help="perf event to sample: cpu-clock (works in any VM), or, where the machine "
+                         "has hardware counters, cycles or instructions (a share of instructions "
+                         "is a count of work, and does not move with what else the machine does)")
     args = ap.parse_args()
-    profile(args.string, args.fret, not args.no_kc, args.seconds)
+    profile(args.string, args.fret, not args.no_kc, args.seconds, args.event)
 
 
 if __name__ == "__main__":

@@ -12,33 +12,65 @@ Table 3, where a fretted string's time goes: each force switched on in turn, ns 
 
 Timings are the best of ``--repeat`` runs of the simulation alone (scene preparation excluded; CPU
 time of the rendering thread), on one core (the engine is single-threaded; the service runs one
-render per worker process).
+render per worker process).  Where the machine gives hardware counters (``benchmarks.counters``),
+the tables also print the fewest CPU cycles and instructions of those runs: times move between
+sessions by a factor of two on "the same" machine, and instructions do not move at all unless the
+code or the scene does.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
-from engine.guitar import RenderOptions, prepare
+from benchmarks.counters import Counters
+from engine.guitar import Engine, RenderOptions, prepare
 from engine.scene import Scene
 
 
-def best_time(scene: dict, options: RenderOptions, repeat: int) -> tuple[float, object]:
+@dataclass
+class Timing:
+    """The best of several renders: CPU seconds, and the fewest cycles and instructions (None
+    without hardware counters)."""
+
+    seconds: float
+    cycles: float | None
+    instructions: float | None
+    engine: Engine
+
+
+def _fewest(a: float | None, b: int | None) -> float | None:
+    if b is None:
+        return None
+    return float(b) if a is None else min(a, float(b))
+
+
+def best_time(scene: dict, options: RenderOptions, repeat: int) -> Timing:
     """Best CPU time of the simulation (scene preparation excluded) over ``repeat`` runs: thread
     time rather than wall time, so that other processes on the machine change it less."""
     sc = Scene.model_validate(scene)
-    best = np.inf
-    eng = None
+    best = Timing(np.inf, None, None, None)
     for _ in range(repeat):
         eng = prepare(sc, options)
-        t = time.thread_time()
-        for _block in eng.blocks():
-            pass
-        best = min(best, time.thread_time() - t)
-    return best, eng
+        with Counters() as ctr:
+            t = time.thread_time()
+            for _block in eng.blocks():
+                pass
+            t = time.thread_time() - t
+        best = Timing(min(best.seconds, t), _fewest(best.cycles, ctr.cycles),
+                      _fewest(best.instructions, ctr.instructions), eng)
+    return best
+
+
+def _per(value: float | None, steps: float, width: int) -> str:
+    return f"{value / steps:{width}.0f}" if value is not None else f"{'-':>{width}s}"
+
+
+def _ratio(a: float | None, b: float | None, width: int) -> str:
+    return f"{a / b:{width}.2f}" if a is not None and b is not None else f"{'-':>{width}s}"
 
 
 def per_string(quality: str, seconds: float, repeat: int) -> None:
@@ -49,7 +81,7 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
           "nonlinearities' own cost) and at its own factor.\nOpen: a 2 N pluck of the open string "
           "with every nonlinearity on, against the linear string, both at the open string's own x.")
     print("string | x |   N | linear, same x | linear, own x | fretted full | fretted / linear "
-          "(same x) | open full / linear")
+          "(same x) | the same in cycles | in instructions | open full / linear")
     linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
@@ -59,21 +91,25 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
             {"type": "pluck", "time": 0.05, "string": s, "force": 8.0},
         ]}
         soft = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 2.0}]}
-        t_full, eng = best_time(full, RenderOptions(skip_decayed=False), repeat)
-        v = eng.voices[0]
-        t_same, _ = best_time(lin, RenderOptions(oversample=v.oversample, **linear), repeat)
-        t_own, _ = best_time(lin, RenderOptions(**linear), repeat)
-        t_open, _ = best_time(soft, RenderOptions(skip_decayed=False), repeat)
-        t_soft_lin, _ = best_time(soft, RenderOptions(**linear), repeat)
-        print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | {t_same / seconds * 1e3:14.1f} | "
-              f"{t_own / seconds * 1e3:13.1f} | {t_full / seconds * 1e3:12.1f} | "
-              f"{t_full / t_same:24.2f} | {t_open / t_soft_lin:18.2f}")
+        t_full = best_time(full, RenderOptions(skip_decayed=False), repeat)
+        v = t_full.engine.voices[0]
+        t_same = best_time(lin, RenderOptions(oversample=v.oversample, **linear), repeat)
+        t_own = best_time(lin, RenderOptions(**linear), repeat)
+        t_open = best_time(soft, RenderOptions(skip_decayed=False), repeat)
+        t_soft_lin = best_time(soft, RenderOptions(**linear), repeat)
+        print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | "
+              f"{t_same.seconds / seconds * 1e3:14.1f} | {t_own.seconds / seconds * 1e3:13.1f} | "
+              f"{t_full.seconds / seconds * 1e3:12.1f} | "
+              f"{t_full.seconds / t_same.seconds:24.2f} | "
+              f"{_ratio(t_full.cycles, t_same.cycles, 18)} | "
+              f"{_ratio(t_full.instructions, t_same.instructions, 15)} | "
+              f"{t_open.seconds / t_soft_lin.seconds:18.2f}")
 
 
 def components(seconds: float, repeat: int, string: int = 4) -> None:
-    """Where a fretted string's time goes: each force added in turn, at 1x (ns per time step)."""
+    """Where a fretted string's time goes: each force added in turn, at 1x (per time step)."""
     print(f"\nwhere the time goes: string {string} at x1, finger at fret 5, 8 N pluck, body 'none' "
-          "(ns of compute per time step)")
+          "(compute per time step)")
     base = {"duration": seconds, "output": {"body": "none"}}
     pluck = {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}
     open_ = {**base, "events": [pluck]}
@@ -90,11 +126,13 @@ def components(seconds: float, repeat: int, string: int = 4) -> None:
         ("fretted: + fretboard", fretted, {"kirchhoff_carrier": False}),
         ("fretted: full model (+ Kirchhoff-Carrier)", fretted, {}),
     ]
-    print("configuration                              | ns per step")
+    print("configuration                              | ns per step | cycles per step | "
+          "instructions per step")
     for name, sc, opts in rows:
-        t, eng = best_time(sc, RenderOptions(oversample=1, skip_decayed=False, **opts), repeat)
-        steps = seconds * eng.scene.sample_rate
-        print(f"{name:42s} | {t / steps * 1e9:11.0f}")
+        t = best_time(sc, RenderOptions(oversample=1, skip_decayed=False, **opts), repeat)
+        steps = seconds * t.engine.scene.sample_rate
+        print(f"{name:42s} | {t.seconds / steps * 1e9:11.0f} | {_per(t.cycles, steps, 15)} | "
+              f"{_per(t.instructions, steps, 21)}")
 
 
 def scenes(quality: str, seconds: float, repeat: int) -> None:
@@ -108,15 +146,16 @@ def scenes(quality: str, seconds: float, repeat: int) -> None:
     paper = [{"type": "fret", "time": 0.0, "string": 6, "fret": 5},
              {"type": "pluck", "time": 0.05, "string": 6, "force": 5.0}]
     print(f"\nscenes, quality '{quality}', {seconds:g} s of audio (with the preset's acoustic body)")
-    print("scene                          | ms per s of audio | x real time")
+    print("scene                          | ms per s of audio | x real time | Mcycles per s of audio")
     for name, evs, opts in [
         ("six-string strum (open)", strum, RenderOptions(skip_decayed=False)),
         ("the same, KC in every step", strum, RenderOptions(skip_decayed=False, kc_tolerance=0.0)),
         ("fretted C chord, strummed", chord, RenderOptions(skip_decayed=False)),
         ("paper Table 1 setup, low E", paper, RenderOptions(skip_decayed=False)),
     ]:
-        t, _ = best_time({"duration": seconds, "quality": quality, "events": evs}, opts, repeat)
-        print(f"{name:30s} | {t / seconds * 1e3:17.1f} | {seconds / t:11.1f}")
+        t = best_time({"duration": seconds, "quality": quality, "events": evs}, opts, repeat)
+        print(f"{name:30s} | {t.seconds / seconds * 1e3:17.1f} | {seconds / t.seconds:11.1f} | "
+              f"{_per(t.cycles, seconds * 1e6, 22)}")
 
 
 def main() -> None:

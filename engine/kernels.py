@@ -477,12 +477,15 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
 def _solve(A, r, n):
     """Solve A x = r in place (x into r) by Gaussian elimination with partial pivoting; returns
     False if A is singular.  Two columns (Kirchhoff-Carrier with a damper, the fretboard or a
-    finger) and three (with a finger and a fret) go to ``_solve_n`` with a literal size, which
-    LLVM unrolls: cheaper than its loops over an unknown n.  A held fretted note has four columns
-    (Kirchhoff-Carrier, the finger, and the frets on both sides of it, on which the pressed string
-    rests); its solve lies on the step's critical path, and unrolled it did not make that step
-    measurably faster, so it takes the loops."""
-    if n == 3:  # literal sizes: LLVM unrolls the loops
+    finger), three (with a finger and a fret) and four (a held fretted note: Kirchhoff-Carrier,
+    the finger, and the frets on both sides of it, on which the pressed string rests) go to
+    ``_solve_n`` with a literal size, which LLVM unrolls: cheaper than its loops over an unknown
+    n.  Timings on this shared machine could not tell whether unrolling the four-column solve
+    helped; instructions retired can, and a held note's step retires fewer with it
+    (``benchmarks.speed``'s component table, figures in the README)."""
+    if n == 4:  # literal sizes: LLVM unrolls the loops
+        return _solve_n(A, r, 4)
+    if n == 3:
         return _solve_n(A, r, 3)
     if n == 2:
         return _solve_n(A, r, 2)

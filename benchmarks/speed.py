@@ -81,7 +81,7 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
           "nonlinearities' own cost) and at its own factor.\nOpen: a 2 N pluck of the open string "
           "with every nonlinearity on, against the linear string, both at the open string's own x.")
     print("string | x |   N | linear, same x | linear, own x | fretted full | fretted / linear "
-          "(same x) | the same in cycles | in instructions | open full / linear")
+          "(same x) | in cycles | in instructions | open full / linear | in instructions")
     linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
@@ -101,9 +101,10 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
               f"{t_same.seconds / seconds * 1e3:14.1f} | {t_own.seconds / seconds * 1e3:13.1f} | "
               f"{t_full.seconds / seconds * 1e3:12.1f} | "
               f"{t_full.seconds / t_same.seconds:24.2f} | "
-              f"{_ratio(t_full.cycles, t_same.cycles, 18)} | "
+              f"{_ratio(t_full.cycles, t_same.cycles, 9)} | "
               f"{_ratio(t_full.instructions, t_same.instructions, 15)} | "
-              f"{t_open.seconds / t_soft_lin.seconds:18.2f}")
+              f"{t_open.seconds / t_soft_lin.seconds:18.2f} | "
+              f"{_ratio(t_open.instructions, t_soft_lin.instructions, 15)}")
 
 
 def components(seconds: float, repeat: int, string: int = 4) -> None:

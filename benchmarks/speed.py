@@ -6,7 +6,8 @@ finger pressing at fret 5, an 8 N pluck), with the ratio between them; and an op
 pluck with every nonlinearity on against the same pluck on the linear string.
 Table 2, whole scenes: a six-string strum (open strings), a fretted chord, and the paper's Table 1
 configuration for comparison (their C++: 40-180 ms per second of audio per string).
-Table 3, where a fretted string's time goes: each force switched on in turn, ns per time step.
+Table 3, where a fretted string's time goes: each force switched on in turn, ns, cycles and
+instructions per time step.
 
     python -m benchmarks.speed [--quality standard] [--seconds 2] [--repeat 3]
 
@@ -14,7 +15,7 @@ Timings are the best of ``--repeat`` runs of the simulation alone (scene prepara
 time of the rendering thread), on one core (the engine is single-threaded; the service runs one
 render per worker process).  Where the machine gives hardware counters (``benchmarks.counters``),
 the tables also print the fewest CPU cycles and instructions of those runs: times move between
-sessions by a factor of two on "the same" machine, and instructions do not move at all unless the
+sessions on "the same" machine (``benchmarks.counters``), and instructions do not move unless the
 code or the scene does.
 """
 
@@ -39,7 +40,7 @@ class Timing:
     seconds: float
     cycles: float | None
     instructions: float | None
-    engine: Engine
+    engine: Engine | None
 
 
 def _fewest(a: float | None, b: int | None) -> float | None:

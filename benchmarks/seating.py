@@ -26,7 +26,8 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from engine.guitar import QUALITY, RenderOptions, oversample_for, prepare
+from engine.controls import events_on
+from engine.guitar import QUALITY, RenderOptions, prepare, string_model
 from engine.intonation import SEAT_MARGIN, press_force, seating_force
 from engine.presets import get_preset
 from engine.scene import Scene
@@ -38,6 +39,18 @@ HOLD_SHARE = 0.95
 CHECK_FRAMES = 64
 
 
+def _scene(preset_name: str, string: int, fret: int, force: float | None, pluck: float,
+           extra: tuple = (), duration: float = 1.0) -> Scene:
+    finger = {"type": "fret", "time": 0.0, "string": string, "fret": fret}
+    if force is not None:
+        finger["force"] = force
+    return Scene.model_validate({
+        "duration": duration, "sample_rate": SR, "guitar": {"preset": preset_name},
+        "output": {"body": "none", "channels": 1, "normalize": False},
+        "events": [finger, {"type": "pluck", "time": 0.05, "string": string, "force": pluck},
+                   *extra]})
+
+
 def resting_share(preset_name: str, quality: str, string: int, fret: int, force: float | None,
                   pluck: float, extra: tuple = (), start: float = 0.2,
                   duration: float = 1.0) -> float:
@@ -45,14 +58,7 @@ def resting_share(preset_name: str, quality: str, string: int, fret: int, force:
     ``fret`` (its rigid constraint active), the finger pressing with ``force`` (None: the
     default, ``intonation.press_force``), a pluck of ``pluck`` N at 0.05 s and the ``extra``
     events (a bend, say)."""
-    finger = {"type": "fret", "time": 0.0, "string": string, "fret": fret}
-    if force is not None:
-        finger["force"] = force
-    scene = Scene.model_validate({
-        "duration": duration, "sample_rate": SR, "guitar": {"preset": preset_name},
-        "output": {"body": "none", "channels": 1, "normalize": False},
-        "events": [finger, {"type": "pluck", "time": 0.05, "string": string, "force": pluck},
-                   *extra]})
+    scene = _scene(preset_name, string, fret, force, pluck, extra, duration)
     eng = prepare(scene, RenderOptions(quality=QUALITY[quality], skip_decayed=False))
     voice = eng.voices[0]
     checks = []
@@ -74,8 +80,10 @@ def threshold(args) -> tuple[int, int, float, float, list[float]]:
     the note holds already at the bottom of the bracket, inf if not at its top)."""
     preset_name, quality, string, fret = args
     preset = get_preset(preset_name)
-    spec = preset.strings[string - 1]
-    _, model = oversample_for(spec, preset.string_length_m(string), SR, QUALITY[quality])
+    scene = _scene(preset_name, string, fret, None, PLUCKS_N[0])
+    # the grid ``prepare`` builds for the rendered notes
+    _, model, _ = string_model(preset, string, events_on(scene, preset.n_strings, string), SR,
+                               QUALITY[quality], RenderOptions())
     static = seating_force(model, preset, fret)
     default = press_force(model, preset, fret)
     found = []

@@ -81,7 +81,7 @@ def render(scene: Scene | dict, diagnostics: bool | None = None,
     if not diag:
         return audio
     return RenderResult(audio, eng.energy_error(), sc.sample_rate, seconds,
-                        {v.index: v.oversample for v in eng.voices}, scene_warnings(sc, options))
+                        {v.index: v.oversample for v in eng.voices}, eng.warnings())
 
 
 def blocks(scene: Scene | dict, block_frames: int = 4096, options: RenderOptions | None = None):

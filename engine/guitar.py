@@ -190,6 +190,7 @@ class Voice:
     diagnostics: bool
     skip_decayed: bool
     decay_velocity: float
+    tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
     step: int = 0
     stopped: bool = False
     energy_h: list = field(default_factory=list)
@@ -322,6 +323,14 @@ class Engine:
     def energy_error(self) -> float:
         return max((v.energy_error() for v in self.voices), default=0.0)
 
+    def warnings(self) -> list[str]:
+        """``scene_warnings`` of the scene, on the grids its voices were built on (every string
+        with a finger on it has a voice)."""
+        n = self.preset.n_strings
+        out = [w for v in self.voices for w in _finger_warnings(
+            self.preset, v.index, events_on(self.scene, n, v.index), v.model, v.tension_ratio)]
+        return [text for _, _, text in sorted(out)]
+
 
 def frame_count(scene: Scene) -> int:
     """Output frames a scene renders: its duration at its rate, rounded."""
@@ -348,6 +357,30 @@ def string_model(preset: Preset, string: int, events: list, rate: float, q: Qual
     return (*oversample_for(spec, length, rate, q_string, rmax, comp), rmax)
 
 
+def _finger_warnings(preset: Preset, string: int, events: list, model: StringModel,
+                     tension_ratio: float) -> list[tuple[float, int, str]]:
+    """``scene_warnings`` for one string's ``events``, on its grid ``model`` at ``tension_ratio``
+    times its tuned tension: (time, string, message) of each finger pressing too lightly."""
+    out = []
+    for e in events:
+        if e.type not in FINGER_EVENTS or e.force is None:
+            continue
+        frets = frets_pressed(e)
+        if frets.start < 1:
+            continue  # fret 0 lifts the finger
+        rests = max(seating_force(model, preset, f, tension_ratio) for f in frets)
+        if e.force < SEAT_MARGIN * rests:
+            kind = e.type.replace("_", "-")
+            where = (f"frets {e.from_fret}-{e.to_fret}" if isinstance(e, Slide)
+                     else f"fret {e.fret}")
+            out.append((e.time, string, f"string {string}: the {kind} at {e.time:g} s presses "
+                                        f"{e.force:g} N; holding the string on {where} takes "
+                                        f"about {SEAT_MARGIN * rests:.1f} N (it rests on the "
+                                        f"fret from {rests:.2f} N when still): the note may "
+                                        "sound dead or buzz"))
+    return out
+
+
 def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[str]:
     """What the scene asks for that may not sound as a player would mean it: a finger pressing
     with less than ``SEAT_MARGIN`` times the force at which its string rests on the fret at all
@@ -355,33 +388,17 @@ def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[s
     tension the scene's bends give the string; a slide: the largest over the frets it crosses).
     Below that force rendered notes were found not to hold (``benchmarks/seating.py``): the finger
     pushes the string down without stopping it, and the note sounds dead or buzzes.  Fingers with
-    no force of their own press hard enough (``intonation.press_force``).  In time order."""
+    no force of their own press hard enough (``intonation.press_force``).  In time order.  A
+    prepared scene has the same list without building the grids again: ``Engine.warnings``."""
     opts = options or RenderOptions()
     preset = scene.preset()
     q = opts.quality or QUALITY[scene.quality]
     out = []
     for i in range(1, preset.n_strings + 1):
         events = events_on(scene, preset.n_strings, i)
-        model = ratio = None
-        for e in events:
-            if e.type not in FINGER_EVENTS or e.force is None:
-                continue
-            frets = frets_pressed(e)
-            if frets.start < 1:
-                continue  # fret 0 lifts the finger
-            if model is None:
-                _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q,
-                                               opts)
-            rests = max(seating_force(model, preset, f, ratio) for f in frets)
-            if e.force < SEAT_MARGIN * rests:
-                kind = e.type.replace("_", "-")
-                where = (f"frets {e.from_fret}-{e.to_fret}" if isinstance(e, Slide)
-                         else f"fret {e.fret}")
-                out.append((e.time, i, f"string {i}: the {kind} at {e.time:g} s presses "
-                                       f"{e.force:g} N; holding the string on {where} takes "
-                                       f"about {SEAT_MARGIN * rests:.1f} N (it rests on the fret "
-                                       f"from {rests:.2f} N when still): the note may sound dead "
-                                       "or buzz"))
+        if any(e.type in FINGER_EVENTS and e.force is not None for e in events):
+            _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q, opts)
+            out += _finger_warnings(preset, i, events, model, ratio)
     return [text for _, _, text in sorted(out)]
 
 
@@ -426,7 +443,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
                         fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
-                            scene.diagnostics, opts.skip_decayed, opts.decay_velocity))
+                            scene.diagnostics, opts.skip_decayed, opts.decay_velocity, rmax))
     frames = frame_count(scene)
     pan = out.pan or default_pan(nstr)
     body_name = out.body or preset.body

@@ -13,7 +13,7 @@ from benchmarks.intonation import decay_db_per_s
 from benchmarks.seating import holds, resting_share
 from engine.analysis import cents, spectrum_peak
 from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
-from engine.guitar import QUALITY, RenderOptions, oversample_for
+from engine.guitar import QUALITY, RenderOptions, string_model
 from engine.intonation import (
     SEAT_MARGIN,
     TOLERANCE_CENTS,
@@ -23,7 +23,7 @@ from engine.intonation import (
     reference_model,
     seating_force,
 )
-from engine.scene import Scene
+from engine.scene import Fret, Scene
 from engine.string import geometry, tune
 
 from .conftest import SR, fret, pluck, scene
@@ -35,8 +35,8 @@ def _string(preset, s, rate=SR):
 
 def _standard_string(preset, s):
     """String s as the default quality ('standard') grids it when a finger touches it."""
-    return oversample_for(preset.strings[s - 1], preset.string_length_m(s), SR,
-                          QUALITY["standard"])[1]
+    return string_model(preset, s, [Fret(time=0.0, string=s, fret=1)], SR, QUALITY["standard"],
+                        RenderOptions())[1]
 
 
 def _note(s, q, steel, **opts):

@@ -172,6 +172,7 @@ def test_a_press_that_holds_the_string_at_rest_but_not_bent_is_warned_about():
     fret10 = {"type": "fret", "time": 0.0, "string": 3, "fret": 10, "force": 3.0}
     bend = {"type": "bend", "time": 0.2, "string": 3, "semitones": 3.0, "duration": 0.3}
     assert engine.scene_warnings(engine.parse_scene({"duration": 1.0, "events": [fret10]})) == []
-    warned = engine.scene_warnings(engine.parse_scene({"duration": 1.0,
-                                                       "events": [fret10, bend]}))
+    bent = engine.parse_scene({"duration": 1.0, "events": [fret10, bend]})
+    warned = engine.scene_warnings(bent)
     assert len(warned) == 1 and warned[0].startswith("string 3: the fret at 0 s presses 3 N")
+    assert prepare(bent).warnings() == warned  # the voice keeps the bent tension

@@ -42,11 +42,13 @@ from engine.guitar import RenderOptions
 from engine.scene import Scene
 
 KERNELS = Path(__file__).resolve().parent.parent / "engine" / "kernels.py"
+# the step loops that step_block calls without inlining them; each has its own rows in the table
+RUNS = ("_quiet_run", "_held_run")
 
 # The child: compile, report where step_block's machine code lives, then render until killed.
 CHILD = r"""
 import json, sys
-from benchmarks.profile_step import scene_and_options
+from benchmarks.profile_step import RUNS, scene_and_options
 from engine import kernels
 from engine.guitar import prepare
 string, fret, kc, ready = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
@@ -56,12 +58,21 @@ for _ in eng.blocks():
     pass
 fn = eng.voices[0]._step_block
 ov = next(o for o in kernels.step_block.overloads.values() if o.entry_point is fn)
-addr = ov.library.get_pointer_to_function(ov.fndesc.llvm_func_name)
 obj = ov.library.serialize_using_object_code()[2][0]
 with open(ready + ".o", "wb") as f:
     f.write(obj)
+# step_block and the loops it calls that are not inlined (the quiet and the held run): where
+# each one's code lives in this process
+where = {}
+for name in ("step_block",) + RUNS:
+    for o in getattr(kernels, name).overloads.values():
+        sym = o.fndesc.llvm_func_name
+        try:
+            where[sym] = [name, ov.library.get_pointer_to_function(sym)]
+        except Exception:  # not linked into step_block's library
+            pass
 with open(ready, "w") as f:
-    json.dump({"address": addr, "symbol": ov.fndesc.llvm_func_name}, f)
+    json.dump(where, f)
 # the longest scene there is: preparing it (the fret calibration) must stay a small share
 from engine.scene import MAX_DURATION_S
 scene, options = scene_and_options(string, fret, kc, MAX_DURATION_S)
@@ -129,14 +140,11 @@ def _helper_of(line: int | None, helpers: list[tuple[int, str]]) -> str:
     return name
 
 
-def _symbol_size(obj: str, symbol: str) -> tuple[int, int]:
-    """Offset and size of ``symbol`` in the object's text."""
+def _symbols(obj: str) -> dict[str, tuple[int, int]]:
+    """Offset and size of every sized symbol in the object's text."""
     out = subprocess.run(["nm", "-S", obj], capture_output=True, text=True, check=True).stdout
-    for row in out.splitlines():
-        parts = row.split()
-        if len(parts) == 4 and parts[3] == symbol:
-            return int(parts[0], 16), int(parts[1], 16)
-    raise SystemExit(f"{symbol} not found in the compiled object")
+    return {parts[3]: (int(parts[0], 16), int(parts[1], 16))
+            for parts in (row.split() for row in out.splitlines()) if len(parts) == 4}
 
 
 def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-clock") -> None:
@@ -168,12 +176,22 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
         ips = subprocess.run(["perf", "script", "-i", data, "-F", "ip"], capture_output=True,
                              text=True, check=True).stdout.split()
         obj = ready + ".o"
-        start, size = _symbol_size(obj, info["symbol"])
+        spans = []  # (address in the child, offset in the object, size, function)
+        symbols = _symbols(obj)
+        for sym, (name, address) in info.items():
+            if sym in symbols:  # (compiled for other types elsewhere in the child: not this code)
+                spans.append((address, *symbols[sym], name))
+        if not any(name == "step_block" for *_, name in spans):
+            raise SystemExit("step_block not found in the compiled object")
         offsets = collections.Counter()
+        run_of: dict[int, str] = {}
         for ip in ips:
-            off = int(ip, 16) - info["address"]
-            if 0 <= off < size:
-                offsets[start + off] += 1
+            a = int(ip, 16)
+            for address, start, size, name in spans:
+                if 0 <= a - address < size:
+                    offsets[start + a - address] += 1
+                    run_of[start + a - address] = name
+                    break
         addrs = sorted(offsets)
         lines: dict[int, int | None] = {}
         for i in range(0, len(addrs), 2000):
@@ -190,14 +208,19 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
     helpers = _helpers()
     by_helper: collections.Counter = collections.Counter()
     for a, n in offsets.items():
-        by_helper[_helper_of(lines[a], helpers)] += n
+        helper = _helper_of(lines[a], helpers)
+        # a loop's own lines, and the lines it does not attribute, are rows of their own
+        run = run_of[a]
+        if run != "step_block" and helper in (run, "(no line)"):
+            helper = f"{run}'s own lines" if helper == run else f"(no line, {run})"
+        by_helper[helper] += n
     total = len(ips)
     inside = sum(offsets.values())
     what = f"finger at fret {fret}" if fret else "open string"
     print(f"string {string} at x1, {what}, 8 N pluck, Kirchhoff-Carrier {'on' if kc else 'off'}: "
           f"{total} samples over {seconds:g} s (perf, event {event})")
     print("where                                       | share of samples")
-    print(f"{'outside step_block':43s} | {100 * (total - inside) / total:15.1f} %")
+    print(f"{'outside step_block and its runs':43s} | {100 * (total - inside) / total:15.1f} %")
     for name, n in by_helper.most_common():
         label = "step_block's own lines" if name == "step_block" else name
         print(f"{label:43s} | {100 * n / total:15.1f} %")

@@ -8,6 +8,11 @@ For every way the engine avoids work, the same scene is rendered with the skip o
   rigid frets are evaluated only when one is within reach this step, and steps in which nothing
   but the string acts and no contact happens run in ``kernels._quiet_run`` (both sides with
   Kirchhoff-Carrier in every step: exact); a last table gives the share of such quiet steps;
+* held steps: the steps of a fretted note in which one finger presses the string onto the frets
+  it rests on, and nothing changes which forces act, run in ``kernels._held_run`` (the general
+  path's arithmetic; compiled without fastmath the two agree bit for bit,
+  ``tests/engine/test_held.py``, so the difference here is the compiler's contraction and
+  re-association in each loop);
 * Kirchhoff-Carrier below tolerance: quiet steps leave the column out while its tension rise is
   below ``kc_tolerance`` x T0 (``standard``: 1e-4); its own table gives the pitch this moves;
 * decayed strings: a string stops once every node (and finger) moves slower than 1e-7 m/s after
@@ -60,17 +65,27 @@ MELODY_THEN_REST = {"duration": 15.0, "guitar": {"preset": "nylon-classical"}, "
     {"type": "pluck", "time": 0.55, "string": 2, "force": 2.0},
     {"type": "fret", "time": 1.0, "string": 2, "fret": 0},
 ]}
+C_CHORD = {"duration": 2.0, "events": [
+    *({"type": "fret", "time": 0.0, "string": s, "fret": q} for s, q in ((6, 3), (5, 2), (2, 1))),
+    *({"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
+      for i in range(6))]}
+FRETTED_8N = {"duration": 2.0, "events": [{"type": "fret", "time": 0.0, "string": 4, "fret": 5},
+                                          {"type": "pluck", "time": 0.05, "string": 4,
+                                           "force": 8.0}]}
 
 EXACT_KC = {"kc_tolerance": 0.0}  # Kirchhoff-Carrier in every step
+# the contacts rows compare exact skips: held steps in the general path on both sides
+EXACT = {**EXACT_KC, "held_steps": False}
 
 CASES = [
     ("silent strings", "one note on string 3, 4 s", SINGLE_NOTE,
      {"skip_silent": False, "skip_decayed": False}, {"skip_decayed": False}),
-    ("contacts", "open strum 2 N, 2 s", STRUM, {"skip_contacts": False, **EXACT_KC}, EXACT_KC),
-    ("contacts", "open strum 8 N, 2 s", HARD_STRUM, {"skip_contacts": False, **EXACT_KC},
-     EXACT_KC),
+    ("contacts", "open strum 2 N, 2 s", STRUM, {"skip_contacts": False, **EXACT_KC}, EXACT),
+    ("contacts", "open strum 8 N, 2 s", HARD_STRUM, {"skip_contacts": False, **EXACT_KC}, EXACT),
     ("contacts", "6 taps 10 N, 5 m/s, draft, 1 s", FAST_TAPS,
-     {"skip_contacts": False, **EXACT_KC}, EXACT_KC),
+     {"skip_contacts": False, **EXACT_KC}, EXACT),
+    ("held steps", "fretted C chord 2 N, 2 s", C_CHORD, {"held_steps": False}, {}),
+    ("held steps", "string 4 fret 5, 8 N, 2 s", FRETTED_8N, {"held_steps": False}, {}),
     ("KC below 1e-4 T", "open strum 2 N, 2 s", STRUM, EXACT_KC, {}),
     ("KC below 1e-4 T", "open strum 8 N, 2 s", HARD_STRUM, EXACT_KC, {}),
     ("decayed strings", "6 short notes (T60 0.6 s), 10 s", SHORT_NOTES,
@@ -120,6 +135,7 @@ def main() -> None:
               f" {diff:17.2e} | {np.abs(b).max():.3f}")
     kc_table()
     quiet_table()
+    held_table()
 
 
 def quiet_share(force: float, seconds: float) -> dict[int, float]:
@@ -140,6 +156,23 @@ def quiet_table(seconds: float = 2.0) -> None:
     share = {force: quiet_share(force, seconds) for force in (2.0, 8.0)}
     for s in range(1, 7):
         print(f"{s:>6d} | {share[2.0][s]:9.4f} | {share[8.0][s]:9.4f}")
+
+
+
+def held_share(scene: dict) -> dict[int, float]:
+    """Share of each string's steps that took the held run (``kernels._held_run``)."""
+    eng = prepare(Scene.model_validate(scene), RenderOptions(skip_decayed=False))
+    for _ in eng.blocks():
+        pass
+    return {v.index: int(v.state.quiet[1]) / v.step for v in eng.voices}
+
+
+def held_table() -> None:
+    print("\nheld steps: share of each string's steps, quality 'standard'")
+    print("string | fretted C chord, 2 s | string 4 fret 5, 8 N, 2 s")
+    chord, note = held_share(C_CHORD), held_share(FRETTED_8N)
+    for s in range(1, 7):
+        print(f"{s:>6d} | {chord[s]:20.4f} | " + (f"{note[s]:25.4f}" if s in note else f"{'':25s}"))
 
 
 if __name__ == "__main__":

@@ -108,6 +108,9 @@ class RenderOptions:
     # the contact bound, quiet steps and the unreachable-fret skip (False: every node is compared
     # with the board and the fret tips in every step, and every step takes the general path)
     skip_contacts: bool = True
+    # held steps of a fretted note in a loop of their own (``kernels._held_run``), the same
+    # arithmetic as the general path: False sends them through the general path
+    held_steps: bool = True
     decay_velocity: float = 1e-7  # m/s; -140 dB below the fixed-gain full scale
     # overrides ``Quality.kc_tolerance`` (0: Kirchhoff-Carrier in every step)
     kc_tolerance: float | None = None
@@ -209,8 +212,8 @@ class Voice:
             fret_active=np.zeros(len(self.geom.fret_p), np.int64),
             f_state=np.zeros(nslot, np.int64), f_w=np.zeros(nslot), f_w1=np.zeros(nslot),
             f_psi=np.zeros(nslot), f_bprev=np.zeros(nslot), tens=np.zeros(2),
-            s_last=np.array([np.inf, 1.0]),
-            quiet=np.zeros(1, np.int64),
+            s_last=np.array([np.inf, 1.0, 0.0]),
+            quiet=np.zeros(2, np.int64),
         )
         self.h_start = 0.0  # H^(-1/2): the string starts at rest
 
@@ -441,7 +444,8 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                        fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts)
+                        fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts,
+                        held=opts.held_steps)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, rmax))
     frames = frame_count(scene)

@@ -109,6 +109,8 @@ class Geo(NamedTuple):
     s_crit: float = 0.0
     # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
     quiet: bool = True
+    # False: the steps of a held note take the general path too (``RenderOptions.held_steps``)
+    held: bool = True
 
 
 class Controls(NamedTuple):
@@ -157,10 +159,12 @@ class State(NamedTuple):
     f_psi: np.ndarray
     f_bprev: np.ndarray
     tens: np.ndarray  # [T^(n-1), W^(n-1/2)] for the work done by a changing tension
-    # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact acted in the last step]: decide
-    # quiet steps and the KC skip
+    # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact acted in the last step, 1.0 if the
+    # next step may be held]: decide quiet and held steps and the KC skip
     s_last: np.ndarray
-    quiet: np.ndarray  # [steps the quiet run has taken] (for the tests and benchmarks/skips.py)
+    # [steps the quiet run has taken, steps the held run has taken] (for the tests and
+    # benchmarks/skips.py)
+    quiet: np.ndarray
 
 
 def _type_key(a):
@@ -423,6 +427,24 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fre
     return done, s_last
 
 
+@njit(**JIT_INLINE)
+def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1):
+    """b) The plucks' forces f_e^n of eq. (5) added to u_free through their interpolants, eq. (19);
+    returns q.u_free kept current (with Kirchhoff-Carrier)."""
+    lam = c.lam
+    for e in range(pl_start.shape[0]):
+        m = step - pl_start[e]
+        if m >= 0 and m <= pl_len[e]:
+            s_ = math.sin(0.5 * math.pi * m / pl_len[e])
+            f = pl_amp[e] * s_ * s_
+            p_ = pl_p[e]
+            UF[p_] += lam * pl_w0[e] * f
+            UF[p_ + 1] += lam * pl_w1[e] * f
+            if c.kc > 0.0:
+                quf += lam * f * (pl_w0[e] * Q[_q_index(p_)] + pl_w1[e] * Q[_q_index(p_ + 1)])
+    return quf
+
+
 @njit(**JIT)
 def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
@@ -654,6 +676,213 @@ def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
 
 
 @njit(**JIT)
+def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi, f_state):
+    """The first step >= s at which a held step is not allowed, and the finger slot that holds the
+    string; (s, -1) if step s may not be held.
+
+    A held step is a general step of a fixed kind (see ``_held_run``): one finger on the string,
+    staying where it is and pressing, no other finger put down or lifted, no damper, no residual
+    psi of the fretboard or the penalty frets.  Plucks may act (their forces are added as in the
+    general path).  A sliding finger holds before its slide begins and after it ends: its
+    interpolant, worked out in the general step before the run, is the one each step would get.
+    Nothing of this changes in a held step, so the answer holds until the next general step.
+    """
+    if psi[0] != 0.0 or psi[1] != 0.0:
+        return s, -1
+    end = 1 << 62
+    slot = -1
+    for q in range(f_state.shape[0]):
+        if f_state[q] == ACTIVE:
+            if slot >= 0 or fs_rel[q] <= s:
+                return s, -1
+            slot = q
+            end = min(end, fs_rel[q])
+            if fs_x0[q] != fs_x1[q]:  # held while _finger_x is x0 (before ms) or x1 (after both)
+                if fs_ms[q] <= s <= max(fs_ms[q], fs_me[q]):
+                    return s, -1
+                if s < fs_ms[q]:
+                    end = min(end, fs_ms[q])
+        elif f_state[q] == IDLE:
+            if fs_on[q] <= s:
+                return s, -1
+            end = min(end, fs_on[q])
+    if slot < 0:
+        return s, -1
+    for d in range(dp_on.shape[0]):
+        if dp_on[d] <= s < dp_off[d]:
+            return s, -1
+        if dp_on[d] > s and dp_on[d] < end:
+            end = dp_on[d]
+    return end, slot
+
+
+@njit(**JIT)
+def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0, fret_w1,
+              fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, slot, fpos,
+              fw0, fw1, force, f_w, f_w1, f_psi, f_bprev, out_p, out_w0, out_w1, out, it,
+              it_end, step0, s_crit, s_last, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
+              vfree, v1, G, A, x, scr):
+    """Held steps it, it + 1, ... (< it_end) of a fretted note; returns (steps done, S of the last
+    u^n looked at).
+
+    A held step is the general step of a held note, whose kind does not change from one step to
+    the next: the Kirchhoff-Carrier column (if on), one finger in contact pressing the string,
+    the rigid frets of the active set (those the string rests on), and nothing else.  The caller
+    guarantees what acts on the string (``_held_until``); each step checks what the general path
+    would decide, and the first step on which any of it differs is not taken (its u_free is
+    scratch) and goes to the general path:
+    * no node of u^n below the fretboard (no fretboard column);
+    * the finger in contact (gamma = 1 under the joint rule of sec. 4.7);
+    * every rigid reaction >= 0 and no other fret penetrated (the active set stays);
+    * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
+    The step is then the general path's arithmetic on the same helpers, in the same order, so the
+    samples are identical (``tests/engine/test_skips.py``).  It saves the general path's
+    bookkeeping: the columns are laid out once per run, and the entries of the Gram matrix that do
+    not involve the dense Kirchhoff-Carrier column, which depend only on the fixed interpolants,
+    are worked out once (by ``_gram`` itself, so they are the same numbers).
+    """
+    n = c.n
+    k = c.k
+    lam = c.lam
+    b0 = c.b0
+    b1 = c.b1
+    lam_f = k * k / c.fg_mass
+    tb_n = tb_step.shape[0]
+    nfret = fret_p.shape[0]
+    # the columns, laid out as the general path lays them out: KC, the finger, the active frets
+    nc = 0
+    cstart[0] = 0
+    if c.kc > 0.0:
+        kind[0] = KC
+        cslot[0] = -1
+        nc = 1
+        cstart[1] = 0
+    fc = nc
+    kind[fc] = FINGER
+    cslot[fc] = slot
+    cidx[0] = fpos
+    cval[0] = fw0
+    cidx[1] = fpos + 1
+    cval[1] = fw1
+    nc += 1
+    cstart[nc] = 2
+    nent = 2
+    for q in range(nfret):
+        if fret_active[q]:
+            p_ = fret_p[q]
+            kind[nc] = RIGID
+            cslot[nc] = -1
+            cfret[nc] = q
+            cidx[nent] = p_
+            cval[nent] = fret_w0[q]
+            cidx[nent + 1] = p_ + 1
+            cval[nent + 1] = fret_w1[q]
+            ca[nc] = fret_m0[q]
+            nent += 2
+            nc += 1
+            cstart[nc] = nent
+    _gram(nc, kind, cstart, cidx, cval, cslot, Q, 0.0, lam, lam_f, G, scr)  # the fixed entries
+    vlv = lam * (fw0 * fw0 + fw1 * fw1) + lam_f
+    cf_damp = 1.0 * c.fg_r / (2.0 * k)  # fchi * R / (2 k) in contact
+    done = 0
+    for i in range(it, it_end):
+        step = step0 + i
+        U0[0] = -U0[2]
+        U0[n + 2] = -U0[n]
+        if tb_n > 0:
+            _, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
+        fuse = s_last >= s_crit
+        qq = 0.0
+        quf = 0.0
+        qu1 = 0.0
+        if c.kc > 0.0:
+            qq, quf, qu1, s, below, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, fuse, board,
+                                                        near)
+        else:
+            s, below, _ = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
+        if s >= s_crit and not fuse:
+            below, _ = _counts(n, U0, board, near)
+        if c.board_k > 0.0 and below > 0:
+            return done, s_last
+        quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
+        # the finger, eqs. (39), (25)-(27), (55c-d), as in the general path
+        wfree = 2.0 * f_w[slot] - f_w1[slot] + lam_f * -force
+        eta = fw0 * U0[fpos] + fw1 * U0[fpos + 1] - f_w[slot]
+        if not eta > 0.0:
+            return done, s_last
+        eta1 = fw0 * U1[fpos] + fw1 * U1[fpos + 1] - f_w1[slot]
+        etaf = fw0 * UF[fpos] + fw1 * UF[fpos + 1] - wfree
+        ea = eta if c.fg_alpha == 1.0 else eta**c.fg_alpha
+        vpot = c.fg_k / (c.fg_alpha + 1.0) * ea * eta
+        bt = c.fg_k * ea / math.sqrt(2.0 * vpot + EPS)
+        cf = 0.25 * bt * bt + cf_damp
+        ca[fc] = bt * f_psi[slot] - cf * eta1
+        cc[fc] = cf
+        vfree[fc] = etaf
+        v1[fc] = eta1
+        if c.kc > 0.0:
+            ca[0] = c.kc * qu1
+            cc[0] = c.kc
+            vfree[0] = quf
+            v1[0] = qu1
+            G[0, 0] = lam * qq  # the Kirchhoff-Carrier row of ``_gram``
+            for j in range(1, nc):
+                t = 0.0
+                for e in range(cstart[j], cstart[j + 1]):
+                    t += Q[_q_index(np.int64(cidx[e]))] * cval[e]
+                G[0, j] = lam * t
+                G[j, 0] = lam * t
+        for ci in range(fc + 1, nc):
+            p_ = cidx[cstart[ci]]
+            q = cfret[ci]
+            vfree[ci] = fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1]
+            v1[ci] = fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1]
+        _assemble(nc, kind, ca, cc, vfree, G, A, x)
+        if not _solve(A, x, nc):
+            return done, s_last
+        for ci in range(fc + 1, nc):
+            if x[ci] < 0.0:  # a fret would leave the active set
+                return done, s_last
+        if c.fret_mode == 1:
+            xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
+            add = _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
+                            fret_active, lam * xk)
+            _unscatter(nc, cstart, cidx, du)
+            if add >= 0:  # a fret would join it
+                return done, s_last
+        else:
+            xk = x[0] if c.kc > 0.0 else 0.0
+        # the joint rule of sec. 4.7 (``_joint_gamma``) on the finger, gamma 1 so far
+        dz = vfree[fc] - v1[fc]
+        for j in range(nc):
+            dz += G[fc, j] * x[j]
+        if f_psi[slot] + 0.25 * bt * dz < 0.0:
+            xi = bt * (dz - G[fc, fc] * x[fc])
+            if _gamma(f_psi[slot], xi, bt * bt * vlv, True) < 1.0:
+                return done, s_last
+        # the step is a held one: apply it, z^(n+1) = z_free + Lambda sum_c v_c x_c
+        f_bprev[slot] = bt
+        for ci in range(fc, nc):
+            for e in range(cstart[ci], cstart[ci + 1]):
+                UF[cidx[e]] += lam * cval[e] * x[ci]
+        if xk != 0.0:
+            _add_kc(n, UF, Q, lam * xk)
+        wn = wfree - lam_f * x[fc]
+        etan = fw0 * UF[fpos] + fw1 * UF[fpos + 1] - wn
+        f_psi[slot] += 0.5 * bt * (etan - v1[fc])
+        f_w1[slot] = f_w[slot]
+        f_w[slot] = wn
+        _pickups(out_p, out_w0, out_w1, UF, U0, k, out, i)
+        s_last = s
+        T = U1
+        U1 = U0
+        U0 = UF
+        UF = T
+        done += 1
+    return done, s_last
+
+
+@njit(**JIT)
 def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     """Advance one string by ``nsteps`` steps from global step ``step0``.
 
@@ -737,6 +966,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     stale = not diag  # quiet_end is recomputed, after a general step, only if no contact acted
     s_last = st.s_last[0]  # S of the previous step's u^n
     free = geo.quiet and st.s_last[1] != 0.0  # no contact acted in the last step (a guess)
+    held = geo.held and st.s_last[2] != 0.0  # the next step may be held (``_held_run``)
     it = 0
     while it < nsteps:
         step = step0 + it
@@ -758,6 +988,33 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             st.quiet[0] += done
             free = it == it_end  # a run ends early only on a step with a contact
             continue  # that step takes the general path
+        if held and not diag:
+            held = False  # the step after a held run takes the general path...
+            held_end, hs = _held_until(step, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on,
+                                       dp_off, psi, f_state)
+            if step < held_end:
+                if fp[hs] == 0:  # a block that starts held: the interpolant the finger had
+                    fp[hs], fw0[hs], fw1[hs] = interp(
+                        _finger_x(fs_x0[hs], fs_x1[hs], fs_ms[hs], fs_me[hs], step), c.h, n)
+                it_end = min(nsteps, held_end - step0)
+                done, s_last = _held_run(
+                    c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0,
+                    fret_w1, fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1,
+                    hs, fp[hs], fw0[hs], fw1[hs], fs_force[hs], f_w, f_w1, f_psi, f_bprev, out_p,
+                    out_w0, out_w1, out, it, it_end, step0, s_crit, s_last, kind, cslot, cfret,
+                    cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr)
+                for _r in range(done % 3):
+                    T = U1
+                    U1 = U0
+                    U0 = UF
+                    UF = T
+                # ...unless the run stopped only because the block ends: the next block goes on
+                # with it, so that block boundaries do not change which path a step takes
+                held = it + done == nsteps and held_end > step0 + nsteps
+                it += done
+                st.quiet[1] += done
+                if done > 0:
+                    continue
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
         if tb_n > 0:
@@ -776,17 +1033,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             below, close = _counts(n, U0, board, near)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
-        for e in range(npl):
-            m = step - pl_start[e]
-            if m >= 0 and m <= pl_len[e]:
-                s_ = math.sin(0.5 * math.pi * m / pl_len[e])
-                f = pl_amp[e] * s_ * s_
-                p_ = pl_p[e]
-                UF[p_] += lam * pl_w0[e] * f
-                UF[p_ + 1] += lam * pl_w1[e] * f
-                if c.kc > 0.0:  # keep q.u_free current
-                    quf += lam * f * (pl_w0[e] * Q[_q_index(p_)]
-                                      + pl_w1[e] * Q[_q_index(p_ + 1)])
+        quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
         # ---- fingers: life cycle, free update, eq. (39) -------------------------------------
         inject = 0.0
         for s in range(nslot):
@@ -1032,6 +1279,10 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 break
         # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
         free = geo.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
+        # a finger in contact held the string, alone or with rigid frets: the next step may be held
+        nk = 1 if c.kc > 0.0 else 0
+        held = (geo.held and not diag and joint and c.fret_mode != 2 and status == OK
+                and nbase == nk + 1 and kind[nk] == FINGER and ccon[nk])
         # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
         xk = 0.0
         for ci in range(nc):
@@ -1110,6 +1361,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         it += 1
     st.s_last[0] = s_last
     st.s_last[1] = 1.0 if free else 0.0
+    st.s_last[2] = 1.0 if held else 0.0
     # hand the state back in the caller's arrays (U0/U1 may have rotated)
     if nsteps % 3 != 0:
         _restore(U0, U1, UF, nsteps % 3)

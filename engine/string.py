@@ -399,11 +399,12 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
              margin: float = math.inf, fretboard: bool = True, quiet: bool = True,
-             fret_shifts: dict[int, float] | None = None) -> Geo:
+             fret_shifts: dict[int, float] | None = None, held: bool = True) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
     ``Geo.s_crit`` bounds the contacts that exist (``fretboard``, frets within ``margin``);
-    ``quiet`` False sends every step through the kernel's general path.  ``fret_shifts`` (fret ->
+    ``quiet`` False sends every step through the kernel's general path, ``held`` False the steps
+    of a held note (``kernels._held_run``).  ``fret_shifts`` (fret ->
     metres, ``engine.intonation.fret_shifts``) moves those frets' interpolants along the string;
     their heights stay those at x_q."""
     h, n = model.h, model.n
@@ -429,4 +430,4 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     levels = ([board] if fretboard else []) + ([near] if with_frets else [])
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
                np.array([a[1] for a in pk]), np.array([a[2] for a in pk]),
-               contact_bound(n, levels), quiet)
+               contact_bound(n, levels), quiet, quiet and held)

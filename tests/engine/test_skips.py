@@ -12,6 +12,9 @@ from engine.scene import Scene
 from .conftest import fret, pluck, scene
 
 
+# The exact comparisons below leave the held steps of a fretted note (``kernels._held_run``) in
+# the general path on both sides: those do the general path's arithmetic, but LLVM contracts and
+# re-associates it in its own way in each loop (tests/engine/test_held.py compares them).
 def _render(sc, **opts):
     eng = prepare(Scene.model_validate(sc), RenderOptions(**opts))
     t = time.perf_counter()
@@ -32,7 +35,7 @@ def test_unreachable_frets_are_skipped_exactly():
     contact bound cannot rule contact out, and quiet steps run in their own loop: bit-identical."""
     sc = scene([pluck(6, force=20.0, duration=1e-4), pluck(1, force=20.0, duration=1e-4),
                 fret(3, 2), pluck(3, time=0.02, force=10.0)], duration=0.3)
-    a, _, _ = _render(sc, kc_tolerance=0.0)
+    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
@@ -62,7 +65,7 @@ def test_unreachable_frets_are_skipped_exactly_when_the_string_moves_fast(case):
     """string.fret_margin bounds the speed of every node from the plucks and fingers of the
     scene; the skip must not change a sample."""
     sc = {**scene(FAST[case], duration=0.05), "quality": "draft"}
-    a, _, _ = _render(sc, kc_tolerance=0.0)
+    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
@@ -77,7 +80,7 @@ def test_unreachable_frets_are_skipped_exactly_on_a_light_string_under_a_finger(
                                   "t60_fundamental_s": 0.237, "t60_2khz_s": 2.89}]},
           "events": [_ev("hammer_on", 0.005, 6, fret=13, velocity=0.0124),
                      _ev("tap", 0.016, 6, fret=15, velocity=0.0112)]}
-    a, _, _ = _render(sc, kc_tolerance=0.0)
+    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
@@ -138,7 +141,7 @@ def test_quiet_steps_are_exact_in_a_strum_with_articulations():
                   {"type": "mute", "time": 0.6, "string": 5, "amount": 0.5},
                   {"type": "harmonic", "time": 0.5, "string": 4, "fret": 12, "release": 0.55},
                   pluck(4, time=0.5, force=1.0)], duration=0.8)
-    a, _, _ = _render(sc, kc_tolerance=0.0)
+    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 

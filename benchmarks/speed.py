@@ -127,6 +127,7 @@ def components(seconds: float, repeat: int, string: int = 4) -> None:
         ("fretted: finger + rigid frets", fretted, {**off, "frets": True}),
         ("fretted: + fretboard", fretted, {"kirchhoff_carrier": False}),
         ("fretted: full model (+ Kirchhoff-Carrier)", fretted, {}),
+        ("the same, held steps in the general path", fretted, {"held_steps": False}),
     ]
     print("configuration                              | ns per step | cycles per step | "
           "instructions per step")

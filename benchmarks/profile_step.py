@@ -3,22 +3,24 @@
     python -m benchmarks.profile_step [--string 4] [--fret 5] [--no-kc] [--seconds 10]
                                       [--event cpu-clock|cycles|instructions]
 
-Every helper the step loop calls is inlined into ``kernels.step_block``, so a function-level
-profiler sees one function.  This script renders the scene of ``benchmarks.speed``'s component
+Every helper the step loop calls is inlined into ``kernels.step_block`` or into the two loops it
+calls without inlining them (``RUNS``: the quiet and the held steps), so a function-level profiler
+sees three functions.  This script renders the scene of ``benchmarks.speed``'s component
 table (a finger at ``--fret`` and an 8 N pluck on ``--string`` at x1; ``--fret 0``: the open
 string) over and over in a child process whose kernels are compiled with line tables
 (``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with
 Linux ``perf`` (by default on the software clock: no hardware counters needed, it works in any VM;
 ``--event instructions`` counts work instead of time where the machine has counters), and maps
-every sampled address inside ``step_block`` to its line of ``engine/kernels.py`` (binutils'
-``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line.
+every sampled address inside those functions to its line of ``engine/kernels.py`` (binutils'
+``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line; a
+run's own lines, and the lines the tables do not attribute inside a run, get rows of their own.
 
 It also prints how many columns the step's small system has (the solves per step by size), from a
 short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
 
-Shares are of all samples of the child.  "Outside step_block" is the Python around the kernel
-and every other compiled function; the build with line tables may place code there that an
-ordinary build keeps inside ``step_block``, so compare shares within one run.  Caveats:
+Shares are of all samples of the child.  "Outside step_block and its runs" is the Python around
+the kernel and every other compiled function; the build with line tables may place code there that
+an ordinary build keeps inside ``step_block``, so compare shares within one run.  Caveats:
 the line tables change the compiled code slightly; a sample lands on the instruction that waits,
 not the one that caused the wait; "no line" is code the compiler did not attribute (spills,
 loop control).  Needs ``perf`` (Debian: linux-perf) and ``addr2line`` (binutils).

@@ -675,6 +675,34 @@ def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
     return cc / qv
 
 
+@njit(**JIT_INLINE)
+def _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1, pl_start,
+                 pl_len, pl_amp, pl_p, pl_w0, pl_w1, pin, inject, qloss, tens, e_h, e_q, e_p):
+    """Diagnostics of step ``it``: e_h = H^(n+1/2), e_q = k Q^n (``qloss``: the losses the step
+    booked, finger damping and rigid reactions) and e_p = k P^n (``pin``: the work the fingers'
+    forces did, ``inject``: the energy a finger brought or took away), plus the plucks' work and
+    that of a changing tension, both added here."""
+    for e in range(pl_start.shape[0]):
+        m = step - pl_start[e]
+        if m >= 0 and m <= pl_len[e]:
+            s_ = math.sin(0.5 * math.pi * m / pl_len[e])
+            f = pl_amp[e] * s_ * s_
+            p_ = pl_p[e]
+            dv = pl_w0[e] * (UF[p_] - U1[p_]) + pl_w1[e] * (UF[p_ + 1] - U1[p_ + 1])
+            pin += f * dv * 0.5
+    h_, ql, w_half = _energy(c, c.t0 * ratio, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1)
+    # a tension that changes from T^(n-1) to T^n does work (T^n - T^(n-1)) W^(n-1/2) on the
+    # string, where V_L = T^n W^(n+1/2) + ... (see _energy)
+    if it == 0 and step0 == 0:
+        tens[0] = c.t0 * ratio
+    ptens = (c.t0 * ratio - tens[0]) * tens[1]
+    tens[0] = c.t0 * ratio
+    tens[1] = w_half
+    e_h[it] = h_
+    e_q[it] = ql + qloss
+    e_p[it] = pin + inject + ptens
+
+
 @njit(**JIT)
 def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi, f_state):
     """The first step >= s at which a held step is not allowed, and the finger slot that holds the
@@ -721,7 +749,7 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
               fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, slot, fpos,
               fw0, fw1, force, f_w, f_w1, f_psi, f_bprev, out_p, out_w0, out_w1, out, it,
               it_end, step0, s_crit, s_last, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
-              vfree, v1, G, A, x, scr):
+              vfree, v1, G, A, x, scr, diag, psi, f_state, tens, e_h, e_q, e_p):
     """Held steps it, it + 1, ... (< it_end) of a fretted note; returns (steps done, S of the last
     u^n looked at).
 
@@ -739,7 +767,8 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
     samples are identical (``tests/engine/test_skips.py``).  It saves the general path's
     bookkeeping: the columns are laid out once per run, and the entries of the Gram matrix that do
     not involve the dense Kirchhoff-Carrier column, which depend only on the fixed interpolants,
-    are worked out once (by ``_gram`` itself, so they are the same numbers).
+    are worked out once (by ``_gram`` itself, so they are the same numbers).  With ``diag`` it
+    books the energy terms as the general path does (``_step_energy``).
     """
     n = c.n
     k = c.k
@@ -749,6 +778,7 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
     lam_f = k * k / c.fg_mass
     tb_n = tb_step.shape[0]
     nfret = fret_p.shape[0]
+    ratio = 1.0
     # the columns, laid out as the general path lays them out: KC, the finger, the active frets
     nc = 0
     cstart[0] = 0
@@ -790,7 +820,7 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
         U0[0] = -U0[2]
         U0[n + 2] = -U0[n]
         if tb_n > 0:
-            _, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
+            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         fuse = s_last >= s_crit
         qq = 0.0
         quf = 0.0
@@ -869,10 +899,27 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
             _add_kc(n, UF, Q, lam * xk)
         wn = wfree - lam_f * x[fc]
         etan = fw0 * UF[fpos] + fw1 * UF[fpos + 1] - wn
-        f_psi[slot] += 0.5 * bt * (etan - v1[fc])
+        deta = etan - v1[fc]
+        f_psi[slot] += 0.5 * bt * deta
+        qloss = 0.0
+        pin = 0.0
+        if diag:
+            dr = deta / (2.0 * k)
+            qloss += 1.0 * c.fg_r * dr * dr * k
+            pin += -force * (wn - f_w1[slot]) * 0.5
         f_w1[slot] = f_w[slot]
         f_w[slot] = wn
+        if diag:
+            for ci in range(fc + 1, nc):  # the reactions' work, booked as a loss
+                q = cfret[ci]
+                p_ = fret_p[q]
+                sn = fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1]
+                qloss -= x[ci] * (sn - v1[ci]) * 0.5
         _pickups(out_p, out_w0, out_w1, UF, U0, k, out, i)
+        if diag:
+            _step_energy(c, ratio, step, step0, i, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1,
+                         pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, pin, 0.0, qloss, tens,
+                         e_h, e_q, e_p)
         s_last = s
         T = U1
         U1 = U0
@@ -909,7 +956,6 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     lam = c.lam
     nfret = fret_p.shape[0]
     nslot = fs_on.shape[0]
-    npl = pl_start.shape[0]
     ncap = 3 + nslot + nfret + ndamp
     cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + ctl.dp_idx.shape[0] + 8
     kind = np.empty(ncap, np.int64)
@@ -988,7 +1034,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
             st.quiet[0] += done
             free = it == it_end  # a run ends early only on a step with a contact
             continue  # that step takes the general path
-        if held and not diag:
+        if held:
             held = False  # the step after a held run takes the general path...
             held_end, hs = _held_until(step, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on,
                                        dp_off, psi, f_state)
@@ -1002,7 +1048,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                     fret_w1, fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1,
                     hs, fp[hs], fw0[hs], fw1[hs], fs_force[hs], f_w, f_w1, f_psi, f_bprev, out_p,
                     out_w0, out_w1, out, it, it_end, step0, s_crit, s_last, kind, cslot, cfret,
-                    cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr)
+                    cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr, diag, psi, f_state,
+                    st.tens, e_h, e_q, e_p)
                 for _r in range(done % 3):
                     T = U1
                     U1 = U0
@@ -1281,7 +1328,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         free = geo.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
         # a finger in contact held the string, alone or with rigid frets: the next step may be held
         nk = 1 if c.kc > 0.0 else 0
-        held = (geo.held and not diag and joint and c.fret_mode != 2 and status == OK
+        held = (geo.held and joint and c.fret_mode != 2 and status == OK
                 and nbase == nk + 1 and kind[nk] == FINGER and ccon[nk])
         # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
         xk = 0.0
@@ -1333,25 +1380,9 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         # ---- output: velocity at the pickup ---------------------------------------------------
         _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it)
         if diag:
-            for e in range(npl):
-                m = step - pl_start[e]
-                if m >= 0 and m <= pl_len[e]:
-                    s_ = math.sin(0.5 * math.pi * m / pl_len[e])
-                    f = pl_amp[e] * s_ * s_
-                    p_ = pl_p[e]
-                    dv = pl_w0[e] * (UF[p_] - U1[p_]) + pl_w1[e] * (UF[p_ + 1] - U1[p_ + 1])
-                    pin += f * dv * 0.5
-            h_, ql, w_half = _energy(c, c.t0 * ratio, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1)
-            # a tension that changes from T^(n-1) to T^n does work (T^n - T^(n-1)) W^(n-1/2)
-            # on the string, where V_L = T^n W^(n+1/2) + ... (see _energy)
-            if it == 0 and step0 == 0:
-                st.tens[0] = c.t0 * ratio
-            ptens = (c.t0 * ratio - st.tens[0]) * st.tens[1]
-            st.tens[0] = c.t0 * ratio
-            st.tens[1] = w_half
-            e_h[it] = h_
-            e_q[it] = ql + qloss
-            e_p[it] = pin + inject + ptens
+            _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1,
+                         pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, pin, inject, qloss,
+                         st.tens, e_h, e_q, e_p)
         # ---- rotate: u^(n-1) <- u^n <- u^(n+1) ----------------------------------------------------
         T = U1
         U1 = U0

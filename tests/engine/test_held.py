@@ -93,6 +93,21 @@ def test_held_steps_are_most_steps_of_a_held_note():
     assert v.state.quiet[1] > 0.95 * v.step, (v.state.quiet[1], v.step)
 
 
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_energy_balances_through_held_steps(name):
+    """Held steps book the energy terms too (``_step_energy``, shared with the general path): with
+    diagnostics the held run takes the same steps, and the balance holds to 1e-11 (sec. 6.1)."""
+    sc, opts = CASES[name]
+    opts = {**opts, "kc_tolerance": 0.0}  # (diagnostics keep Kirchhoff-Carrier in every step)
+    eng = prepare(Scene.model_validate({**sc, "diagnostics": True}), RenderOptions(**opts))
+    plain = prepare(Scene.model_validate(sc), RenderOptions(**opts))
+    a = np.concatenate(list(eng.blocks()))
+    assert np.array_equal(a, np.concatenate(list(plain.blocks())))  # the same steps
+    assert sum(int(v.state.quiet[1]) for v in eng.voices) > 0.3 * sum(v.step for v in eng.voices)
+    err = eng.energy_error()
+    assert 0.0 < err <= 1e-11, err
+
+
 @pytest.mark.slow
 def test_held_steps_are_the_general_paths_arithmetic(tmp_path):
     """Compiled without fastmath (``GUITAR_NUMBA_FASTMATH=0``, in a child with a cache of its own),

@@ -763,8 +763,10 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
     * the finger in contact (gamma = 1 under the joint rule of sec. 4.7);
     * every rigid reaction >= 0 and no other fret penetrated (the active set stays);
     * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
-    The step is then the general path's arithmetic on the same helpers, in the same order, so the
-    samples are identical (``tests/engine/test_skips.py``).  It saves the general path's
+    The step is then the general path's arithmetic on the same helpers, in the same order:
+    compiled without fastmath, the samples are identical (``tests/engine/test_held.py``); with the
+    kernels' flags, LLVM re-associates each loop its own way (``benchmarks/held_soak.py``).  It
+    saves the general path's
     bookkeeping: the columns are laid out once per run, and the entries of the Gram matrix that do
     not involve the dense Kirchhoff-Carrier column, which depend only on the fixed interpolants,
     are worked out once (by ``_gram`` itself, so they are the same numbers).  With ``diag`` it

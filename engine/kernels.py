@@ -428,15 +428,23 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fre
 
 
 @njit(**JIT_INLINE)
+def _pluck_force(step, e, pl_start, pl_len, pl_amp):
+    """(acting, f): whether pluck e acts at this step, and its raised-sine force, eq. (5)."""
+    m = step - pl_start[e]
+    if m < 0 or m > pl_len[e]:
+        return False, 0.0
+    s_ = math.sin(0.5 * math.pi * m / pl_len[e])
+    return True, pl_amp[e] * s_ * s_
+
+
+@njit(**JIT_INLINE)
 def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1):
     """b) The plucks' forces f_e^n of eq. (5) added to u_free through their interpolants, eq. (19);
     returns q.u_free kept current (with Kirchhoff-Carrier)."""
     lam = c.lam
     for e in range(pl_start.shape[0]):
-        m = step - pl_start[e]
-        if m >= 0 and m <= pl_len[e]:
-            s_ = math.sin(0.5 * math.pi * m / pl_len[e])
-            f = pl_amp[e] * s_ * s_
+        acting, f = _pluck_force(step, e, pl_start, pl_len, pl_amp)
+        if acting:
             p_ = pl_p[e]
             UF[p_] += lam * pl_w0[e] * f
             UF[p_ + 1] += lam * pl_w1[e] * f
@@ -683,10 +691,8 @@ def _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w
     forces did, ``inject``: the energy a finger brought or took away), plus the plucks' work and
     that of a changing tension, both added here."""
     for e in range(pl_start.shape[0]):
-        m = step - pl_start[e]
-        if m >= 0 and m <= pl_len[e]:
-            s_ = math.sin(0.5 * math.pi * m / pl_len[e])
-            f = pl_amp[e] * s_ * s_
+        acting, f = _pluck_force(step, e, pl_start, pl_len, pl_amp)
+        if acting:
             p_ = pl_p[e]
             dv = pl_w0[e] * (UF[p_] - U1[p_]) + pl_w1[e] * (UF[p_ + 1] - U1[p_ + 1])
             pin += f * dv * 0.5
@@ -800,19 +806,10 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
     cstart[nc] = 2
     nent = 2
     for q in range(nfret):
-        if fret_active[q]:
-            p_ = fret_p[q]
-            kind[nc] = RIGID
-            cslot[nc] = -1
-            cfret[nc] = q
-            cidx[nent] = p_
-            cval[nent] = fret_w0[q]
-            cidx[nent + 1] = p_ + 1
-            cval[nent + 1] = fret_w1[q]
-            ca[nc] = fret_m0[q]
-            nent += 2
+        if fret_active[q]:  # (vfree and v1 are worked out again in each step)
+            nent = _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p,
+                              fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
             nc += 1
-            cstart[nc] = nent
     _gram(nc, kind, cstart, cidx, cval, cslot, Q, 0.0, lam, lam_f, G, scr)  # the fixed entries
     vlv = lam * (fw0 * fw0 + fw1 * fw1) + lam_f
     cf_damp = 1.0 * c.fg_r / (2.0 * k)  # fchi * R / (2 k) in contact
@@ -923,10 +920,7 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
                          pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, pin, 0.0, qloss, tens,
                          e_h, e_q, e_p)
         s_last = s
-        T = U1
-        U1 = U0
-        U0 = UF
-        UF = T
+        U0, U1, UF = UF, U0, U1  # u^(n-1) <- u^n <- u^(n+1)
         done += 1
     return done, s_last
 
@@ -1052,11 +1046,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                     out_w0, out_w1, out, it, it_end, step0, s_crit, s_last, kind, cslot, cfret,
                     cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr, diag, psi, f_state,
                     st.tens, e_h, e_q, e_p)
-                for _r in range(done % 3):
-                    T = U1
-                    U1 = U0
-                    U0 = UF
-                    UF = T
+                for _r in range(done % 3):  # the run rotated its own copies
+                    U0, U1, UF = UF, U0, U1
                 # ...unless the run stopped only because the block ends: the next block goes on
                 # with it, so that block boundaries do not change which path a step takes
                 held = it + done == nsteps and held_end > step0 + nsteps

@@ -7,9 +7,9 @@
   reductions.  No ``nnan``/``ninf``: the kernels must be able to see a non-finite value and report it.
   Results stay deterministic for a given machine, so block and one-shot renders are bit-identical.
   ``GUITAR_NUMBA_FASTMATH=0`` compiles without them: where two loops do the same arithmetic in
-  different code (the held steps and the general path), LLVM may re-associate and contract each
-  its own way, and only without these flags must their results agree bit for bit
-  (``tests/engine/test_held.py``).
+  different code (the held steps and the general path), LLVM may re-associate each its own way,
+  and only without these flags must their results agree bit for bit (``tests/engine/test_held.py``,
+  ``benchmarks/held_soak.py``).
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ with held steps and diagnostics.  The two paths do the same arithmetic, which LL
 contracts and re-associates in its own way in each loop under the kernels' fastmath flags: on a
 string that rattles against frets and board, a last-bit difference can decide a contact one step
 earlier, and from there the renders part.  To see that the arithmetic is the same, run the worst
-cases again compiled without fastmath (a cache of their own: the flags are not part of numba's
-cache key):
+cases again compiled without fastmath, in a cache of their own (so that the kernels compiled with
+the flags are not loaded instead):
 
     GUITAR_NUMBA_FASTMATH=0 NUMBA_CACHE_DIR=/tmp/nofm python -m benchmarks.held_soak --cases 42,102
 """
@@ -18,13 +18,14 @@ cache key):
 from __future__ import annotations
 
 import argparse
-import os
 import time
 
 import numpy as np
 from pydantic import ValidationError
 
+from benchmarks.skips import held_steps
 from benchmarks.soak import make_case
+from engine.config import FASTMATH
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 
@@ -44,8 +45,7 @@ def compare(seed: int, i: int) -> tuple[float, int, int, float] | None:
         eng = prepare(scene, RenderOptions(held_steps=on))
         outs.append(np.concatenate(list(eng.blocks())))
         if on:
-            held = sum(int(v.state.quiet[1]) for v in eng.voices)
-            steps = sum(v.step for v in eng.voices)
+            held, steps = held_steps(eng)
     eng = prepare(Scene.model_validate({**sc, "diagnostics": True}), RenderOptions())
     for _ in eng.blocks():
         pass
@@ -62,10 +62,9 @@ def main() -> None:
              else range(int(args.cases)))
     t = time.perf_counter()
     rows = [(r, i) for i in cases if (r := compare(args.seed, i)) is not None]
-    fm = os.environ.get("GUITAR_NUMBA_FASTMATH", "1") != "0"
     held = [(r, i) for r, i in rows if r[1] > 0]
     print(f"seed {args.seed}: {len(rows)} short valid cases, {len(held)} with held steps, "
-          f"{time.perf_counter() - t:.0f} s; kernels compiled {'with' if fm else 'without'} "
+          f"{time.perf_counter() - t:.0f} s; kernels compiled {'with' if FASTMATH else 'without'} "
           "fastmath")
     diffs = np.array([r[0] for r, _ in held])
     if len(diffs):

@@ -146,7 +146,7 @@ def quiet_share(force: float, seconds: float) -> dict[int, float]:
     eng = prepare(Scene.model_validate(sc), RenderOptions(skip_decayed=False))
     for _ in eng.blocks():
         pass
-    return {v.index: int(v.state.quiet[0]) / v.step for v in eng.voices}
+    return {v.index: int(v.state.run_steps[0]) / v.step for v in eng.voices}
 
 
 def quiet_table(seconds: float = 2.0) -> None:
@@ -164,7 +164,13 @@ def held_share(scene: dict) -> dict[int, float]:
     eng = prepare(Scene.model_validate(scene), RenderOptions(skip_decayed=False))
     for _ in eng.blocks():
         pass
-    return {v.index: int(v.state.quiet[1]) / v.step for v in eng.voices}
+    return {v.index: int(v.state.run_steps[1]) / v.step for v in eng.voices}
+
+
+def held_steps(eng) -> tuple[int, int]:
+    """(steps the held run took, all steps) over the strings of a rendered engine."""
+    return (sum(int(v.state.run_steps[1]) for v in eng.voices),
+            sum(v.step for v in eng.voices))
 
 
 def held_table() -> None:

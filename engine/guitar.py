@@ -216,7 +216,7 @@ class Voice:
             f_state=np.zeros(nslot, np.int64), f_w=np.zeros(nslot), f_w1=np.zeros(nslot),
             f_psi=np.zeros(nslot), f_bprev=np.zeros(nslot), tens=np.zeros(2),
             s_last=np.array([np.inf, 1.0, 0.0]),
-            quiet=np.zeros(2, np.int64),
+            run_steps=np.zeros(2, np.int64),
         )
         self.h_start = 0.0  # H^(-1/2): the string starts at rest
 

@@ -164,7 +164,7 @@ class State(NamedTuple):
     s_last: np.ndarray
     # [steps the quiet run has taken, steps the held run has taken] (for the tests and
     # benchmarks/skips.py)
-    quiet: np.ndarray
+    run_steps: np.ndarray
 
 
 def _type_key(a):
@@ -755,7 +755,8 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
               fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, slot, fpos,
               fw0, fw1, force, f_w, f_w1, f_psi, f_bprev, out_p, out_w0, out_w1, out, it,
               it_end, step0, s_crit, s_last, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
-              vfree, v1, G, A, x, scr, diag, psi, f_state, tens, e_h, e_q, e_p):
+              vfree, v1, G, A, x, scr, cgam, cs, cbt, ccon, fbeta, fchi, diag, psi, f_state,
+              tens, e_h, e_q, e_p):
     """Held steps it, it + 1, ... (< it_end) of a fretted note; returns (steps done, S of the last
     u^n looked at).
 
@@ -854,13 +855,7 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
             cc[0] = c.kc
             vfree[0] = quf
             v1[0] = qu1
-            G[0, 0] = lam * qq  # the Kirchhoff-Carrier row of ``_gram``
-            for j in range(1, nc):
-                t = 0.0
-                for e in range(cstart[j], cstart[j + 1]):
-                    t += Q[_q_index(np.int64(cidx[e]))] * cval[e]
-                G[0, j] = lam * t
-                G[j, 0] = lam * t
+            _gram_kc(0, nc, cstart, cidx, cval, Q, qq, lam, G)  # the rest of G is fixed
         for ci in range(fc + 1, nc):
             p_ = cidx[cstart[ci]]
             q = cfret[ci]
@@ -881,14 +876,17 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
                 return done, s_last
         else:
             xk = x[0] if c.kc > 0.0 else 0.0
-        # the joint rule of sec. 4.7 (``_joint_gamma``) on the finger, gamma 1 so far
-        dz = vfree[fc] - v1[fc]
-        for j in range(nc):
-            dz += G[fc, j] * x[j]
-        if f_psi[slot] + 0.25 * bt * dz < 0.0:
-            xi = bt * (dz - G[fc, fc] * x[fc])
-            if _gamma(f_psi[slot], xi, bt * bt * vlv, True) < 1.0:
-                return done, s_last
+        # the joint rule of sec. 4.7 on the finger, in contact with gamma 1 so far: a change
+        # means a second solve, which the general path does
+        cgam[fc] = 1.0
+        cs[fc] = bt * bt * vlv
+        cbt[fc] = bt
+        ccon[fc] = True
+        fbeta[slot] = bt
+        fchi[slot] = 1.0
+        if _joint_gamma(fc + 1, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs,
+                        cbt, ccon, psi, f_psi, fbeta, fchi, cf_damp, nc):
+            return done, s_last
         # the step is a held one: apply it, z^(n+1) = z_free + Lambda sum_c v_c x_c
         f_bprev[slot] = bt
         for ci in range(fc, nc):
@@ -1027,7 +1025,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                 U0 = UF
                 UF = T
             it += done
-            st.quiet[0] += done
+            st.run_steps[0] += done
             free = it == it_end  # a run ends early only on a step with a contact
             continue  # that step takes the general path
         if held:
@@ -1044,15 +1042,15 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                     fret_w1, fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1,
                     hs, fp[hs], fw0[hs], fw1[hs], fs_force[hs], f_w, f_w1, f_psi, f_bprev, out_p,
                     out_w0, out_w1, out, it, it_end, step0, s_crit, s_last, kind, cslot, cfret,
-                    cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr, diag, psi, f_state,
-                    st.tens, e_h, e_q, e_p)
+                    cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr, cgam, cs, cbt, ccon,
+                    fbeta, fchi, diag, psi, f_state, st.tens, e_h, e_q, e_p)
                 for _r in range(done % 3):  # the run rotated its own copies
                     U0, U1, UF = UF, U0, U1
                 # ...unless the run stopped only because the block ends: the next block goes on
                 # with it, so that block boundaries do not change which path a step takes
                 held = it + done == nsteps and held_end > step0 + nsteps
                 it += done
-                st.quiet[1] += done
+                st.run_steps[1] += done
                 if done > 0:
                     continue
         U0[0] = -U0[2]
@@ -1668,6 +1666,21 @@ def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1
 
 
 @njit(**JIT_INLINE)
+def _gram_kc(i, nc, cstart, cidx, cval, Q, qq, lam, G):
+    """Row and column i of G, the Kirchhoff-Carrier column's: q.q, and q against each sparse
+    column on its nodes."""
+    G[i, i] = lam * qq
+    for j in range(nc):
+        if j == i:
+            continue
+        t = 0.0
+        for e in range(cstart[j], cstart[j + 1]):
+            t += Q[_q_index(np.int64(cidx[e]))] * cval[e]
+        G[i, j] = lam * t
+        G[j, i] = lam * t
+
+
+@njit(**JIT_INLINE)
 def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
     """G[i, j] = v_i^T Lambda v_j for the active columns (the Woodbury core matrix).
 
@@ -1677,15 +1690,7 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
     fretboard against the penalty frets)."""
     for i in range(nc):
         if kind[i] == KC:
-            G[i, i] = lam * qq
-            for j in range(nc):
-                if j == i:
-                    continue
-                t = 0.0
-                for e in range(cstart[j], cstart[j + 1]):
-                    t += Q[_q_index(np.int64(cidx[e]))] * cval[e]
-                G[i, j] = lam * t
-                G[j, i] = lam * t
+            _gram_kc(i, nc, cstart, cidx, cval, Q, qq, lam, G)
             continue
         s = 0.0
         for e in range(cstart[i], cstart[i + 1]):

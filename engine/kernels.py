@@ -505,21 +505,68 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
 
 @njit(**JIT_INLINE)
 def _solve(A, r, n):
-    """Solve A x = r in place (x into r) by Gaussian elimination with partial pivoting; returns
-    False if A is singular.  Two columns (Kirchhoff-Carrier with a damper, the fretboard or a
-    finger), three (with a finger and a fret) and four (a held fretted note: Kirchhoff-Carrier,
-    the finger, and the frets on both sides of it, on which the pressed string rests) go to
-    ``_solve_n`` with a literal size, which LLVM unrolls: cheaper than its loops over an unknown
-    n.  Timings on this shared machine could not tell whether unrolling the four-column solve
-    helped; instructions retired can, and a held note's step retires fewer with it
-    (``benchmarks.speed``'s component table, figures in the README)."""
+    """Solve A x = r in place (x into r); returns False if A is singular.
+
+    The system is that of the column multipliers: with each non-rigid row divided by its c, it
+    is symmetric, and positive definite unless rigid constraints depend on each other.  Most
+    systems are arrowheads: the Kirchhoff-Carrier column (or the one column that is not narrow)
+    couples to every other, and the narrow columns of a finger and of frets away from it share no
+    node.  These are solved by eliminating the narrow columns into the first row
+    (``_solve_arrow``): a handful of operations and no pivot search, where partial pivoting
+    spent about a fifth of a held note's step (``docs/engine.md``).  Any other system goes to
+    Gaussian elimination with partial pivoting (``_solve_n``).  Sizes 2 to 4 are literal, so
+    LLVM unrolls the loops; the four-column arrowhead is a held fretted note's system:
+    Kirchhoff-Carrier, the finger, and the two frets the pressed string rests on."""
     if n == 4:  # literal sizes: LLVM unrolls the loops
+        if _is_arrow(A, 4):
+            return _solve_arrow(A, r, 4)
         return _solve_n(A, r, 4)
     if n == 3:
+        if _is_arrow(A, 3):
+            return _solve_arrow(A, r, 3)
         return _solve_n(A, r, 3)
     if n == 2:
+        if _is_arrow(A, 2):
+            return _solve_arrow(A, r, 2)
         return _solve_n(A, r, 2)
+    if _is_arrow(A, n):
+        return _solve_arrow(A, r, n)
     return _solve_n(A, r, n)
+
+
+@njit(**JIT_INLINE)
+def _is_arrow(A, n):
+    """Do rows and columns 1..n-1 of A meet only in row and column 0, on a diagonal of non-zero
+    entries?"""
+    for i in range(1, n):
+        if A[i, i] == 0.0:
+            return False
+        for j in range(1, n):
+            if i != j and A[i, j] != 0.0:
+                return False
+    return True
+
+
+@njit(**JIT_INLINE)
+def _solve_arrow(A, r, n):
+    """An arrowhead system, in place: x_1..x_(n-1) eliminated into row 0, whose Schur complement
+    s = A_00 - sum_i A_0i A_i0 / A_ii gives x_0, then x_i = (r_i - A_i0 x_0) / A_ii.  Without
+    pivoting: scaled as above, these are the pivots of a symmetric positive definite matrix
+    (Cholesky's order), which need none.  False if s is zero (dependent rigid constraints) or
+    NaN."""
+    s = A[0, 0]
+    t = r[0]
+    for i in range(1, n):
+        g = A[0, i] / A[i, i]
+        s -= g * A[i, 0]
+        t -= g * r[i]
+    if not (s > 0.0 or s < 0.0):
+        return False
+    x0 = t / s
+    r[0] = x0
+    for i in range(1, n):
+        r[i] = (r[i] - A[i, 0] * x0) / A[i, i]
+    return True
 
 
 @njit(**JIT_INLINE)

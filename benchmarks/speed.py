@@ -87,10 +87,7 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
         lin = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 8.0}]}
-        full = {**base, "events": [
-            {"type": "fret", "time": 0.0, "string": s, "fret": 5},
-            {"type": "pluck", "time": 0.05, "string": s, "force": 8.0},
-        ]}
+        full = {**base, "events": fretted_events(s)}
         soft = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 2.0}]}
         t_full = best_time(full, RenderOptions(skip_decayed=False), repeat)
         v = t_full.engine.voices[0]
@@ -138,14 +135,28 @@ def components(seconds: float, repeat: int, string: int = 4) -> None:
               f"{_per(t.instructions, steps, 21)}")
 
 
-def scenes(quality: str, seconds: float, repeat: int) -> None:
-    strum = [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0}
-             for i in range(6)]
-    chord_frets = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}  # C major
+def strum_events() -> list[dict]:
+    """The open six-string strum: 2 N plucks 20 ms apart, low string first."""
+    return [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0} for i in range(6)]
+
+
+def chord_events() -> list[dict]:
+    """A fretted C major chord (strings 4, 3 and 1 open), strummed like ``strum_events``."""
+    chord_frets = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}
     chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
              for s, q in chord_frets.items() if q > 0]
-    chord += [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
-              for i in range(6)]
+    return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
+                    for i in range(6)]
+
+
+def fretted_events(string: int) -> list[dict]:
+    """The fretted full model of the per-string table: a finger at fret 5, an 8 N pluck."""
+    return [{"type": "fret", "time": 0.0, "string": string, "fret": 5},
+            {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
+
+
+def scenes(quality: str, seconds: float, repeat: int) -> None:
+    strum, chord = strum_events(), chord_events()
     paper = [{"type": "fret", "time": 0.0, "string": 6, "fret": 5},
              {"type": "pluck", "time": 0.05, "string": 6, "force": 5.0}]
     print(f"\nscenes, quality '{quality}', {seconds:g} s of audio (with the preset's acoustic body)")

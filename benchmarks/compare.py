@@ -1,0 +1,107 @@
+"""Two versions of the engine timed against each other, interleaved, on this machine.
+
+    python -m benchmarks.compare REV_A REV_B [--rounds 3] [--repeat 5] [--seconds 1]
+
+Timings on this shared machine drift by more than most kernel changes are worth, between sessions
+and within one (``benchmarks.speed``'s notes), so one run of ``benchmarks.speed`` before a change
+and one after cannot tell a 10 % gain from noise.  This script checks out both git revisions into
+temporary worktrees, each with a numba cache of its own, and times the same scenes with each in
+turn, ``--rounds`` times: drift then moves both columns alike.  Each cell is the best CPU time of
+``--repeat`` renders (scene preparation excluded, as in ``benchmarks.speed``), and the table gives
+the best of all rounds per version, and B's time as a share of A's.
+
+Scenes: each string fretted at fret 5 with an 8 N pluck (the fretted full model of
+``benchmarks.speed``'s first table, at the oversampling factor the ``standard`` level gives it),
+the fretted C chord and the open strum of its second table.  A worktree's first round also
+compiles its kernels (not timed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from benchmarks.speed import chord_events, fretted_events, strum_events
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# The child: time every scene with the engine of the worktree it runs in, print JSON.
+CHILD = r"""
+import json, sys
+from benchmarks.speed import best_time
+from engine.guitar import RenderOptions
+seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
+scenes = json.loads(sys.argv[3])
+out = {}
+for name, events in scenes.items():
+    sc = {"duration": seconds, "events": events}
+    if name.startswith("string"):
+        sc["output"] = {"body": "none"}
+    out[name] = best_time(sc, RenderOptions(skip_decayed=False), repeat).seconds / seconds
+print(json.dumps(out))
+"""
+
+
+def scenes() -> dict[str, list[dict]]:
+    out = {f"string {s}, fret 5, 8 N": fretted_events(s) for s in range(1, 7)}
+    out["fretted C chord, strummed"] = chord_events()
+    out["six-string strum (open)"] = strum_events()
+    return out
+
+
+def run(tree: Path, seconds: float, repeat: int) -> dict[str, float]:
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba_cache")}
+    res = subprocess.run([sys.executable, "-c", CHILD, str(seconds), str(repeat),
+                          json.dumps(scenes())], cwd=tree, env=env, check=True,
+                         capture_output=True, text=True)
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("rev_a")
+    ap.add_argument("rev_b")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--seconds", type=float, default=1.0)
+    args = ap.parse_args()
+    revs = {}
+    for r in (args.rev_a, args.rev_b):
+        revs[r] = subprocess.run(["git", "rev-parse", "--short", r], cwd=ROOT, check=True,
+                                 capture_output=True, text=True).stdout.strip()
+    with tempfile.TemporaryDirectory(prefix="guitar-compare-") as tmp:
+        trees = {}
+        try:
+            for r, short in revs.items():
+                tree = Path(tmp) / short
+                subprocess.run(["git", "worktree", "add", "--detach", "-q", str(tree), r],
+                               cwd=ROOT, check=True)
+                trees[r] = tree
+                run(tree, 0.05, 1)  # compile (or load) the kernels
+            best: dict[str, dict[str, float]] = {r: {} for r in revs}
+            for i in range(args.rounds):
+                for r, tree in trees.items():
+                    for name, t in run(tree, args.seconds, args.repeat).items():
+                        best[r][name] = min(best[r].get(name, float("inf")), t)
+                print(f"round {i + 1} of {args.rounds} done", file=sys.stderr, flush=True)
+        finally:
+            for tree in trees.values():
+                subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
+                               check=False)
+    a, b = args.rev_a, args.rev_b
+    print(f"\nms of compute per second of audio, best of {args.rounds} interleaved rounds of "
+          f"{args.repeat} renders ({args.seconds:g} s each), quality 'standard'")
+    print(f"A = {revs[a]}, B = {revs[b]}")
+    print(f"{'scene':30s} | {'A':>8s} | {'B':>8s} | B / A")
+    for name in scenes():
+        ta, tb = best[a][name] * 1e3, best[b][name] * 1e3
+        print(f"{name:30s} | {ta:8.2f} | {tb:8.2f} | {tb / ta:5.3f}")
+
+
+if __name__ == "__main__":
+    main()

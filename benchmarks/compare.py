@@ -57,8 +57,9 @@ def scenes() -> dict[str, list[dict]]:
 def run(tree: Path, seconds: float, repeat: int) -> dict[str, float]:
     env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba_cache")}
     res = subprocess.run([sys.executable, "-c", CHILD, str(seconds), str(repeat),
-                          json.dumps(scenes())], cwd=tree, env=env, check=True,
-                         capture_output=True, text=True)
+                          json.dumps(scenes())], cwd=tree, env=env, capture_output=True, text=True)
+    if res.returncode != 0:
+        sys.exit(f"timing the engine in {tree} failed:\n{res.stderr}")
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
@@ -82,7 +83,7 @@ def main() -> None:
                 subprocess.run(["git", "worktree", "add", "--detach", "-q", str(tree), r],
                                cwd=ROOT, check=True)
                 trees[r] = tree
-                run(tree, 0.05, 1)  # compile (or load) the kernels
+                run(tree, args.seconds, 1)  # compile (or load) the kernels
             best: dict[str, dict[str, float]] = {r: {} for r in revs}
             for i in range(args.rounds):
                 for r, tree in trees.items():

@@ -29,6 +29,7 @@ import time
 
 import numpy as np
 
+from benchmarks.speed import chord_events, fretted_events, strum_events
 from engine.analysis import cents, spectrum_peak
 from engine.guitar import FIXED_GAIN, RenderOptions, prepare
 from engine.scene import Scene
@@ -42,8 +43,7 @@ def render(scene: dict, **opts) -> tuple[np.ndarray, float]:
 
 
 SINGLE_NOTE = {"duration": 4.0, "events": [{"type": "pluck", "time": 0.0, "string": 3}]}
-STRUM = {"duration": 2.0, "events": [
-    {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0} for i in range(6)]}
+STRUM = {"duration": 2.0, "events": strum_events()}
 HARD_STRUM = {"duration": 2.0, "events": [
     {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 8.0} for i in range(6)]}
 SHORT_NOTES = {
@@ -65,13 +65,8 @@ MELODY_THEN_REST = {"duration": 15.0, "guitar": {"preset": "nylon-classical"}, "
     {"type": "pluck", "time": 0.55, "string": 2, "force": 2.0},
     {"type": "fret", "time": 1.0, "string": 2, "fret": 0},
 ]}
-C_CHORD = {"duration": 2.0, "events": [
-    *({"type": "fret", "time": 0.0, "string": s, "fret": q} for s, q in ((6, 3), (5, 2), (2, 1))),
-    *({"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
-      for i in range(6))]}
-FRETTED_8N = {"duration": 2.0, "events": [{"type": "fret", "time": 0.0, "string": 4, "fret": 5},
-                                          {"type": "pluck", "time": 0.05, "string": 4,
-                                           "force": 8.0}]}
+C_CHORD = {"duration": 2.0, "events": chord_events()}
+FRETTED_8N = {"duration": 2.0, "events": fretted_events(4)}
 
 EXACT_KC = {"kc_tolerance": 0.0}  # Kirchhoff-Carrier in every step
 # the contacts rows compare exact skips: held steps in the general path on both sides
@@ -156,7 +151,6 @@ def quiet_table(seconds: float = 2.0) -> None:
     share = {force: quiet_share(force, seconds) for force in (2.0, 8.0)}
     for s in range(1, 7):
         print(f"{s:>6d} | {share[2.0][s]:9.4f} | {share[8.0][s]:9.4f}")
-
 
 
 def held_share(scene: dict) -> dict[int, float]:

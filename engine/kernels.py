@@ -518,17 +518,17 @@ def _solve(A, r, n):
     LLVM unrolls the loops; the four-column arrowhead is a held fretted note's system:
     Kirchhoff-Carrier, the finger, and the two frets the pressed string rests on."""
     if n == 4:  # literal sizes: LLVM unrolls the loops
-        if _is_arrow(A, 4):
-            return _solve_arrow(A, r, 4)
-        return _solve_n(A, r, 4)
+        return _solve_sized(A, r, 4)
     if n == 3:
-        if _is_arrow(A, 3):
-            return _solve_arrow(A, r, 3)
-        return _solve_n(A, r, 3)
+        return _solve_sized(A, r, 3)
     if n == 2:
-        if _is_arrow(A, 2):
-            return _solve_arrow(A, r, 2)
-        return _solve_n(A, r, 2)
+        return _solve_sized(A, r, 2)
+    return _solve_sized(A, r, n)
+
+
+@njit(**JIT_INLINE)
+def _solve_sized(A, r, n):
+    """``_solve`` for a size that is a literal where the caller can make it one."""
     if _is_arrow(A, n):
         return _solve_arrow(A, r, n)
     return _solve_n(A, r, n)

@@ -33,3 +33,12 @@ JIT = {
 # step went from 285 to 473 ns in ``benchmarks.speed``'s component table.  The helpers that are
 # not inlined therefore take arrays and scalars, never a NamedTuple of arrays.
 JIT_INLINE = {**JIT, "inline": "always"}
+
+# Kernels that allocate no array and return none are compiled without numba's reference counting
+# (NRT): the caller owns every array they touch.  With it, each call of an inlined helper that
+# takes an array counted a reference up on the way in and down after the helper's loop, and the
+# refcount pruning pass could not pair them across the loop: a held step did about six such
+# pairs, each an atomic read-modify-write (``lock xadd`` on x86) that also orders the memory
+# operations around it.  Such a kernel must not create or return arrays (numba refuses to compile
+# an allocation without NRT).
+JIT_NO_NRT = {**JIT, "_nrt": False}

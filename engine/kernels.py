@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .config import JIT, JIT_INLINE
+from .config import JIT, JIT_INLINE, JIT_NO_NRT
 
 EPS = 2.220446049250313e-16  # the gauge constant epsilon of eq. (54)
 
@@ -374,7 +374,7 @@ def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_a
     return end
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0, fret_w1,
                fret_m0, fret_active, out_p, out_w0, out_w1, out, it, it_end, step0, s_crit,
                s_last):
@@ -797,7 +797,7 @@ def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi
     return end, slot
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0, fret_w1,
               fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, slot, fpos,
               fw0, fw1, force, f_w, f_w1, f_psi, f_bprev, out_p, out_w0, out_w1, out, it,

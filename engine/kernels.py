@@ -167,6 +167,41 @@ class State(NamedTuple):
     run_steps: np.ndarray
 
 
+class Work(NamedTuple):
+    """The general step's scratch, allocated by ``step_block`` for each block."""
+
+    kind: np.ndarray  # column kinds of the small system (KC, FINGER, RIGID, ...)
+    cstart: np.ndarray  # a column's entries are cidx/cval[cstart[c]:cstart[c + 1]]
+    cslot: np.ndarray  # finger slot of the column (-1: none)
+    cfret: np.ndarray  # fret of a rigid column
+    ca: np.ndarray
+    cc: np.ndarray
+    vfree: np.ndarray
+    v1: np.ndarray
+    cidx: np.ndarray  # node indices, unsigned: no wrap-around (see _fret_hit)
+    cval: np.ndarray
+    g: np.ndarray  # the Gram matrix of the columns
+    a: np.ndarray  # the small system
+    x: np.ndarray
+    xp: np.ndarray  # the rigid frets' last feasible multipliers (see the active-set loop)
+    cgam: np.ndarray  # gamma of an SAV or finger column (sec. 4.7)
+    cs: np.ndarray  # its s~ = v~^T Lambda v~ (unscaled gradient)
+    cbt: np.ndarray  # a finger column's unscaled beta~
+    ccon: np.ndarray  # in contact at u^n
+    scr: np.ndarray
+    du: np.ndarray
+    wfree: np.ndarray  # per finger slot: w_free
+    fext: np.ndarray
+    fp: np.ndarray  # the finger's interpolant: left node, weights
+    fw0: np.ndarray
+    fw1: np.ndarray
+    fchi: np.ndarray
+    fbeta: np.ndarray
+    fcol: np.ndarray  # the finger's column (-1: none)
+    rd: np.ndarray  # ``_ray_blocked``'s direction and system
+    ra: np.ndarray
+
+
 def _type_key(a):
     """What numba's ``typeof`` reads of an argument of the kinds the kernels take, as a hashable
     key: an array's dtype, dimensions, layout (C before F, as numba maps it), writability and
@@ -336,7 +371,7 @@ def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
         ) / k
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_active):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
@@ -453,7 +488,7 @@ def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl
     return quf
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
     branch that the quiet steps of a soft pluck rarely take (inlined, it slowed their loop)."""
@@ -621,7 +656,7 @@ def _assemble(nc, kind, ca, cc, vfree, G, A, b):
             b[i] = -ca[i] - cc[i] * vfree[i]
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _step_to_zero(x, xp, nbase, nc):
     """Lawson and Hanson's step: xp (every rigid reaction >= 0) moves towards the solve x, which
     has a negative one, until the first rigid reaction reaches zero; returns that column.  Not
@@ -641,13 +676,14 @@ def _step_to_zero(x, xp, nbase, nc):
     return worst
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, ca, cc, vfree,
-                 xp, G, A, b, scr):
+                 xp, G, A, b, scr, d, A2):
     """A rigid fret (the last of the nc columns) was just added to xp, a solution of the others
     with every rigid reaction >= 0 (xp of the new column is 0).  Does the way to the joint
     solution meet a zero reaction first?  If so, xp is moved there and the column of the fret
-    that leaves is returned; -1 if not.  G, A and b are scratch.
+    that leaves is returned; -1 if not.  G, A, b, d and A2 are scratch (d and A2 of at least
+    nc - 1 rows).
 
     In the QP of the active-set loop, with H = the system's rows scaled symmetric, the direction
     that keeps the other columns' gradients at zero while the new reaction grows is
@@ -663,8 +699,6 @@ def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, 
     _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr)
     _assemble(nc, kind, ca, cc, vfree, G, A, b)
     m = nc - 1
-    d = np.empty(m)
-    A2 = np.empty((m, m))
     gj = -b[m]
     for i in range(m):
         gj += A[m, i] * xp[i]
@@ -756,7 +790,7 @@ def _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w
     e_p[it] = pin + inject + ptens
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi, f_state):
     """The first step >= s at which a held step is not allowed, and the finger slot that holds the
     string; (s, -1) if step s may not be held.
@@ -978,7 +1012,29 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     energy series e_h = H^(n+1/2), e_q = k Q^n and e_p = k P^n, where P also carries the energy a
     finger brings or takes away when it is put down or removed and the work of a changing tension.
     Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit.
+    Allocates the block's scratch (``Work``) and hands over to ``_advance``, which is compiled
+    without reference counting and so may not allocate (config.JIT_NO_NRT).
     """
+    n = c.n
+    nfret = geo.fret_p.shape[0]
+    nslot = ctl.fs_on.shape[0]
+    ncap = 3 + nslot + nfret + ctl.dp_on.shape[0]
+    cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + ctl.dp_idx.shape[0] + 8
+    w = Work(
+        np.empty(ncap, np.int64), np.empty(ncap + 1, np.int64), np.empty(ncap, np.int64),
+        np.empty(ncap, np.int64), np.empty(ncap), np.empty(ncap), np.empty(ncap), np.empty(ncap),
+        np.empty(cap, np.uint64), np.empty(cap), np.empty((ncap, ncap)), np.empty((ncap, ncap)),
+        np.empty(ncap), np.empty(ncap), np.empty(ncap), np.empty(ncap), np.empty(ncap),
+        np.zeros(ncap, np.bool_), np.zeros(n + 3), np.zeros(n + 3), np.empty(nslot),
+        np.zeros(nslot), np.zeros(nslot, np.int64), np.zeros(nslot), np.zeros(nslot),
+        np.zeros(nslot), np.zeros(nslot), np.full(nslot, -1, np.int64), np.empty(ncap),
+        np.empty((ncap, ncap)))
+    return _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p)
+
+
+@njit(**JIT_NO_NRT)
+def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
+    """``step_block``'s loop, on the scratch ``w`` it allocated."""
     U0, U1, UF, Q = st.u, st.u1, st.uf, st.q
     psi, gprev_b, gprev_f, has_gprev = st.psi, st.gprev_b, st.gprev_f, st.has_gprev
     fret_active, f_state, f_w, f_w1, f_psi, f_bprev = (
@@ -997,36 +1053,12 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     lam = c.lam
     nfret = fret_p.shape[0]
     nslot = fs_on.shape[0]
-    ncap = 3 + nslot + nfret + ndamp
-    cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + ctl.dp_idx.shape[0] + 8
-    kind = np.empty(ncap, np.int64)
-    cstart = np.empty(ncap + 1, np.int64)
-    cslot = np.empty(ncap, np.int64)  # finger slot of the column (-1: none)
-    cfret = np.empty(ncap, np.int64)  # fret of a rigid column
-    ca = np.empty(ncap)
-    cc = np.empty(ncap)
-    vfree = np.empty(ncap)
-    v1 = np.empty(ncap)
-    cidx = np.empty(cap, np.uint64)  # node indices, unsigned: no wrap-around (see _fret_hit)
-    cval = np.empty(cap)
-    G = np.empty((ncap, ncap))
-    A = np.empty((ncap, ncap))
-    x = np.empty(ncap)
-    xp = np.empty(ncap)  # the rigid frets' last feasible multipliers (see the active-set loop)
-    cgam = np.empty(ncap)  # gamma of an SAV or finger column (sec. 4.7)
-    cs = np.empty(ncap)  # its s~ = v~^T Lambda v~ (unscaled gradient)
-    cbt = np.empty(ncap)  # a finger column's unscaled beta~
-    ccon = np.zeros(ncap, np.bool_)  # in contact at u^n
-    scr = np.zeros(n + 3)
-    du = np.zeros(n + 3)
-    wfree = np.empty(nslot)
-    fext = np.zeros(nslot)
-    fp = np.zeros(nslot, np.int64)
-    fw0 = np.zeros(nslot)
-    fw1 = np.zeros(nslot)
-    fchi = np.zeros(nslot)
-    fbeta = np.zeros(nslot)
-    fcol = np.full(nslot, -1, np.int64)
+    kind, cstart, cslot, cfret, ca, cc, vfree, v1 = (
+        w.kind, w.cstart, w.cslot, w.cfret, w.ca, w.cc, w.vfree, w.v1)
+    cidx, cval, G, A, x, xp, cgam, cs, cbt, ccon = (
+        w.cidx, w.cval, w.g, w.a, w.x, w.xp, w.cgam, w.cs, w.cbt, w.ccon)
+    scr, du, wfree, fext, fp, fw0, fw1, fchi, fbeta, fcol = (
+        w.scr, w.du, w.wfree, w.fext, w.fp, w.fw0, w.fw1, w.fchi, w.fbeta, w.fcol)
     lam_f = k * k / c.fg_mass
     tb_n = ctl.tb_step.shape[0]
     status = OK
@@ -1346,7 +1378,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
                                   fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
                 nc += 1
                 blk = _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f,
-                                   ca, cc, vfree, xp, G, A, x, scr)
+                                   ca, cc, vfree, xp, G, A, x, scr, w.rd, w.ra)
                 if blk >= 0:
                     # the way to the new fret's constraint meets a zero reaction first (or the
                     # new fret depends on the others): that fret leaves, xp moved on
@@ -1469,21 +1501,21 @@ def _tension_ratio(tb_step, tb_ratio, step):
     return tb_ratio[lo] + a * (tb_ratio[hi] - tb_ratio[lo])
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _restore(U0, U1, UF, r):
     """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
     # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
     # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
-    tmp = U0.copy()
-    tmp1 = U1.copy()
-    if r == 1:
-        # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
-        UF[:] = tmp1  # b <- old a
-        U1[:] = tmp  # a <- old c
-    else:
-        # local (U0, U1, UF) = (b, c, a): caller wants a <- u^n (=b), b <- u^(n-1) (=c)
-        UF[:] = tmp  # a <- b
-        U0[:] = tmp1  # b <- c
+    for j in range(U0.shape[0]):  # node by node, in place (no allocation: see JIT_NO_NRT)
+        if r == 1:
+            # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
+            t = U1[j]
+            U1[j] = U0[j]  # a <- c
+            UF[j] = t  # b <- old a
+        else:
+            # local (U0, U1, UF) = (b, c, a): caller wants a <- u^n (=b), b <- u^(n-1) (=c)
+            UF[j] = U0[j]  # a <- b
+            U0[j] = U1[j]  # b <- c
 
 
 @njit(**JIT_INLINE)
@@ -1786,7 +1818,7 @@ def _unscatter(nc, cstart, cidx, du):
         du[cidx[e]] = 0.0
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _energy(c, tension, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
     """H^(n+1/2) of eqs. (43)-(45), k Q^n of eq. (46a) (string and fingers), and
     W^(n+1/2) = -(h/2) u^(n+1)^T D u^n, so that V_L = T^n W^(n+1/2) + (h/2) E I (D u^n).(D u^(n+1))."""

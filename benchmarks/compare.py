@@ -12,8 +12,9 @@ the best of all rounds per version, and B's time as a share of A's.
 
 Scenes: each string fretted at fret 5 with an 8 N pluck (the fretted full model of
 ``benchmarks.speed``'s first table, at the oversampling factor the ``standard`` level gives it),
-the fretted C chord and the open strum of its second table.  A worktree's first round also
-compiles its kernels (not timed).
+the fretted C chord and the open strum of its second table, and a slide from fret 5 to 7 on
+string 3, whose moving finger keeps about a sixth of its steps out of the held run (the general
+path).  A worktree's first round also compiles its kernels (not timed).
 """
 
 from __future__ import annotations
@@ -52,6 +53,11 @@ def scenes() -> dict[str, dict]:
            for s in range(1, 7)}
     out["fretted C chord, strummed"] = {"events": chord_events()}
     out["six-string strum (open)"] = {"events": strum_events()}
+    out["slide 5 -> 7, string 3"] = {"events": [
+        {"type": "fret", "time": 0.0, "string": 3, "fret": 5},
+        {"type": "pluck", "time": 0.05, "string": 3, "force": 2.0},
+        {"type": "slide", "time": 0.4, "string": 3, "from_fret": 5, "to_fret": 7,
+         "duration": 0.15}], "output": {"body": "none"}}
     return out
 
 

@@ -28,17 +28,20 @@ JIT = {
 }
 
 # Helpers that the time-step loop calls in every step are inlined into it at numba's IR level.
-# A call to a compiled helper passes the NamedTuples and arrays it takes as structs and counts the
-# arrays' references: when ``_quiet_until`` (not inlined) took ``Controls``, a fretted string's
-# step went from 285 to 473 ns in ``benchmarks.speed``'s component table.  The helpers that are
-# not inlined therefore take arrays and scalars, never a NamedTuple of arrays.
+# A call to a compiled helper passes the NamedTuples and arrays it takes as structs and (with NRT,
+# see ``JIT_NO_NRT``) counts the arrays' references: when ``_quiet_until`` (not inlined) took
+# ``Controls``, a fretted string's step went from 285 to 473 ns in ``benchmarks.speed``'s
+# component table.  The helpers that are not inlined therefore take arrays and scalars, never a
+# NamedTuple of arrays.
 JIT_INLINE = {**JIT, "inline": "always"}
 
 # Kernels that allocate no array and return none are compiled without numba's reference counting
-# (NRT): the caller owns every array they touch.  With it, each call of an inlined helper that
-# takes an array counted a reference up on the way in and down after the helper's loop, and the
-# refcount pruning pass could not pair them across the loop: a held step did about six such
-# pairs, each an atomic read-modify-write (``lock xadd`` on x86) that also orders the memory
-# operations around it.  Such a kernel must not create or return arrays (numba refuses to compile
-# an allocation without NRT).
+# (NRT): the caller owns every array they touch (``step_block`` allocates the block's scratch and
+# hands over to ``_advance``).  With it, each call of an inlined helper that takes an array counted
+# a reference up on the way in and down after the helper's loop, and numba's refcount pruning
+# could not pair them across the loop: a held step did six such pairs (read off its LLVM IR),
+# each an atomic read-modify-write (``lock xadd`` on x86) that also orders the memory operations
+# around it.  A function compiled for a call from such a kernel inherits the setting, so nothing
+# such a kernel calls may create an array either (numba refuses to compile an allocation without
+# NRT).
 JIT_NO_NRT = {**JIT, "_nrt": False}

@@ -13,8 +13,8 @@ the best of all rounds per version, and B's time as a share of A's.
 Scenes: each string fretted at fret 5 with an 8 N pluck (the fretted full model of
 ``benchmarks.speed``'s first table, at the oversampling factor the ``standard`` level gives it),
 the fretted C chord and the open strum of its second table, and a slide from fret 5 to 7 on
-string 3, whose moving finger keeps about a sixth of its steps out of the held run (the general
-path).  A worktree's first round also compiles its kernels (not timed).
+string 3, whose moving finger keeps the steps of the slide out of the held run (they take the
+general path).  A worktree's first round also compiles its kernels (not timed).
 """
 
 from __future__ import annotations

@@ -3,9 +3,10 @@
     python -m benchmarks.profile_step [--string 4] [--fret 5] [--no-kc] [--seconds 10]
                                       [--event cpu-clock|cycles|instructions]
 
-Every helper the step loop calls is inlined into ``kernels.step_block`` or into the two loops it
-calls without inlining them (``RUNS``: the quiet and the held steps), so a function-level profiler
-sees three functions.  This script renders the scene of ``benchmarks.speed``'s component
+Every helper the step loop calls is inlined into one of the loops that ``kernels.step_block`` runs
+(``RUNS``: ``_advance``, the general path, to which step_block hands over after allocating its
+scratch, and the quiet and the held runs it calls), so a function-level profiler sees four
+functions.  This script renders the scene of ``benchmarks.speed``'s component
 table (a finger at ``--fret`` and an 8 N pluck on ``--string`` at x1; ``--fret 0``: the open
 string) over and over in a child process whose kernels are compiled with line tables
 (``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with
@@ -44,8 +45,8 @@ from engine.guitar import RenderOptions
 from engine.scene import Scene
 
 KERNELS = Path(__file__).resolve().parent.parent / "engine" / "kernels.py"
-# the step loops that step_block calls without inlining them; each has its own rows in the table
-RUNS = ("_quiet_run", "_held_run")
+# the step loops that step_block runs (not inlined); each has its own rows in the table
+RUNS = ("_advance", "_quiet_run", "_held_run")
 
 # The child: compile, report where step_block's machine code lives, then render until killed.
 CHILD = r"""
@@ -63,8 +64,7 @@ ov = next(o for o in kernels.step_block.overloads.values() if o.entry_point is f
 obj = ov.library.serialize_using_object_code()[2][0]
 with open(ready + ".o", "wb") as f:
     f.write(obj)
-# step_block and the loops it calls that are not inlined (the quiet and the held run): where
-# each one's code lives in this process
+# step_block and the loops it runs (not inlined): where each one's code lives in this process
 where = {}
 for name in ("step_block",) + RUNS:
     for o in getattr(kernels, name).overloads.values():

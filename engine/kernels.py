@@ -174,10 +174,10 @@ class Work(NamedTuple):
     cstart: np.ndarray  # a column's entries are cidx/cval[cstart[c]:cstart[c + 1]]
     cslot: np.ndarray  # finger slot of the column (-1: none)
     cfret: np.ndarray  # fret of a rigid column
-    ca: np.ndarray
+    ca: np.ndarray  # a and c of a column's row, x + c (G x + v_free) = -a (``_assemble``)
     cc: np.ndarray
-    vfree: np.ndarray
-    v1: np.ndarray
+    vfree: np.ndarray  # v^T u_free of each column
+    v1: np.ndarray  # v^T u^(n-1)
     cidx: np.ndarray  # node indices, unsigned: no wrap-around (see _fret_hit)
     cval: np.ndarray
     g: np.ndarray  # the Gram matrix of the columns
@@ -188,10 +188,10 @@ class Work(NamedTuple):
     cs: np.ndarray  # its s~ = v~^T Lambda v~ (unscaled gradient)
     cbt: np.ndarray  # a finger column's unscaled beta~
     ccon: np.ndarray  # in contact at u^n
-    scr: np.ndarray
-    du: np.ndarray
+    scr: np.ndarray  # a string-sized scratch (zero between uses)
+    du: np.ndarray  # the columns' sum Lambda v x, scattered onto the string (``_scatter``)
     wfree: np.ndarray  # per finger slot: w_free
-    fext: np.ndarray
+    fext: np.ndarray  # its external force in this step
     fp: np.ndarray  # the finger's interpolant: left node, weights
     fw0: np.ndarray
     fw1: np.ndarray
@@ -1034,7 +1034,8 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
 
 @njit(**JIT_NO_NRT)
 def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
-    """``step_block``'s loop, on the scratch ``w`` it allocated."""
+    """``step_block``'s loop (the general path, which hands quiet and held steps to their runs),
+    on the scratch ``w`` that step_block allocated; returns the status."""
     U0, U1, UF, Q = st.u, st.u1, st.uf, st.q
     psi, gprev_b, gprev_f, has_gprev = st.psi, st.gprev_b, st.gprev_f, st.has_gprev
     fret_active, f_state, f_w, f_w1, f_psi, f_bprev = (

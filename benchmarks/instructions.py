@@ -1,0 +1,158 @@
+"""Instructions per second of audio, counted by valgrind: the engine's cost in a measure that does
+not move with the machine.
+
+    python -m benchmarks.instructions [--quality standard] [--seconds 1]
+
+Times move between sessions by more than most changes are worth, and with the vector width of the
+machine a session gets (README, "Speed"); hardware counters (``benchmarks.counters``) are missing
+on most of these machines.  This script counts the instructions of the same renders as
+``benchmarks.speed``'s per-string table (the fretted full model against the linear string at the
+same factor x, and an open string's 2 N pluck with every nonlinearity against the linear string),
+plus its open strum and fretted chord, with ``valgrind --tool=callgrind``, which needs no counters.
+
+How: one child process prepares every scene and renders each once briefly (so that loading the
+compiled kernels is not counted), then renders each in full under callgrind with
+``--dump-before=getppid``, calling ``os.getppid()`` between renders: each dump holds exactly one
+render's instructions (the engine's Python around the kernels included, scene preparation not).
+
+numba compiles for the CPU it runs on, and valgrind 3.19 does not know AVX-512, so the kernels are
+compiled for a pinned CPU (``CPU_NAME``, x86-64 with AVX2 and FMA) into a cache of their own, warmed
+by a native run of the same child first (under valgrind numba would otherwise compile everything
+again, slowly).  The code counted is therefore the same on every x86-64 machine, and it is not the
+code this machine's own build runs: the counts measure the code and the scene, not the machine.
+Needs ``valgrind`` (Debian: valgrind); about 5 minutes, most of it the first compile of the cache.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from benchmarks.speed import chord_events, fretted_events, strum_events
+from engine.guitar import RenderOptions, prepare
+from engine.scene import Scene
+
+ROOT = Path(__file__).resolve().parent.parent
+CACHE = ROOT / ".numba_cache_pinned"
+CPU_NAME = "haswell"
+CPU_FEATURES = ("+64bit,+avx,+avx2,+bmi,+bmi2,+cmov,+cx16,+f16c,+fma,+lzcnt,+mmx,+movbe,+popcnt,"
+                "+sse,+sse2,+sse3,+sse4.1,+sse4.2,+ssse3,+fxsr,+xsave")
+
+# The child: prepare and warm every configuration, then render each with a dump marker after it.
+CHILD = r"""
+import json, os, sys
+from engine.guitar import RenderOptions, prepare
+from engine.scene import Scene
+configs = json.loads(sys.argv[1])
+def engine_of(c, duration):
+    return prepare(Scene.model_validate({**c["scene"], "duration": duration}),
+                   RenderOptions(**c["options"]))
+for c in configs:  # load the kernels for every configuration's types (not counted)
+    for _ in engine_of(c, 0.25).blocks():
+        pass
+engines = [engine_of(c, c["seconds"]) for c in configs]
+os.getppid()  # dump: everything before the renders
+for eng in engines:
+    for _ in eng.blocks():
+        pass
+    os.getppid()  # dump: this render
+"""
+
+
+def configurations(quality: str, seconds: float) -> list[dict]:
+    """``benchmarks.speed``'s per-string renders (x of the fingered string from a native prepare)
+    and its strum and chord, as (name, scene without duration, options) for the child."""
+    linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False,
+              "skip_decayed": False}
+    base = {"quality": quality, "output": {"body": "none"}}
+    out = []
+    for s in range(1, 7):
+        full = {**base, "events": fretted_events(s)}
+        x = prepare(Scene.model_validate({**full, "duration": 0.1}),
+                    RenderOptions(skip_decayed=False)).voices[0].oversample
+        hard = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 8.0}]}
+        soft = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 2.0}]}
+        out += [
+            {"name": f"{s} fretted", "scene": full, "options": {"skip_decayed": False}},
+            {"name": f"{s} linear same x", "scene": hard,
+             "options": {**linear, "oversample": x}},
+            {"name": f"{s} open full", "scene": soft, "options": {"skip_decayed": False}},
+            {"name": f"{s} open linear", "scene": soft, "options": linear},
+        ]
+    out += [{"name": "six-string strum (open)", "scene": {"quality": quality,
+                                                          "events": strum_events()},
+             "options": {"skip_decayed": False}},
+            {"name": "fretted C chord, strummed", "scene": {"quality": quality,
+                                                            "events": chord_events()},
+             "options": {"skip_decayed": False}}]
+    for c in out:
+        c["seconds"] = seconds
+    return out
+
+
+def _totals(path: Path) -> int:
+    for line in path.read_text().splitlines():
+        if line.startswith("totals:"):
+            return int(line.split()[1])
+    raise ValueError(f"no totals line in {path}")
+
+
+def callgrind_marked(argv: list[str], env: dict, n: int) -> list[int]:
+    """Run ``argv`` under callgrind and return the instructions between its first n + 1 calls of
+    ``os.getppid()`` (the markers): one count per stretch, in order."""
+    with tempfile.TemporaryDirectory(prefix="guitar-callgrind-") as tmp:
+        out = Path(tmp) / "cg.out"
+        run = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                              "--dump-before=getppid", *argv], env=env, capture_output=True,
+                             text=True)
+        if run.returncode != 0:
+            sys.exit(f"the run under valgrind failed:\n{run.stderr[-3000:]}")
+        # dump 1 is everything before the first marker, dump i + 2 the stretch after marker i + 1
+        return [_totals(Path(f"{out}.{i + 2}")) for i in range(n)]
+
+
+def count(configs: list[dict]) -> list[int]:
+    """Instructions of each configuration's render."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(CACHE),
+           "NUMBA_CPU_NAME": CPU_NAME, "NUMBA_CPU_FEATURES": CPU_FEATURES,
+           "PYTHONHASHSEED": "0"}
+    argv = [sys.executable, "-c", CHILD, json.dumps(configs)]
+    native = subprocess.run(argv, env=env, capture_output=True, text=True)  # warms the cache
+    if native.returncode != 0:
+        sys.exit(f"the native warm-up run failed:\n{native.stderr[-3000:]}")
+    return callgrind_marked(argv, env, len(configs))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quality", default="standard", choices=["draft", "standard", "high"])
+    ap.add_argument("--seconds", type=float, default=1.0)
+    args = ap.parse_args()
+    if shutil.which("valgrind") is None:
+        sys.exit("needs valgrind (Debian: apt-get install valgrind)")
+    configs = configurations(args.quality, args.seconds)
+    counts = count(configs)
+    per_s = {c["name"]: n / args.seconds / 1e6 for c, n in zip(configs, counts, strict=True)}
+    print(f"\ninstructions per second of audio (millions), quality '{args.quality}', "
+          f"{args.seconds:g} s renders, body 'none'; kernels built for {CPU_NAME} (callgrind)")
+    print("string | linear, same x | fretted full | fretted / linear | open linear | open full | "
+          "open full / linear")
+    for s in range(1, 7):
+        lin, full = per_s[f"{s} linear same x"], per_s[f"{s} fretted"]
+        olin, ofull = per_s[f"{s} open linear"], per_s[f"{s} open full"]
+        print(f"{s:>6d} | {lin:14.1f} | {full:12.1f} | {full / lin:16.2f} | {olin:11.1f} | "
+              f"{ofull:9.1f} | {ofull / olin:18.2f}")
+    print("\nscenes (with the preset's acoustic body)")
+    print("scene                          | million instructions per s of audio")
+    for name in ("six-string strum (open)", "fretted C chord, strummed"):
+        print(f"{name:30s} | {per_s[name]:35.1f}")
+
+
+if __name__ == "__main__":
+    main()

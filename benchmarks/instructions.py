@@ -20,7 +20,7 @@ compiled for a pinned CPU (``CPU_NAME``, x86-64 with AVX2 and FMA) into a cache 
 by a native run of the same child first (under valgrind numba would otherwise compile everything
 again, slowly).  The code counted is therefore the same on every x86-64 machine, and it is not the
 code this machine's own build runs: the counts measure the code and the scene, not the machine.
-Needs ``valgrind`` (Debian: valgrind); about 5 minutes, most of it the first compile of the cache.
+Needs ``valgrind`` (Debian: valgrind); the first run also fills the pinned cache.
 """
 
 from __future__ import annotations

@@ -34,7 +34,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.speed import chord_events, fretted_events, strum_events
+from benchmarks.speed import LINEAR, chord_events, fretted_events, pluck_events, strum_events
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 
@@ -68,22 +68,20 @@ for eng in engines:
 def configurations(quality: str, seconds: float) -> list[dict]:
     """``benchmarks.speed``'s per-string renders (x of the fingered string from a native prepare)
     and its strum and chord, as (name, scene without duration, options) for the child."""
-    linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False,
-              "skip_decayed": False}
     base = {"quality": quality, "output": {"body": "none"}}
     out = []
     for s in range(1, 7):
         full = {**base, "events": fretted_events(s)}
         x = prepare(Scene.model_validate({**full, "duration": 0.1}),
                     RenderOptions(skip_decayed=False)).voices[0].oversample
-        hard = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 8.0}]}
-        soft = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 2.0}]}
+        hard = {**base, "events": pluck_events(s, 8.0)}
+        soft = {**base, "events": pluck_events(s, 2.0)}
         out += [
             {"name": f"{s} fretted", "scene": full, "options": {"skip_decayed": False}},
             {"name": f"{s} linear same x", "scene": hard,
-             "options": {**linear, "oversample": x}},
+             "options": {**LINEAR, "oversample": x}},
             {"name": f"{s} open full", "scene": soft, "options": {"skip_decayed": False}},
-            {"name": f"{s} open linear", "scene": soft, "options": linear},
+            {"name": f"{s} open linear", "scene": soft, "options": LINEAR},
         ]
     out += [{"name": "six-string strum (open)", "scene": {"quality": quality,
                                                           "events": strum_events()},

@@ -44,8 +44,7 @@ def render(scene: dict, **opts) -> tuple[np.ndarray, float]:
 
 SINGLE_NOTE = {"duration": 4.0, "events": [{"type": "pluck", "time": 0.0, "string": 3}]}
 STRUM = {"duration": 2.0, "events": strum_events()}
-HARD_STRUM = {"duration": 2.0, "events": [
-    {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 8.0} for i in range(6)]}
+HARD_STRUM = {"duration": 2.0, "events": strum_events(8.0)}
 SHORT_NOTES = {
     "duration": 10.0,
     "guitar": {"strings": [{"string": s, "t60_fundamental_s": 0.6, "t60_2khz_s": 0.2}

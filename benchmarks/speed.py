@@ -74,6 +74,36 @@ def _ratio(a: float | None, b: float | None, width: int) -> str:
     return f"{a / b:{width}.2f}" if a is not None and b is not None else f"{'-':>{width}s}"
 
 
+# the per-string table's linear string: no Kirchhoff-Carrier, fretboard or frets
+LINEAR = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
+
+
+def pluck_events(string: int, force: float) -> list[dict]:
+    """The per-string table's open-string pluck at time 0 (8 N against the fretted note, 2 N for
+    the open string's full model)."""
+    return [{"type": "pluck", "time": 0.0, "string": string, "force": force}]
+
+
+def strum_events(force: float = 2.0) -> list[dict]:
+    """The open six-string strum: plucks 20 ms apart, low string first."""
+    return [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force} for i in range(6)]
+
+
+def chord_events() -> list[dict]:
+    """A fretted C major chord (strings 4, 3 and 1 open), strummed like ``strum_events``."""
+    chord_frets = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}
+    chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
+             for s, q in chord_frets.items() if q > 0]
+    return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
+                    for i in range(6)]
+
+
+def fretted_events(string: int) -> list[dict]:
+    """The fretted full model of the per-string table: a finger at fret 5, an 8 N pluck."""
+    return [{"type": "fret", "time": 0.0, "string": string, "fret": 5},
+            {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
+
+
 def per_string(quality: str, seconds: float, repeat: int) -> None:
     print(f"\nper string, quality '{quality}', {seconds:g} s of audio at 44.1 kHz (ms of compute per "
           "second of audio; body 'none')")
@@ -83,18 +113,17 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
           "with every nonlinearity on, against the linear string, both at the open string's own x.")
     print("string | x |   N | linear, same x | linear, own x | fretted full | fretted / linear "
           "(same x) | in cycles | in instructions | open full / linear | in instructions")
-    linear = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
-        lin = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 8.0}]}
+        lin = {**base, "events": pluck_events(s, 8.0)}
         full = {**base, "events": fretted_events(s)}
-        soft = {**base, "events": [{"type": "pluck", "time": 0.0, "string": s, "force": 2.0}]}
+        soft = {**base, "events": pluck_events(s, 2.0)}
         t_full = best_time(full, RenderOptions(skip_decayed=False), repeat)
         v = t_full.engine.voices[0]
-        t_same = best_time(lin, RenderOptions(oversample=v.oversample, **linear), repeat)
-        t_own = best_time(lin, RenderOptions(**linear), repeat)
+        t_same = best_time(lin, RenderOptions(oversample=v.oversample, **LINEAR), repeat)
+        t_own = best_time(lin, RenderOptions(**LINEAR), repeat)
         t_open = best_time(soft, RenderOptions(skip_decayed=False), repeat)
-        t_soft_lin = best_time(soft, RenderOptions(**linear), repeat)
+        t_soft_lin = best_time(soft, RenderOptions(**LINEAR), repeat)
         print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | "
               f"{t_same.seconds / seconds * 1e3:14.1f} | {t_own.seconds / seconds * 1e3:13.1f} | "
               f"{t_full.seconds / seconds * 1e3:12.1f} | "
@@ -133,26 +162,6 @@ def components(seconds: float, repeat: int, string: int = 4) -> None:
         steps = seconds * t.engine.scene.sample_rate
         print(f"{name:42s} | {t.seconds / steps * 1e9:11.0f} | {_per(t.cycles, steps, 15)} | "
               f"{_per(t.instructions, steps, 21)}")
-
-
-def strum_events() -> list[dict]:
-    """The open six-string strum: 2 N plucks 20 ms apart, low string first."""
-    return [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": 2.0} for i in range(6)]
-
-
-def chord_events() -> list[dict]:
-    """A fretted C major chord (strings 4, 3 and 1 open), strummed like ``strum_events``."""
-    chord_frets = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}
-    chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
-             for s, q in chord_frets.items() if q > 0]
-    return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
-                    for i in range(6)]
-
-
-def fretted_events(string: int) -> list[dict]:
-    """The fretted full model of the per-string table: a finger at fret 5, an 8 N pluck."""
-    return [{"type": "fret", "time": 0.0, "string": string, "fret": 5},
-            {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
 
 
 def scenes(quality: str, seconds: float, repeat: int) -> None:

@@ -31,8 +31,9 @@ JIT = {
 # A call to a compiled helper passes the NamedTuples and arrays it takes as structs and (with NRT,
 # see ``JIT_NO_NRT``) counts the arrays' references: when ``_quiet_until`` (not inlined) took
 # ``Controls``, a fretted string's step went from 285 to 473 ns in ``benchmarks.speed``'s
-# component table.  The helpers that are not inlined therefore take arrays and scalars, never a
-# NamedTuple of arrays.
+# component table.  The helpers that are not inlined and count references therefore take arrays
+# and scalars, never a NamedTuple of arrays; those compiled with ``JIT_NO_NRT`` count none and may
+# (``_advance`` takes step_block's).
 JIT_INLINE = {**JIT, "inline": "always"}
 
 # Kernels that allocate no array and return none are compiled without numba's reference counting

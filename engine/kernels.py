@@ -1021,14 +1021,16 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     ncap = 3 + nslot + nfret + ctl.dp_on.shape[0]
     cap = 2 * (n + 3) + 4 * nfret + 4 * nslot + ctl.dp_idx.shape[0] + 8
     w = Work(
-        np.empty(ncap, np.int64), np.empty(ncap + 1, np.int64), np.empty(ncap, np.int64),
-        np.empty(ncap, np.int64), np.empty(ncap), np.empty(ncap), np.empty(ncap), np.empty(ncap),
-        np.empty(cap, np.uint64), np.empty(cap), np.empty((ncap, ncap)), np.empty((ncap, ncap)),
-        np.empty(ncap), np.empty(ncap), np.empty(ncap), np.empty(ncap), np.empty(ncap),
-        np.zeros(ncap, np.bool_), np.zeros(n + 3), np.zeros(n + 3), np.empty(nslot),
-        np.zeros(nslot), np.zeros(nslot, np.int64), np.zeros(nslot), np.zeros(nslot),
-        np.zeros(nslot), np.zeros(nslot), np.full(nslot, -1, np.int64), np.empty(ncap),
-        np.empty((ncap, ncap)))
+        kind=np.empty(ncap, np.int64), cstart=np.empty(ncap + 1, np.int64),
+        cslot=np.empty(ncap, np.int64), cfret=np.empty(ncap, np.int64), ca=np.empty(ncap),
+        cc=np.empty(ncap), vfree=np.empty(ncap), v1=np.empty(ncap),
+        cidx=np.empty(cap, np.uint64), cval=np.empty(cap), g=np.empty((ncap, ncap)),
+        a=np.empty((ncap, ncap)), x=np.empty(ncap), xp=np.empty(ncap), cgam=np.empty(ncap),
+        cs=np.empty(ncap), cbt=np.empty(ncap), ccon=np.zeros(ncap, np.bool_),
+        scr=np.zeros(n + 3), du=np.zeros(n + 3), wfree=np.empty(nslot), fext=np.zeros(nslot),
+        fp=np.zeros(nslot, np.int64), fw0=np.zeros(nslot), fw1=np.zeros(nslot),
+        fchi=np.zeros(nslot), fbeta=np.zeros(nslot), fcol=np.full(nslot, -1, np.int64),
+        rd=np.empty(ncap), ra=np.empty((ncap, ncap)))
     return _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p)
 
 
@@ -1507,14 +1509,15 @@ def _restore(U0, U1, UF, r):
     """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
     # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
     # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
-    for j in range(U0.shape[0]):  # node by node, in place (no allocation: see JIT_NO_NRT)
-        if r == 1:
-            # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
-            t = U1[j]
+    # node by node, in place (no allocation: see JIT_NO_NRT)
+    if r == 1:
+        # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
+        for j in range(U0.shape[0]):
+            UF[j] = U1[j]  # b <- a
             U1[j] = U0[j]  # a <- c
-            UF[j] = t  # b <- old a
-        else:
-            # local (U0, U1, UF) = (b, c, a): caller wants a <- u^n (=b), b <- u^(n-1) (=c)
+    else:
+        # local (U0, U1, UF) = (b, c, a): caller wants a <- u^n (=b), b <- u^(n-1) (=c)
+        for j in range(U0.shape[0]):
             UF[j] = U0[j]  # a <- b
             U0[j] = U1[j]  # b <- c
 

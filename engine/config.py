@@ -33,7 +33,7 @@ JIT = {
 # ``Controls``, a fretted string's step went from 285 to 473 ns in ``benchmarks.speed``'s
 # component table.  The helpers that are not inlined and count references therefore take arrays
 # and scalars, never a NamedTuple of arrays; those compiled with ``JIT_NO_NRT`` count none and may
-# (``_advance`` takes step_block's).
+# (``_advance`` takes step_block's and hands them on to the quiet and held runs).
 JIT_INLINE = {**JIT, "inline": "always"}
 
 # Kernels that allocate no array and return none are compiled without numba's reference counting

@@ -372,7 +372,7 @@ def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
 
 
 @njit(**JIT_NO_NRT)
-def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_active):
+def _quiet_until(s, ctl, st):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
     A step may be quiet when nothing acts on the string but its own forces: no pluck force, no
@@ -381,6 +381,9 @@ def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_a
     the step is the linear update plus the Kirchhoff-Carrier column, and ``_quiet_run`` takes it.
     Nothing of this changes in a quiet step, so the answer holds until the next general step.
     """
+    psi, f_state, fret_active = st.psi, st.f_state, st.fret_active
+    pl_start, pl_len, fs_on = ctl.pl_start, ctl.pl_len, ctl.fs_on
+    dp_on, dp_off = ctl.dp_on, ctl.dp_off
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s
     for q in range(fret_active.shape[0]):
@@ -410,10 +413,9 @@ def _quiet_until(s, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state, fret_a
 
 
 @njit(**JIT_NO_NRT)
-def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0, fret_w1,
-               fret_m0, fret_active, out_p, out_w0, out_w1, out, it, it_end, step0, s_crit,
-               s_last):
-    """Quiet steps it, it + 1, ... (< it_end) while no contact happens; returns (steps done, S of
+def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
+    """Quiet steps it, it + 1, ... (< it_end) while no contact happens, on u^n = U0, u^(n-1) = U1
+    and the scratch UF (the caller's rotation of ``st``'s three arrays); returns (steps done, S of
     the last u^n looked at).
 
     The caller guarantees that nothing but the string's own forces acts before it_end
@@ -429,6 +431,11 @@ def _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fre
     path.  A loop of its own: as a branch of ``step_block``'s loop the same step was slower (the
     general path's many variables crowd the loop).
     """
+    Q, fret_active, du = st.q, st.fret_active, w.du
+    board, near, s_crit = geo.board, geo.near, geo.s_crit
+    fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
+    out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
+    tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
     n = c.n
     b0 = c.b0
     b1 = c.b1
@@ -791,7 +798,7 @@ def _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w
 
 
 @njit(**JIT_NO_NRT)
-def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi, f_state):
+def _held_until(s, ctl, st):
     """The first step >= s at which a held step is not allowed, and the finger slot that holds the
     string; (s, -1) if step s may not be held.
 
@@ -802,6 +809,10 @@ def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi
     interpolant, worked out in the general step before the run, is the one each step would get.
     Nothing of this changes in a held step, so the answer holds until the next general step.
     """
+    psi, f_state = st.psi, st.f_state
+    fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me = (
+        ctl.fs_on, ctl.fs_rel, ctl.fs_x0, ctl.fs_x1, ctl.fs_ms, ctl.fs_me)
+    dp_on, dp_off = ctl.dp_on, ctl.dp_off
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s, -1
     end = 1 << 62
@@ -832,14 +843,11 @@ def _held_until(s, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on, dp_off, psi
 
 
 @njit(**JIT_NO_NRT)
-def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0, fret_w1,
-              fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, slot, fpos,
-              fw0, fw1, force, f_w, f_w1, f_psi, f_bprev, out_p, out_w0, out_w1, out, it,
-              it_end, step0, s_crit, s_last, kind, cslot, cfret, cstart, cidx, cval, ca, cc,
-              vfree, v1, G, A, x, scr, cgam, cs, cbt, ccon, fbeta, fchi, diag, psi, f_state,
-              tens, e_h, e_q, e_p):
-    """Held steps it, it + 1, ... (< it_end) of a fretted note; returns (steps done, S of the last
-    u^n looked at).
+def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_last, diag, e_h,
+              e_q, e_p):
+    """Held steps it, it + 1, ... (< it_end) of a fretted note, held by finger ``slot`` (its
+    interpolant in ``w``), on u^n = U0, u^(n-1) = U1 and the scratch UF (the caller's rotation of
+    ``st``'s three arrays); returns (steps done, S of the last u^n looked at).
 
     A held step is the general step of a held note, whose kind does not change from one step to
     the next: the Kirchhoff-Carrier column (if on), one finger in contact pressing the string,
@@ -860,6 +868,20 @@ def _held_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret
     are worked out once (by ``_gram`` itself, so they are the same numbers).  With ``diag`` it
     books the energy terms as the general path does (``_step_energy``).
     """
+    Q, psi, f_state, tens, fret_active = st.q, st.psi, st.f_state, st.tens, st.fret_active
+    f_w, f_w1, f_psi, f_bprev = st.f_w, st.f_w1, st.f_psi, st.f_bprev
+    board, near, s_crit = geo.board, geo.near, geo.s_crit
+    fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
+    out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
+    pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
+        ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
+    tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
+    force = ctl.fs_force[slot]
+    kind, cslot, cfret, cstart, cidx, cval, ca, cc = (
+        w.kind, w.cslot, w.cfret, w.cstart, w.cidx, w.cval, w.ca, w.cc)
+    vfree, v1, G, A, x, scr, du = w.vfree, w.v1, w.g, w.a, w.x, w.scr, w.du
+    cgam, cs, cbt, ccon, fbeta, fchi = w.cgam, w.cs, w.cbt, w.ccon, w.fbeta, w.fchi
+    fpos, fw0, fw1 = w.fp[slot], w.fw0[slot], w.fw1[slot]
     n = c.n
     k = c.k
     lam = c.lam
@@ -1081,7 +1103,6 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
     # samples are identical (``Geo.quiet`` False, from ``skip_contacts=False``, never takes it;
     # test_skips.py compares).  With diagnostics every step takes the general path.
-    dp_on, dp_off = ctl.dp_on, ctl.dp_off
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
     quiet_end = -1  # steps before this may be quiet (what acts on the string allows it)
@@ -1093,14 +1114,12 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     while it < nsteps:
         step = step0 + it
         if stale and free:
-            quiet_end = _quiet_until(step, pl_start, pl_len, fs_on, dp_on, dp_off, psi, f_state,
-                                     fret_active)
+            quiet_end = _quiet_until(step, ctl, st)
             stale = False
         if step < quiet_end and free:
             it_end = min(nsteps, quiet_end - step0)
-            done, s_last = _quiet_run(c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near,
-                                      fret_p, fret_w0, fret_w1, fret_m0, fret_active, out_p,
-                                      out_w0, out_w1, out, it, it_end, step0, s_crit, s_last)
+            done, s_last = _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0,
+                                      s_last)
             for _r in range(done % 3):  # the run rotated its own copies of the three arrays
                 T = U1
                 U1 = U0
@@ -1112,20 +1131,14 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             continue  # that step takes the general path
         if held:
             held = False  # the step after a held run takes the general path...
-            held_end, hs = _held_until(step, fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, dp_on,
-                                       dp_off, psi, f_state)
+            held_end, hs = _held_until(step, ctl, st)
             if step < held_end:
                 if fp[hs] == 0:  # a block that starts held: the interpolant the finger had
                     fp[hs], fw0[hs], fw1[hs] = interp(
                         _finger_x(fs_x0[hs], fs_x1[hs], fs_ms[hs], fs_me[hs], step), c.h, n)
                 it_end = min(nsteps, held_end - step0)
-                done, s_last = _held_run(
-                    c, tb_step, tb_ratio, U0, U1, UF, Q, du, board, near, fret_p, fret_w0,
-                    fret_w1, fret_m0, fret_active, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1,
-                    hs, fp[hs], fw0[hs], fw1[hs], fs_force[hs], f_w, f_w1, f_psi, f_bprev, out_p,
-                    out_w0, out_w1, out, it, it_end, step0, s_crit, s_last, kind, cslot, cfret,
-                    cstart, cidx, cval, ca, cc, vfree, v1, G, A, x, scr, cgam, cs, cbt, ccon,
-                    fbeta, fchi, diag, psi, f_state, st.tens, e_h, e_q, e_p)
+                done, s_last = _held_run(c, geo, ctl, st, w, hs, U0, U1, UF, out, it, it_end,
+                                         step0, s_last, diag, e_h, e_q, e_p)
                 for _r in range(done % 3):  # the run rotated its own copies
                     U0, U1, UF = UF, U0, U1
                 # ...unless the run stopped only because the block ends: the next block goes on

@@ -5,12 +5,13 @@
 Each short case of ``benchmarks.soak`` (the same generator and numbering) is rendered with held
 steps (``kernels._held_run``) and without (``RenderOptions(held_steps=False)``); the table gives
 the largest difference as a share of the peak, and the energy balance (sec. 6.1) of the render
-with held steps and diagnostics.  The two paths do the same arithmetic, which LLVM
-contracts and re-associates in its own way in each loop under the kernels' fastmath flags: on a
-string that rattles against frets and board, a last-bit difference can decide a contact one step
-earlier, and from there the renders part.  To see that the arithmetic is the same, run the worst
-cases again compiled without fastmath, in a cache of their own (so that the kernels compiled with
-the flags are not loaded instead):
+with held steps and diagnostics.  The two paths do the same arithmetic, in loops compiled
+without fastmath that call one compiled linear pass (``engine.config.JIT_STEP``), so every
+difference should be 0; before that (up to 6e8d8bc), LLVM contracted and re-associated each loop
+its own way, and on a string that rattles against frets and board a last-bit difference decided a
+contact one step earlier, from where the renders parted.  ``GUITAR_NUMBA_FASTMATH=0`` (with a
+numba cache of its own, so that kernels compiled with the flags are not loaded instead) compiles
+the pass without fastmath too:
 
     GUITAR_NUMBA_FASTMATH=0 NUMBA_CACHE_DIR=/tmp/nofm python -m benchmarks.held_soak --cases 42,102
 """
@@ -64,8 +65,8 @@ def main() -> None:
     rows = [(r, i) for i in cases if (r := compare(args.seed, i)) is not None]
     held = [(r, i) for r, i in rows if r[1] > 0]
     print(f"seed {args.seed}: {len(rows)} short valid cases, {len(held)} with held steps, "
-          f"{time.perf_counter() - t:.0f} s; kernels compiled {'with' if FASTMATH else 'without'} "
-          "fastmath")
+          f"{time.perf_counter() - t:.0f} s; linear pass compiled "
+          f"{'with' if FASTMATH else 'without'} fastmath, step loops without")
     diffs = np.array([r[0] for r, _ in held])
     if len(diffs):
         print(f"largest |difference| / peak over the cases with held steps: median "

@@ -5,16 +5,17 @@
 
 Every helper the step loop calls is inlined into one of the loops that ``kernels.step_block`` runs
 (``RUNS``: ``_advance``, the general path, to which step_block hands over after allocating its
-scratch, and the quiet and the held runs it calls), so a function-level profiler sees four
-functions.  This script renders the scene of ``benchmarks.speed``'s component
+scratch, and the quiet and the held runs it calls), except the linear pass, a kernel of its own
+that all three call (``_pass_kc``, or ``_pass`` without Kirchhoff-Carrier), so a function-level
+profiler sees six functions.  This script renders the scene of ``benchmarks.speed``'s component
 table (a finger at ``--fret`` and an 8 N pluck on ``--string`` at x1; ``--fret 0``: the open
 string) over and over in a child process whose kernels are compiled with line tables
-(``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with
-Linux ``perf`` (by default on the software clock: no hardware counters needed, it works in any VM;
+(``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with Linux
+``perf`` (by default on the software clock: no hardware counters needed, it works in any VM;
 ``--event instructions`` counts work instead of time where the machine has counters), and maps
 every sampled address inside those functions to its line of ``engine/kernels.py`` (binutils'
-``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line; a
-run's own lines, and the lines the tables do not attribute inside a run, get rows of their own.
+``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line; a run's
+own lines, and the lines the tables do not attribute inside a run, get rows of their own.
 
 It also prints how many columns the step's small system has (the solves per step by size), from a
 short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
@@ -45,8 +46,9 @@ from engine.guitar import RenderOptions
 from engine.scene import Scene
 
 KERNELS = Path(__file__).resolve().parent.parent / "engine" / "kernels.py"
-# the step loops that step_block runs (not inlined); each has its own rows in the table
-RUNS = ("_advance", "_quiet_run", "_held_run")
+# the step loops that step_block runs, and the linear pass they all call (not inlined); each has
+# its own rows in the table
+RUNS = ("_advance", "_quiet_run", "_held_run", "_pass_kc", "_pass")
 
 # The child: compile, report where step_block's machine code lives, then render until killed.
 CHILD = r"""

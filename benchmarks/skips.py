@@ -10,9 +10,7 @@ For every way the engine avoids work, the same scene is rendered with the skip o
   Kirchhoff-Carrier in every step: exact); a last table gives the share of such quiet steps;
 * held steps: the steps of a fretted note in which one finger presses the string onto the frets
   it rests on, and nothing changes which forces act, run in ``kernels._held_run`` (the general
-  path's arithmetic; compiled without fastmath the two agree bit for bit,
-  ``tests/engine/test_held.py``, so the difference here is the compiler's contraction and
-  re-association in each loop);
+  path's arithmetic, compiled the same way: exact, ``tests/engine/test_held.py``);
 * Kirchhoff-Carrier below tolerance: quiet steps leave the column out while its tension rise is
   below ``kc_tolerance`` x T0 (``standard``: 1e-4); its own table gives the pitch this moves;
 * decayed strings: a string stops once every node (and finger) moves slower than 1e-7 m/s after

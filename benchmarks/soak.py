@@ -9,8 +9,9 @@ Case i is generated from seed (--seed, i), so any case can be replayed:
     python -m benchmarks.soak --replay SEED I     # prints the scene JSON and its report
 
 Every case renders with the default options (all skips on).  A case that breaks a check is
-rendered again without the unreachable-fret skip (``skip_contacts=False``) and its violations
-are attributed: to that skip if they disappear, to the geometry if the strings start below the
+rendered again without the skips of contact work (``skip_contacts=False``: no contact bound, no
+quiet or held steps, every fret checked) and its violations are attributed: to those skips if
+they disappear, to the geometry if the strings start below the
 fret tips (``action_12th_m`` below ``action_nut_m``), otherwise left unexplained.  An engine
 exception on a valid scene is a finding too, grouped by message.
 
@@ -70,7 +71,7 @@ def causes(sc: dict, rep: Report, bad: list[str]) -> dict[str, str]:
     out = {}
     again = {kind_of(v) for v in violations(check(sc, RenderOptions(skip_contacts=False)))}
     for k in kinds - again:
-        out[k] = "unreachable-fret skip (gone with skip_contacts=False)"
+        out[k] = "skipped contact work (gone with skip_contacts=False)"
     left = kinds & again
     if any(k.endswith("psi") for k in left):  # psi sampled every PROBE_FRAMES: look closer
         fine = {kind_of(v) for v in violations(check(sc, probe_frames=1))}

@@ -18,7 +18,7 @@ Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in 
   their own that computes the same samples (``kernels._quiet_run``);
 * held steps (one finger presses the string onto its frets, nothing changes which forces act) run
   in a loop of their own that does the general path's arithmetic without its bookkeeping
-  (``kernels._held_run``; bit-identical without fastmath, ``tests/engine/test_held.py``);
+  (``kernels._held_run``; bit-identical, ``tests/engine/test_held.py``);
 * in quiet steps the Kirchhoff-Carrier column is left out while its tension rise is below the
   quality's ``kc_tolerance`` x T0 (``standard``: 1e-4, under 0.09 cents of pitch; ``high``: never);
 * a string whose motion has decayed below ``decay_velocity`` (m/s at every node and at the pickup)

@@ -38,7 +38,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .config import JIT, JIT_INLINE, JIT_NO_NRT
+from .config import JIT, JIT_INLINE, JIT_NO_NRT, JIT_STEP
 
 EPS = 2.220446049250313e-16  # the gauge constant epsilon of eq. (54)
 
@@ -260,20 +260,21 @@ def interp(x: float, h: float, n: int):
     return l + 1, w0, w1
 
 
-# The two passes below are inlined into both ``_quiet_run`` and ``step_block``, so each caller
-# has its own copy, and the float sums in them (S, the KC dot products) are vectorised per copy.
-# Quiet steps are bit-identical to the general path only while LLVM vectorises both copies the
-# same way; ``tests/engine/test_skips.py`` checks it.  A change that breaks it (padding Q like U
-# did) has two ways back: undo it, or stop inlining the passes, which makes the identity hold by
-# construction but costs a call with six arrays in every step (the strum got much slower).
-# pyproject.toml bounds numba's version for the same reason.
-@njit(**JIT_INLINE)
-def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
+# The linear pass, a) of the step, is one compiled kernel (with fastmath, so that LLVM vectorises
+# its float sums: S and the Kirchhoff-Carrier dot products) that the quiet run, the held run and
+# the general path all call, through the inlined wrappers ``_linear_pass_kc`` and
+# ``_linear_pass``.  The three loops therefore get the same sums to the last bit by construction;
+# inlined into each loop (as they were up to 6e8d8bc), they relied on LLVM vectorising every copy
+# the same way, which held for the quiet run and not for the held run.  The call costs each step
+# a few ns (``docs/engine.md``); without reference counting (``config.JIT_NO_NRT``) it no longer
+# counts the six arrays it passes.  The kernels take the coefficients they use, not ``Coefs``:
+# every field passed is an argument to marshal in each call.
+@njit(**JIT_NO_NRT)
+def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, counts, board, near):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over
     the N intervals of u^n (the contact bound, see ``_counts``) and, with ``counts``, the counts
     of ``_counts`` fused in (LLVM unswitches the loop on the flag); returns (q.q, q.u_free,
     q.u^(n-1), S, below, close)."""
-    n = c.n
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
@@ -287,9 +288,9 @@ def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
         d = U0[j + 3]
         e = U0[j + 4]
         u1 = U1[j + 2]
-        uf = b0 * m + b1 * (b + d) + c.b2 * (a + e) + c.c0 * u1 + c.c1 * (U1[j + 1] + U1[j + 3])
+        uf = b0 * m + b1 * (b + d) + b2 * (a + e) + c0 * u1 + c1 * (U1[j + 1] + U1[j + 3])
         UF[j + 2] = uf
-        qv = (b - 2.0 * m + d) * c.ih2
+        qv = (b - 2.0 * m + d) * ih2
         Q[j] = qv
         qq += qv * qv
         quf += qv * uf
@@ -303,11 +304,10 @@ def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
     return qq, quf, qu1, s2 + last * last, below, close
 
 
-@njit(**JIT_INLINE)
-def _linear_pass(c, b0, b1, U0, U1, UF, counts, board, near):
-    """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_linear_pass_kc``); returns
+@njit(**JIT_NO_NRT)
+def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, counts, board, near):
+    """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_pass_kc``); returns
     (S, below, close)."""
-    n = c.n
     s2 = 0.0
     below = 0
     close = 0
@@ -317,9 +317,9 @@ def _linear_pass(c, b0, b1, U0, U1, UF, counts, board, near):
         UF[j + 2] = (
             b0 * m
             + b1 * (b + U0[j + 3])
-            + c.b2 * (U0[j] + U0[j + 4])
-            + c.c0 * U1[j + 2]
-            + c.c1 * (U1[j + 1] + U1[j + 3])
+            + b2 * (U0[j] + U0[j + 4])
+            + c0 * U1[j + 2]
+            + c1 * (U1[j + 1] + U1[j + 3])
         )
         dm = m - b
         s2 += dm * dm
@@ -328,6 +328,18 @@ def _linear_pass(c, b0, b1, U0, U1, UF, counts, board, near):
             close += m < near[j]
     last = U0[n]
     return s2 + last * last, below, close
+
+
+@njit(**JIT_INLINE)
+def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
+    """``_pass_kc`` with the string's coefficients (b0, b1: the stencil's, bent or not)."""
+    return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, counts, board, near)
+
+
+@njit(**JIT_INLINE)
+def _linear_pass(c, b0, b1, U0, U1, UF, counts, board, near):
+    """``_pass`` with the string's coefficients."""
+    return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, counts, board, near)
 
 
 @njit(**JIT_INLINE)
@@ -412,7 +424,7 @@ def _quiet_until(s, ctl, st):
     return end
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT_STEP)
 def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     """Quiet steps it, it + 1, ... (< it_end) while no contact happens, on u^n = U0, u^(n-1) = U1
     and the scratch UF (the caller's rotation of ``st``'s three arrays); returns (steps done, S of
@@ -421,8 +433,8 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     The caller guarantees that nothing but the string's own forces acts before it_end
     (``_quiet_until``; so no rigid fret is active, and ``du`` is zero).  A step is then the linear
     update, the Kirchhoff-Carrier column (left out while S of u^(n-1) is below
-    ``Coefs.kc_s_skip``) and the pickups, the same operations, on the same helpers, as
-    ``step_block``'s general path, provided no contact acts:
+    ``Coefs.kc_s_skip``) and the pickups, the same operations, on the same helpers compiled the
+    same way (``config.JIT_STEP``), as ``step_block``'s general path, provided no contact acts:
     * S of u^n below ``s_crit`` proves it (``_counts``);
     * failing that, no node of u^n is below the fretboard, and either none is within reach of a
       fret tip or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1): the general path
@@ -495,7 +507,7 @@ def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl
     return quf
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT_STEP)
 def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
     branch that the quiet steps of a soft pluck rarely take (inlined, it slowed their loop)."""
@@ -842,7 +854,7 @@ def _held_until(s, ctl, st):
     return end, slot
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT_STEP)
 def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_last, diag, e_h,
               e_q, e_p):
     """Held steps it, it + 1, ... (< it_end) of a fretted note, held by finger ``slot`` (its
@@ -859,13 +871,13 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     * the finger in contact (gamma = 1 under the joint rule of sec. 4.7);
     * every rigid reaction >= 0 and no other fret penetrated (the active set stays);
     * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
-    The step is then the general path's arithmetic on the same helpers, in the same order:
-    compiled without fastmath, the samples are identical (``tests/engine/test_held.py``); with the
-    kernels' flags, LLVM re-associates each loop its own way (``benchmarks/held_soak.py``).  It
-    saves the general path's
-    bookkeeping: the columns are laid out once per run, and the entries of the Gram matrix that do
-    not involve the dense Kirchhoff-Carrier column, which depend only on the fixed interpolants,
-    are worked out once (by ``_gram`` itself, so they are the same numbers).  With ``diag`` it
+    The step is then the general path's arithmetic on the same helpers, in the same order, and
+    both loops are compiled without fastmath and call the same linear pass (``config.JIT_STEP``),
+    so the samples are identical (``tests/engine/test_held.py``, ``benchmarks/held_soak.py``).
+    It saves the general path's bookkeeping: the columns are laid out once per run, and the
+    entries of the Gram matrix that do not involve the dense Kirchhoff-Carrier column, which depend
+    only on the fixed interpolants, are worked out once (by ``_gram`` itself, so they are the same
+    numbers).  With ``diag`` it
     books the energy terms as the general path does (``_step_energy``).
     """
     Q, psi, f_state, tens, fret_active = st.q, st.psi, st.f_state, st.tens, st.fret_active
@@ -1056,7 +1068,7 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
     return _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p)
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT_STEP)
 def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     """``step_block``'s loop (the general path, which hands quiet and held steps to their runs),
     on the scratch ``w`` that step_block allocated; returns the status."""

@@ -12,9 +12,10 @@ from engine.scene import Scene
 from .conftest import fret, pluck, scene
 
 
-# The exact comparisons below leave the held steps of a fretted note (``kernels._held_run``) in
-# the general path on both sides: those do the general path's arithmetic, but LLVM contracts and
-# re-associates it in its own way in each loop (tests/engine/test_held.py compares them).
+# The exact comparisons below take every skip of contact work on one side (the contact bound,
+# quiet steps, the unreachable-fret skip and held steps; ``skip_contacts=False`` turns them all
+# off) and none on the other: the runs call the general path's compiled pass and are compiled
+# like it (``engine.config.JIT_STEP``), so not one sample may differ.
 def _render(sc, **opts):
     eng = prepare(Scene.model_validate(sc), RenderOptions(**opts))
     t = time.perf_counter()
@@ -35,7 +36,7 @@ def test_unreachable_frets_are_skipped_exactly():
     contact bound cannot rule contact out, and quiet steps run in their own loop: bit-identical."""
     sc = scene([pluck(6, force=20.0, duration=1e-4), pluck(1, force=20.0, duration=1e-4),
                 fret(3, 2), pluck(3, time=0.02, force=10.0)], duration=0.3)
-    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
@@ -65,7 +66,7 @@ def test_unreachable_frets_are_skipped_exactly_when_the_string_moves_fast(case):
     """string.fret_margin bounds the speed of every node from the plucks and fingers of the
     scene; the skip must not change a sample."""
     sc = {**scene(FAST[case], duration=0.05), "quality": "draft"}
-    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
@@ -80,7 +81,7 @@ def test_unreachable_frets_are_skipped_exactly_on_a_light_string_under_a_finger(
                                   "t60_fundamental_s": 0.237, "t60_2khz_s": 2.89}]},
           "events": [_ev("hammer_on", 0.005, 6, fret=13, velocity=0.0124),
                      _ev("tap", 0.016, 6, fret=15, velocity=0.0112)]}
-    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 
@@ -141,7 +142,7 @@ def test_quiet_steps_are_exact_in_a_strum_with_articulations():
                   {"type": "mute", "time": 0.6, "string": 5, "amount": 0.5},
                   {"type": "harmonic", "time": 0.5, "string": 4, "fret": 12, "release": 0.55},
                   pluck(4, time=0.5, force=1.0)], duration=0.8)
-    a, _, _ = _render(sc, kc_tolerance=0.0, held_steps=False)
+    a, _, _ = _render(sc, kc_tolerance=0.0)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
     assert np.array_equal(a, b)
 

@@ -28,8 +28,10 @@ def chord_scene(duration: float = 0.3, **extra: Any) -> dict[str, Any]:
 
 
 def heavy_scene(duration: float) -> dict[str, Any]:
-    """Expensive per second of audio (about 1 s per second here): six strings held at the 5th fret
-    (a finger on a string makes the engine oversample it), quality 'high', 96 kHz."""
+    """Expensive per second of audio: six strings held at the 5th fret (a finger on a string makes
+    the engine oversample it), quality 'high', 96 kHz.  About 0.3 s of work per second of audio on
+    the 2-core machine of 2026-11 (1 s when this was written): the tests that need a render to
+    outlast a time limit, or to take long enough to tell streaming from buffering, ask for 6 s."""
     frets = [{"type": "fret", "time": 0.0, "string": s, "fret": 5, "force": 2.0}
              for s in range(1, 7)]
     plucks = [{"type": "pluck", "time": 0.01 * i, "string": s, "force": 2.0}

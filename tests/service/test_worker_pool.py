@@ -62,7 +62,7 @@ def test_time_limit_gives_504_and_the_pool_recovers(tiny_harness) -> None:
     replaced = h.pool.status()["replaced"]
     old_pid = h.pool.pids()[0]
     t0 = time.monotonic()
-    r = h.post("/render", json=heavy_scene(3.0))  # several seconds of work
+    r = h.post("/render", json=heavy_scene(20.0))  # seconds of work, far past the limit
     elapsed = time.monotonic() - t0
     assert r.status_code == 504, brief(r)
     assert "time limit" in r.json()["detail"]
@@ -80,7 +80,7 @@ def test_stream_past_its_time_limit_before_its_first_block_gives_504(tiny_harnes
     # cannot finish in 0.5 s, so the failure comes before any header and can still be a status.
     h = tiny_harness
     wait_for(lambda: h.get("/health").status_code == 200)
-    r = h.post("/render/stream", json=heavy_scene(3.0))
+    r = h.post("/render/stream", json=heavy_scene(6.0))
     assert r.status_code == 504, brief(r)
     assert "time limit" in r.json()["detail"]
     wait_for(lambda: h.get("/health").status_code == 200)

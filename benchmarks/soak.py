@@ -116,21 +116,24 @@ def summarise(results: list[dict], seed: int, wall: float, jobs: int) -> str:
         "",
     ]
     ok = [r for r in valid if not r["rep"]["error"] and r["rep"]["finite"]]
-    lines += ["| check | limit | worst value over all cases | cases over the limit |",
-              "|---|---|---|---|"]
+    lines += ["| check | limit | worst value over all cases | worst case | cases over the limit |",
+              "|---|---|---|---|---|"]
     nonfinite = sum(not r["rep"]["finite"] for r in valid)
     errors = sum(bool(r["rep"]["error"]) and r["rep"]["finite"] for r in valid)
-    lines.append(f"| finite output | - | - | {nonfinite} |")
-    lines.append(f"| engine raised on a valid scene | - | - | {errors} |")
+    lines.append(f"| finite output | - | - | - | {nonfinite} |")
+    lines.append(f"| engine raised on a valid scene | - | - | - | {errors} |")
     for key, label, worst in (
             ("balance", "energy balance (relative)", max),
             ("excess", "stored energy above initial + work in (relative)", max),
             ("q_min", "dissipation of one step (relative, most negative)", min),
             ("board_residual", "fretboard psi^2/2 left after contact (relative)", max),
             ("finger_residual", "finger psi^2/2 left after contact (relative)", max)):
-        vals = [r["rep"][key] for r in ok if math.isfinite(r["rep"][key])]
+        cases = [r for r in ok if math.isfinite(r["rep"][key])]
+        vals = [r["rep"][key] for r in cases]
         over = sum((v < LIMITS[key]) if key == "q_min" else (v > LIMITS[key]) for v in vals)
-        lines.append(f"| {label} | {LIMITS[key]:.0e} | {worst(vals):.2e} | {over} |")
+        w = worst(cases, key=lambda r: r["rep"][key])  # (the replay command's seed and case)
+        lines.append(f"| {label} | {LIMITS[key]:.0e} | {w['rep'][key]:.2e} | {seed} {w['i']} | "
+                     f"{over} |")
     runs = sum(r["rep"]["quiet_runs"] for r in ok)
     lines += ["", f"The psi checks looked at {runs} runs out of contact of at least 1 ms.", ""]
     bad = [r for r in valid if r["violations"]]

@@ -108,7 +108,8 @@ class RequestContextMiddleware:
         render_s = state.get("render_seconds")
         audio_s = state.get("audio_seconds")
         if render_s is not None:
-            fields["render_seconds"] = round(render_s, 4)
+            fields["render_seconds"] = round(render_s, 6)  # as X-Render-Seconds: a fast render
+            # is a few ms, which 4 decimals would round by several per cent
         if audio_s is not None and not error:
             fields["audio_seconds"] = audio_s
             if render_s:

@@ -877,8 +877,8 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     It saves the general path's bookkeeping: the columns are laid out once per run, and the
     entries of the Gram matrix that do not involve the dense Kirchhoff-Carrier column, which depend
     only on the fixed interpolants, are worked out once (by ``_gram`` itself, so they are the same
-    numbers).  With ``diag`` it
-    books the energy terms as the general path does (``_step_energy``).
+    numbers).  With ``diag`` it books the energy terms as the general path does
+    (``_step_energy``).
     """
     Q, psi, f_state, tens, fret_active = st.q, st.psi, st.f_state, st.tens, st.fret_active
     f_w, f_w1, f_psi, f_bprev = st.f_w, st.f_w1, st.f_psi, st.f_bprev

@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from benchmarks.skips import kc_skip_pitch_shift, quiet_share
+from benchmarks.skips import held_steps, kc_skip_pitch_shift, quiet_share
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 
@@ -33,11 +33,15 @@ def test_silent_strings_are_not_simulated_and_contribute_exactly_zero():
 
 def test_unreachable_frets_are_skipped_exactly():
     """The rigid frets are looked at only when one is within reach, the counts run only when the
-    contact bound cannot rule contact out, and quiet steps run in their own loop: bit-identical."""
+    contact bound cannot rule contact out, and quiet and held steps run in their own loops:
+    bit-identical."""
     sc = scene([pluck(6, force=20.0, duration=1e-4), pluck(1, force=20.0, duration=1e-4),
                 fret(3, 2), pluck(3, time=0.02, force=10.0)], duration=0.3)
-    a, _, _ = _render(sc, kc_tolerance=0.0)
+    a, eng, _ = _render(sc, kc_tolerance=0.0)
     b, _, _ = _render(sc, skip_contacts=False, kc_tolerance=0.0)
+    quiet = sum(int(v.state.run_steps[0]) for v in eng.voices)
+    held, _ = held_steps(eng)
+    assert quiet > 0 and held > 0, (quiet, held)  # both runs took part
     assert np.array_equal(a, b)
 
 

@@ -105,7 +105,8 @@ class Geo(NamedTuple):
     out_w0: np.ndarray
     out_w1: np.ndarray
     # S = sum of (u_(i+1) - u_i)^2 below which no node can reach the fretboard or come within
-    # reach of a fret tip (``_counts``; ``string.contact_bound``); 0: the counts run every step
+    # reach of a fret tip (``_pass_kc``; ``string.contact_bound``): a quiet step below it does not
+    # look at the frets; 0: every quiet step looks
     s_crit: float = 0.0
     # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
     quiet: bool = True
@@ -270,11 +271,18 @@ def interp(x: float, h: float, n: int):
 # counts the six arrays it passes.  The kernels take the coefficients they use, not ``Coefs``:
 # every field passed is an argument to marshal in each call.
 @njit(**JIT_NO_NRT)
-def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, counts, board, near):
+def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over
-    the N intervals of u^n (the contact bound, see ``_counts``) and, with ``counts``, the counts
-    of ``_counts`` fused in (LLVM unswitches the loop on the flag); returns (q.q, q.u_free,
-    q.u^(n-1), S, below, close)."""
+    the N intervals of u^n, and the nodes of u^n below the fretboard and within reach of a fret
+    tip (``Geo.near``); returns (q.q, q.u_free, q.u^(n-1), S, below, close).
+
+    S is the contact bound: a string fixed at both ends has u_i^2 <= (i (N - i) / N) S at node i
+    (Cauchy-Schwarz on the differences from either end), so S < ``Geo.s_crit`` proves both counts
+    zero.  The counts are integers, which vectorise with the rest (a float min() does not), and
+    are taken in every call.  Until 520c8ee they sat behind a flag, on which LLVM split the loop
+    in two versions whose float sums it need not vectorise alike, and the quiet run passed
+    another flag than the general path in the same step; the quiet run then counted again in a
+    loop of its own."""
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
@@ -297,15 +305,14 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, counts, board, near):
         qu1 += qv * u1
         dm = m - b
         s2 += dm * dm
-        if counts:
-            below += m < board[j]
-            close += m < near[j]
+        below += m < board[j]
+        close += m < near[j]
     last = U0[n]  # the interval from node N-1 to the fixed end
     return qq, quf, qu1, s2 + last * last, below, close
 
 
 @njit(**JIT_NO_NRT)
-def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, counts, board, near):
+def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near):
     """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_pass_kc``); returns
     (S, below, close)."""
     s2 = 0.0
@@ -323,41 +330,22 @@ def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, counts, board, near):
         )
         dm = m - b
         s2 += dm * dm
-        if counts:
-            below += m < board[j]
-            close += m < near[j]
+        below += m < board[j]
+        close += m < near[j]
     last = U0[n]
     return s2 + last * last, below, close
 
 
 @njit(**JIT_INLINE)
-def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, counts, board, near):
+def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near):
     """``_pass_kc`` with the string's coefficients (b0, b1: the stencil's, bent or not)."""
-    return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, counts, board, near)
+    return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, board, near)
 
 
 @njit(**JIT_INLINE)
-def _linear_pass(c, b0, b1, U0, U1, UF, counts, board, near):
+def _linear_pass(c, b0, b1, U0, U1, UF, board, near):
     """``_pass`` with the string's coefficients."""
-    return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, counts, board, near)
-
-
-@njit(**JIT_INLINE)
-def _counts(n, U0, board, near):
-    """Nodes of u^n below the fretboard, and nodes within reach of a fret tip (``Geo.near``).
-
-    Run only when the contact bound cannot rule contact out: a string fixed at both ends has
-    u_i^2 <= (i (N - i) / N) S at node i, S = sum of (u_(m+1) - u_m)^2 (Cauchy-Schwarz on the
-    differences from either end), so S < ``Geo.s_crit`` proves both counts zero.  An integer count
-    vectorises; a float min() does not.
-    """
-    below = 0
-    close = 0
-    for j in range(n - 1):
-        m = U0[j + 2]
-        below += m < board[j]
-        close += m < near[j]
-    return below, close
+    return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, board, near)
 
 
 @njit(**JIT_INLINE)
@@ -435,7 +423,7 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     update, the Kirchhoff-Carrier column (left out while S of u^(n-1) is below
     ``Coefs.kc_s_skip``) and the pickups, the same operations, on the same helpers compiled the
     same way (``config.JIT_STEP``), as ``step_block``'s general path, provided no contact acts:
-    * S of u^n below ``s_crit`` proves it (``_counts``);
+    * S of u^n below ``s_crit`` proves it (``_pass_kc``);
     * failing that, no node of u^n is below the fretboard, and either none is within reach of a
       fret tip or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1): the general path
       would look at the frets, find none to add and keep the Kirchhoff-Carrier column alone.
@@ -462,11 +450,11 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
         with_kc = c.kc > 0.0 and s_last >= c.kc_s_skip
         xk = 0.0
         if with_kc:
-            qq, quf, qu1, s, _, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, False, board, near)
+            qq, quf, qu1, s, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near)
             xk = _kc_multiplier(c, qq, quf, qu1)
         else:
-            s, _, _ = _linear_pass(c, b0, b1, U0, U1, UF, False, board, near)
-        if s >= s_crit and _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1,
+            s, below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
+        if s >= s_crit and _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1,
                                     fret_m0, fret_active, lam * xk):
             return done, s
         s_last = s
@@ -508,10 +496,10 @@ def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl
 
 
 @njit(**JIT_STEP)
-def _contact(c, U0, UF, du, Q, board, near, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
-    """Does a contact act in a step with no other force (see ``_quiet_run``)?  Not inlined: a
-    branch that the quiet steps of a soft pluck rarely take (inlined, it slowed their loop)."""
-    below, close = _counts(c.n, U0, board, near)
+def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
+    """Does a contact act in a step with no other force (see ``_quiet_run``), given the counts of
+    the linear pass?  Not inlined: a branch that the quiet steps of a soft pluck rarely take
+    (inlined, it slowed their loop)."""
     if below > 0:
         return True
     if close == 0:
@@ -882,7 +870,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     """
     Q, psi, f_state, tens, fret_active = st.q, st.psi, st.f_state, st.tens, st.fret_active
     f_w, f_w1, f_psi, f_bprev = st.f_w, st.f_w1, st.f_psi, st.f_bprev
-    board, near, s_crit = geo.board, geo.near, geo.s_crit
+    board, near = geo.board, geo.near
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
@@ -936,17 +924,13 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         U0[n + 2] = -U0[n]
         if tb_n > 0:
             ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
-        fuse = s_last >= s_crit
         qq = 0.0
         quf = 0.0
         qu1 = 0.0
         if c.kc > 0.0:
-            qq, quf, qu1, s, below, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, fuse, board,
-                                                        near)
+            qq, quf, qu1, s, below, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near)
         else:
-            s, below, _ = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
-        if s >= s_crit and not fuse:
-            below, _ = _counts(n, U0, board, near)
+            s, below, _ = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
         if c.board_k > 0.0 and below > 0:
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
@@ -1109,7 +1093,6 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     # rounding: a rattling string is sensitive enough that the two paths part after a few hundred
     # samples); together, the prediction includes the others.
     joint = c.gamma_rule == GAMMA_JOINT
-    s_crit = geo.s_crit
     # Quiet steps (nothing but the string's own forces act, ``_quiet_until``, and no contact
     # happens, ``_quiet_run`` checks each step) run in ``_quiet_run``: the linear update, the
     # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
@@ -1165,17 +1148,14 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         if tb_n > 0:
             ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         # ---- a) linear update (+ KC vector, + the contact bound S) -------------------------
-        fuse = s_last >= s_crit  # the counts ride in the pass when the step before needed them
         qq = 0.0
         quf = 0.0
         qu1 = 0.0
         if c.kc > 0.0:
-            qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, fuse,
-                                                                 board, near)
+            qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board,
+                                                                 near)
         else:
-            s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, fuse, board, near)
-        if s_last >= s_crit and not fuse:
-            below, close = _counts(n, U0, board, near)
+            s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)

@@ -9,9 +9,10 @@ fretting depth).
 
 Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in ``benchmarks/``):
 * a string with no events is never simulated (its output is exactly zero);
-* contact work is done only where contact is possible: the linear pass returns S, the sum of
-  squared differences of u^n, which bounds every node's height (``string.contact_bound``); only when
-  S cannot rule contact out are the nodes compared with the fretboard and the fret tips.  The
+* contact work is done only where contact is possible: the linear pass counts the nodes below the
+  fretboard and within reach of a fret tip, and returns S, the sum of squared differences of u^n,
+  which bounds every node's height (``string.contact_bound``); a quiet step looks at the counts
+  and the frets only when S cannot rule contact out.  The
   fretboard column is formed only when a node is below the board (or a residual psi remains), a
   finger only while it exists, rigid frets only while active or within reach;
 * quiet steps (nothing but the string's own forces act, no contact happens) run in a loop of

@@ -461,10 +461,7 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
         if xk != 0.0:
             _add_kc(n, UF, Q, lam * xk)
         _pickups(out_p, out_w0, out_w1, UF, U0, c.k, out, i)
-        T = U1
-        U1 = U0
-        U0 = UF
-        UF = T
+        U0, U1, UF = UF, U0, U1  # u^(n-1) <- u^n <- u^(n+1)
         done += 1
     return done, s_last
 
@@ -1116,10 +1113,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             done, s_last = _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0,
                                       s_last)
             for _r in range(done % 3):  # the run rotated its own copies of the three arrays
-                T = U1
-                U1 = U0
-                U0 = UF
-                UF = T
+                U0, U1, UF = UF, U0, U1  # u^(n-1) <- u^n <- u^(n+1)
             it += done
             st.run_steps[0] += done
             free = it == it_end  # a run ends early only on a step with a contact
@@ -1462,10 +1456,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                          pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1, pin, inject, qloss,
                          st.tens, e_h, e_q, e_p)
         # ---- rotate: u^(n-1) <- u^n <- u^(n+1) ----------------------------------------------------
-        T = U1
-        U1 = U0
-        U0 = UF
-        UF = T
+        U0, U1, UF = UF, U0, U1  # u^(n-1) <- u^n <- u^(n+1)
         stale = not diag  # what acts on the string may have changed
         it += 1
     st.s_last[0] = s_last

@@ -3,12 +3,10 @@
 For every way the engine avoids work, the same scene is rendered with the skip on and off:
 
 * silent strings: strings with no events are not simulated;
-* contacts: a quiet step looks at the nodes' counts (below the fretboard, within reach of a fret
-  tip) only when the contact bound (S, the string's sum of squared differences, against
-  ``Geo.s_crit``) cannot rule contact out, rigid frets are evaluated only when one is within reach
-  this step, and steps in which nothing
-  but the string acts and no contact happens run in ``kernels._quiet_run`` (both sides with
-  Kirchhoff-Carrier in every step: exact); a last table gives the share of such quiet steps;
+* contacts: rigid frets are evaluated only when one is within reach this step (the linear pass
+  counts the nodes below the fretboard and within reach of a fret tip), and steps in which
+  nothing but the string acts and no contact happens run in ``kernels._quiet_run`` (both sides
+  with Kirchhoff-Carrier in every step: exact); a last table gives the share of such quiet steps;
 * held steps: the steps of a fretted note in which one finger presses the string onto the frets
   it rests on, and nothing changes which forces act, run in ``kernels._held_run`` (the general
   path's arithmetic, compiled the same way: exact, ``tests/engine/test_held.py``);

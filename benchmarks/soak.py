@@ -9,8 +9,8 @@ Case i is generated from seed (--seed, i), so any case can be replayed:
     python -m benchmarks.soak --replay SEED I     # prints the scene JSON and its report
 
 Every case renders with the default options (all skips on).  A case that breaks a check is
-rendered again without the skips of contact work (``skip_contacts=False``: no contact bound, no
-quiet or held steps, every fret checked) and its violations are attributed: to those skips if
+rendered again without the skips of contact work (``skip_contacts=False``: no quiet or held
+steps, every fret checked) and its violations are attributed: to those skips if
 they disappear, to the geometry if the strings start below the
 fret tips (``action_12th_m`` below ``action_nut_m``), otherwise left unexplained.  An engine
 exception on a valid scene is a finding too, grouped by message.

@@ -10,11 +10,10 @@ fretting depth).
 Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in ``benchmarks/``):
 * a string with no events is never simulated (its output is exactly zero);
 * contact work is done only where contact is possible: the linear pass counts the nodes below the
-  fretboard and within reach of a fret tip, and returns S, the sum of squared differences of u^n,
-  which bounds every node's height (``string.contact_bound``); a quiet step looks at the counts
-  and the frets only when S cannot rule contact out.  The
-  fretboard column is formed only when a node is below the board (or a residual psi remains), a
-  finger only while it exists, rigid frets only while active or within reach;
+  fretboard and within reach of a fret tip (its height plus a bound on how far a node moves in
+  one step, ``string.fret_margin``); a quiet step looks at the frets only when one is within
+  reach.  The fretboard column is formed only when a node is below the board (or a residual psi
+  remains), a finger only while it exists, rigid frets only while active or within reach;
 * quiet steps (nothing but the string's own forces act, no contact happens) run in a loop of
   their own that computes the same samples (``kernels._quiet_run``);
 * held steps (one finger presses the string onto its frets, nothing changes which forces act) run
@@ -109,8 +108,8 @@ class RenderOptions:
     frets: bool = True
     skip_silent: bool = True
     skip_decayed: bool = True
-    # the contact bound, quiet steps and the unreachable-fret skip (False: every node is compared
-    # with the board and the fret tips in every step, and every step takes the general path)
+    # quiet steps and the unreachable-fret skip (False: every fret is within reach in every step,
+    # and every step takes the general path)
     skip_contacts: bool = True
     # held steps of a fretted note in a loop of their own (``kernels._held_run``), the same
     # arithmetic as the general path: False sends them through the general path
@@ -448,7 +447,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                        fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts,
+                        quiet=opts.skip_contacts, fret_shifts=shifts,
                         held=opts.held_steps)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, rmax))

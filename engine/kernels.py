@@ -104,10 +104,6 @@ class Geo(NamedTuple):
     out_p: np.ndarray  # per pickup: interpolant
     out_w0: np.ndarray
     out_w1: np.ndarray
-    # S = sum of (u_(i+1) - u_i)^2 below which no node can reach the fretboard or come within
-    # reach of a fret tip (``_pass_kc``; ``string.contact_bound``): a quiet step below it does not
-    # look at the frets; 0: every quiet step looks
-    s_crit: float = 0.0
     # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
     quiet: bool = True
     # False: the steps of a held note take the general path too (``RenderOptions.held_steps``)
@@ -276,13 +272,11 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near):
     the N intervals of u^n, and the nodes of u^n below the fretboard and within reach of a fret
     tip (``Geo.near``); returns (q.q, q.u_free, q.u^(n-1), S, below, close).
 
-    S is the contact bound: a string fixed at both ends has u_i^2 <= (i (N - i) / N) S at node i
-    (Cauchy-Schwarz on the differences from either end), so S < ``Geo.s_crit`` proves both counts
-    zero.  The counts are integers, which vectorise with the rest (a float min() does not), and
-    are taken in every call.  Until 520c8ee they sat behind a flag, on which LLVM split the loop
-    in two versions whose float sums it need not vectorise alike, and the quiet run passed
-    another flag than the general path in the same step; the quiet run then counted again in a
-    loop of its own."""
+    S is the size of the Kirchhoff-Carrier tension rise (``Coefs.kc_s_skip``).  The counts are
+    integers, which vectorise with the rest (a float min() does not), and are taken in every
+    call.  Until 520c8ee they sat behind a flag, on which LLVM split the loop in two versions
+    whose float sums it need not vectorise alike, and the quiet run passed another flag than the
+    general path in the same step; the quiet run then counted again in a loop of its own."""
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
@@ -423,16 +417,16 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     update, the Kirchhoff-Carrier column (left out while S of u^(n-1) is below
     ``Coefs.kc_s_skip``) and the pickups, the same operations, on the same helpers compiled the
     same way (``config.JIT_STEP``), as ``step_block``'s general path, provided no contact acts:
-    * S of u^n below ``s_crit`` proves it (``_pass_kc``);
-    * failing that, no node of u^n is below the fretboard, and either none is within reach of a
-      fret tip or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1): the general path
-      would look at the frets, find none to add and keep the Kirchhoff-Carrier column alone.
+    no node of u^n is below the fretboard, and either none is within reach of a fret tip (the
+    counts of ``_pass_kc``) or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1):
+    the general path would look at the frets, find none to add and keep the Kirchhoff-Carrier
+    column alone.
     The first step with a contact is not taken (its u_free is scratch) and goes to the general
     path.  A loop of its own: as a branch of ``step_block``'s loop the same step was slower (the
     general path's many variables crowd the loop).
     """
     Q, fret_active, du = st.q, st.fret_active, w.du
-    board, near, s_crit = geo.board, geo.near, geo.s_crit
+    board, near = geo.board, geo.near
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
@@ -454,8 +448,8 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
             xk = _kc_multiplier(c, qq, quf, qu1)
         else:
             s, below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
-        if s >= s_crit and _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1,
-                                    fret_m0, fret_active, lam * xk):
+        if (below > 0 or close > 0) and _contact(c, below, close, UF, du, Q, fret_p, fret_w0,
+                                                 fret_w1, fret_m0, fret_active, lam * xk):
             return done, s
         s_last = s
         if xk != 0.0:
@@ -495,12 +489,10 @@ def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl
 @njit(**JIT_STEP)
 def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``), given the counts of
-    the linear pass?  Not inlined: a branch that the quiet steps of a soft pluck rarely take
-    (inlined, it slowed their loop)."""
+    the linear pass, of which one is not 0?  Not inlined: a branch that the quiet steps of a
+    soft pluck rarely take (inlined, it slowed their loop)."""
     if below > 0:
         return True
-    if close == 0:
-        return False
     if c.fret_mode != 1:  # penalty frets act on u^n: within reach is all there is to know
         return True
     return _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
@@ -1141,7 +1133,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         U0[n + 2] = -U0[n]
         if tb_n > 0:
             ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
-        # ---- a) linear update (+ KC vector, + the contact bound S) -------------------------
+        # ---- a) linear update (+ KC vector, + S and the counts of nodes near a contact) ------
         qq = 0.0
         quf = 0.0
         qu1 = 0.0

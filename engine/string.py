@@ -371,25 +371,6 @@ def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
     return 3.0 * v * model.k + 50e-6
 
 
-def contact_bound(n: int, levels: Sequence[np.ndarray]) -> float:
-    """The S below which no node of the string can be below any of ``levels`` (arrays over nodes
-    1..N-1, each <= 0 where it can be reached): the kernel's ``Geo.s_crit``.
-
-    With u_0 = u_N = 0, u_i is the sum of the differences on either side of node i, so by
-    Cauchy-Schwarz u_i^2 <= i A and u_i^2 <= (N - i) B, A + B = S the sum of squared differences
-    over the N intervals; hence u_i^2 <= (i (N - i) / N) S.  If S < min_i level_i^2 N / (i (N - i))
-    no node reaches its level.  A level at or above the rest line gives 0 (the bound cannot help);
-    no level at all gives infinity.  The result is shrunk by 1e-9 against rounding in S.
-    """
-    if not levels:
-        return math.inf
-    top = np.maximum.reduce([np.asarray(lv, dtype=float) for lv in levels])
-    if np.any(top >= 0.0):
-        return 0.0
-    i = np.arange(1, n, dtype=float)
-    return float(np.min(top * top * n / (i * (n - i)))) * (1.0 - 1e-9)
-
-
 def kc_skip_level(model: StringModel, tolerance: float) -> float:
     """The S below which the Kirchhoff-Carrier tension rise E A S / (2 L h) is less than
     ``tolerance`` x T0 (the kernel's ``Coefs.kc_s_skip``; a relative tension change r moves the
@@ -398,15 +379,15 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
-             margin: float = math.inf, fretboard: bool = True, quiet: bool = True,
+             margin: float = math.inf, quiet: bool = True,
              fret_shifts: dict[int, float] | None = None, held: bool = True) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
-    ``Geo.s_crit`` bounds the contacts that exist (``fretboard``, frets within ``margin``);
-    ``quiet`` False sends every step through the kernel's general path, ``held`` False the steps
-    of a held note (``kernels._held_run``).  ``fret_shifts`` (fret ->
-    metres, ``engine.intonation.fret_shifts``) moves those frets' interpolants along the string;
-    their heights stay those at x_q."""
+    ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  ``quiet`` False
+    sends every step through the kernel's general path, ``held`` False the steps of a held note
+    (``kernels._held_run``).
+    ``fret_shifts`` (fret -> metres, ``engine.intonation.fret_shifts``) moves those frets'
+    interpolants along the string; their heights stay those at x_q."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q)
@@ -427,7 +408,6 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
             if w > 0.0:
                 near[node - 1] = max(near[node - 1], m0[i] + margin)
     pk = [interp(x * model.length_m, h, n) for x in pickups]
-    levels = ([board] if fretboard else []) + ([near] if with_frets else [])
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
                np.array([a[1] for a in pk]), np.array([a[2] for a in pk]),
-               contact_bound(n, levels), quiet, quiet and held)
+               quiet, quiet and held)

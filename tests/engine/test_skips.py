@@ -12,10 +12,10 @@ from engine.scene import Scene
 from .conftest import fret, pluck, scene
 
 
-# The exact comparisons below take every skip of contact work on one side (the contact bound,
-# quiet steps, the unreachable-fret skip and held steps; ``skip_contacts=False`` turns them all
-# off) and none on the other: the runs call the general path's compiled pass and are compiled
-# like it (``engine.config.JIT_STEP``), so not one sample may differ.
+# The exact comparisons below take every skip of contact work on one side (quiet steps, the
+# unreachable-fret skip and held steps; ``skip_contacts=False`` turns them all off) and none on
+# the other: the runs call the general path's compiled pass and are compiled like it
+# (``engine.config.JIT_STEP``), so not one sample may differ.
 def _render(sc, **opts):
     eng = prepare(Scene.model_validate(sc), RenderOptions(**opts))
     t = time.perf_counter()
@@ -32,9 +32,8 @@ def test_silent_strings_are_not_simulated_and_contribute_exactly_zero():
 
 
 def test_unreachable_frets_are_skipped_exactly():
-    """The rigid frets are looked at only when one is within reach, the counts run only when the
-    contact bound cannot rule contact out, and quiet and held steps run in their own loops:
-    bit-identical."""
+    """The rigid frets are looked at only when one is within reach, and quiet and held steps run
+    in their own loops: bit-identical."""
     sc = scene([pluck(6, force=20.0, duration=1e-4), pluck(1, force=20.0, duration=1e-4),
                 fret(3, 2), pluck(3, time=0.02, force=10.0)], duration=0.3)
     a, eng, _ = _render(sc, kc_tolerance=0.0)
@@ -103,30 +102,6 @@ def test_decayed_strings_stop_with_a_bounded_difference():
     assert peak > 1e-2
     assert np.abs(a - b).max() < 1e-6
     assert t_skip < t_full
-
-
-def _bound_share(sc, seconds_per_look=0.01):
-    """Share of looks (every ``seconds_per_look``) at which each string's u^n satisfies the contact
-    bound, i.e. at which its next step can be quiet."""
-    eng = prepare(Scene.model_validate(sc), RenderOptions(kc_tolerance=0.0))
-    frames = int(seconds_per_look * eng.scene.sample_rate)
-    seen = {v.index: [] for v in eng.voices}
-    for _ in eng.blocks(frames):
-        for v in eng.voices:
-            d = np.diff(v.state.u[1:v.coefs.n + 2])
-            seen[v.index].append(float(d @ d) < v.geom.s_crit)
-    return {i: float(np.mean(s)) for i, s in seen.items()}
-
-
-STRUM_2N = scene([pluck(6 - i, time=0.02 * i, force=2.0) for i in range(6)], duration=1.0)
-
-
-def test_the_contact_bound_holds_in_an_open_strum():
-    """The bound, not only the node-by-node comparison, clears quiet steps: in the first second of
-    a 2 N open strum, it holds at a third or more of the looks on every string (0.44 on the thin
-    strings to 0.74 on string 5 when this was written; the share grows as the strings decay)."""
-    share = _bound_share(STRUM_2N)
-    assert min(share.values()) > 1 / 3, share
 
 
 @pytest.mark.parametrize("force", [2.0, 8.0])

@@ -10,7 +10,7 @@ from engine.analysis import cents, partials, spectrum_peak
 from engine.guitar import prepare
 from engine.presets import PRESETS
 from engine.scene import Scene
-from engine.string import contact_bound, h_min, tune
+from engine.string import h_min, tune
 
 from .conftest import SR, pluck, scene
 
@@ -70,21 +70,3 @@ def test_decay_follows_the_t60_at_the_fundamental(steel):
     assert t60 == pytest.approx(m.spec.t60_fundamental_s, rel=0.1)
 
 
-def test_contact_bound_holds_for_any_shape_and_is_attained():
-    """Geo.s_crit: a string fixed at both ends with sum of squared differences S < s_crit has no
-    node below its level.  Random shapes scaled to S just under the bound never cross; a shape that
-    takes the bound's worst case (a triangle peaking at the critical node) reaches its level."""
-    rng = np.random.default_rng(1)
-    n = 60
-    i = np.arange(1, n)
-    level = -(0.4e-3 + 1e-3 * np.sin(np.pi * i / n)) - rng.uniform(0, 2e-4, n - 1)
-    s_crit = contact_bound(n, [level, np.full(n - 1, -1.0)])
-    assert contact_bound(n, []) == math.inf
-    assert contact_bound(n, [np.where(i == 5, 1e-6, -1.0)]) == 0.0  # a level above rest
-    for _ in range(2000):
-        u = np.concatenate(([0.0], rng.standard_normal(n - 1) * rng.uniform(0, 1, n - 1), [0.0]))
-        u *= np.sqrt(s_crit / np.sum(np.diff(u) ** 2)) * (1.0 - 1e-12)
-        assert np.all(np.abs(u[1:-1]) < np.abs(level))
-    j = int(np.argmin(level**2 * n / (i * (n - i))))  # the critical node, array index
-    tri = np.concatenate(([0.0], np.minimum(i / i[j], (n - i) / (n - i[j])), [0.0])) * level[j]
-    assert np.sum(np.diff(tri) ** 2) == pytest.approx(s_crit, rel=1e-8)

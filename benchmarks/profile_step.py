@@ -9,7 +9,9 @@ scratch, and the quiet and the held runs it calls), except the linear pass, a ke
 that all three call (``_pass_kc``, or ``_pass`` without Kirchhoff-Carrier), so a function-level
 profiler sees six functions.  This script renders the scene of ``benchmarks.speed``'s component
 table (a finger at ``--fret`` and an 8 N pluck on ``--string`` at x1; ``--fret 0``: the open
-string) over and over in a child process whose kernels are compiled with line tables
+string) over and over in a child process, twice.  The first child's kernels are compiled as the
+engine runs them, and its samples are counted by compiled function: exact, since every sample
+lands in one function's code.  The second child's kernels are compiled with line tables
 (``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with Linux
 ``perf`` (by default on the software clock: no hardware counters needed, it works in any VM;
 ``--event instructions`` counts work instead of time where the machine has counters), and maps
@@ -20,7 +22,7 @@ own lines, and the lines the tables do not attribute inside a run, get rows of t
 It also prints how many columns the step's small system has (the solves per step by size), from a
 short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
 
-Shares are of all samples of the child.  "Outside step_block and its runs" is the Python around
+Shares are of all samples of each child.  "Outside step_block and its runs" is the Python around
 the kernel and every other compiled function; the build with line tables may place code there that
 an ordinary build keeps inside ``step_block``, so compare shares within one run.  Caveats:
 the line tables change the compiled code slightly; a sample lands on the instruction that waits,
@@ -151,42 +153,76 @@ def _symbols(obj: str) -> dict[str, tuple[int, int]]:
             for parts in (row.split() for row in out.splitlines()) if len(parts) == 4}
 
 
+def _record(tmp: str, string: int, fret: int, kc: bool, seconds: float, event: str,
+            line_tables: bool) -> tuple[list[str], list[tuple[int, int, int, str]], str]:
+    """Render in a child (compiled into a fresh cache in ``tmp``, with line tables or as the engine
+    runs), sample it with perf; returns the sampled addresses, where step_block and its runs live
+    ((address in the child, offset in the object, size, function)) and the object's path."""
+    ready = os.path.join(tmp, "ready.json")
+    env = {**os.environ, "NUMBA_CACHE_DIR": os.path.join(tmp, "nc"),
+           "PYTHONPATH": str(KERNELS.parent.parent)}
+    env.pop("NUMBA_DEBUGINFO", None)
+    if line_tables:
+        env["NUMBA_DEBUGINFO"] = "1"
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(string), str(fret),
+                              "1" if kc else "0", ready], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        t0 = time.monotonic()
+        while not os.path.exists(ready):
+            if child.poll() is not None or time.monotonic() - t0 > 600:
+                raise SystemExit("the child did not start rendering (compile failed?)")
+            time.sleep(0.5)
+        time.sleep(0.5)  # the json is written after the object
+        info = json.loads(Path(ready).read_text())
+        data = os.path.join(tmp, "perf.data")
+        subprocess.run(["perf", "record", "-q", "-e", event, "-F", "20000", "-p",
+                        str(child.pid), "-o", data, "--", "sleep", str(seconds)],
+                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    finally:
+        child.kill()
+        child.wait()
+    ips = subprocess.run(["perf", "script", "-i", data, "-F", "ip"], capture_output=True,
+                         text=True, check=True).stdout.split()
+    obj = ready + ".o"
+    spans = []
+    symbols = _symbols(obj)
+    for sym, (name, address) in info.items():
+        if sym in symbols:  # (compiled for other types elsewhere in the child: not this code)
+            spans.append((address, *symbols[sym], name))
+    if not any(name == "step_block" for *_, name in spans):
+        raise SystemExit("step_block not found in the compiled object")
+    return ips, spans, obj
+
+
+def _by_function(ips: list[str], spans: list[tuple[int, int, int, str]]) -> collections.Counter:
+    """Samples per compiled function (step_block and its runs), "outside" for the rest."""
+    out: collections.Counter = collections.Counter()
+    for ip in ips:
+        a = int(ip, 16)
+        out[next((name for address, _, size, name in spans if 0 <= a - address < size),
+                 "outside")] += 1
+    return out
+
+
 def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-clock") -> None:
     for tool in ("perf", "addr2line", "nm"):
         if shutil.which(tool) is None:
             raise SystemExit(f"needs `{tool}` on PATH (Debian: linux-perf, binutils)")
+    what = f"finger at fret {fret}" if fret else "open string"
     with tempfile.TemporaryDirectory() as tmp:
-        ready = os.path.join(tmp, "ready.json")
-        env = {**os.environ, "NUMBA_DEBUGINFO": "1", "NUMBA_CACHE_DIR": os.path.join(tmp, "nc"),
-               "PYTHONPATH": str(KERNELS.parent.parent)}
-        child = subprocess.Popen([sys.executable, "-c", CHILD, str(string), str(fret),
-                                  "1" if kc else "0", ready], env=env,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        try:
-            t0 = time.monotonic()
-            while not os.path.exists(ready):
-                if child.poll() is not None or time.monotonic() - t0 > 600:
-                    raise SystemExit("the child did not start rendering (compile failed?)")
-                time.sleep(0.5)
-            time.sleep(0.5)  # the json is written after the object
-            info = json.loads(Path(ready).read_text())
-            data = os.path.join(tmp, "perf.data")
-            subprocess.run(["perf", "record", "-q", "-e", event, "-F", "20000", "-p",
-                            str(child.pid), "-o", data, "--", "sleep", str(seconds)],
-                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        finally:
-            child.kill()
-            child.wait()
-        ips = subprocess.run(["perf", "script", "-i", data, "-F", "ip"], capture_output=True,
-                             text=True, check=True).stdout.split()
-        obj = ready + ".o"
-        spans = []  # (address in the child, offset in the object, size, function)
-        symbols = _symbols(obj)
-        for sym, (name, address) in info.items():
-            if sym in symbols:  # (compiled for other types elsewhere in the child: not this code)
-                spans.append((address, *symbols[sym], name))
-        if not any(name == "step_block" for *_, name in spans):
-            raise SystemExit("step_block not found in the compiled object")
+        ips, spans, _ = _record(tmp, string, fret, kc, seconds, event, line_tables=False)
+    funcs = _by_function(ips, spans)
+    print(f"string {string} at x1, {what}, 8 N pluck, Kirchhoff-Carrier {'on' if kc else 'off'}, "
+          f"compiled as the engine runs: {len(ips)} samples over {seconds:g} s (perf, event "
+          f"{event})")
+    print("compiled function                           | share of samples")
+    for name, n in funcs.most_common():
+        label = "outside step_block and its runs" if name == "outside" else name
+        print(f"{label:43s} | {100 * n / len(ips):15.1f} %")
+    print()
+    with tempfile.TemporaryDirectory() as tmp:
+        ips, spans, obj = _record(tmp, string, fret, kc, seconds, event, line_tables=True)
         offsets = collections.Counter()
         run_of: dict[int, str] = {}
         for ip in ips:
@@ -220,9 +256,8 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
         by_helper[helper] += n
     total = len(ips)
     inside = sum(offsets.values())
-    what = f"finger at fret {fret}" if fret else "open string"
-    print(f"string {string} at x1, {what}, 8 N pluck, Kirchhoff-Carrier {'on' if kc else 'off'}: "
-          f"{total} samples over {seconds:g} s (perf, event {event})")
+    print(f"the same, compiled with line tables (NUMBA_DEBUGINFO=1): {total} samples over "
+          f"{seconds:g} s, by the helper whose source line the sampled instruction has")
     print("where                                       | share of samples")
     print(f"{'outside step_block and its runs':43s} | {100 * (total - inside) / total:15.1f} %")
     for name, n in by_helper.most_common():

@@ -447,7 +447,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Engine:
         margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
                   if opts.skip_contacts else 1.0)
         geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                        quiet=opts.skip_contacts, fret_shifts=shifts,
+                        fretboard=opts.fretboard, quiet=opts.skip_contacts, fret_shifts=shifts,
                         held=opts.held_steps)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, rmax))

@@ -379,11 +379,13 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
-             margin: float = math.inf, quiet: bool = True,
+             margin: float = math.inf, fretboard: bool = True, quiet: bool = True,
              fret_shifts: dict[int, float] | None = None, held: bool = True) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
-    ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  ``quiet`` False
+    ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  Without
+    ``fretboard`` the board is out of reach everywhere, so that no node counts as below it (the
+    kernel forms no board column then, and quiet steps do not stop for it).  ``quiet`` False
     sends every step through the kernel's general path, ``held`` False the steps of a held note
     (``kernels._held_run``).
     ``fret_shifts`` (fret -> metres, ``engine.intonation.fret_shifts``) moves those frets'
@@ -402,6 +404,8 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     board = -(np.asarray(preset.clearance_m(xn), dtype=float) + preset.fret_height_m)
     last = preset.fret_x_m(preset.frets + 0.5)  # the board ends half a fret past the last
     board[xn > last] = NO_BOARD
+    if not fretboard:
+        board[:] = NO_BOARD
     near = np.full(n - 1, NO_BOARD)
     for i in range(len(q)):
         for node, w in ((p[i] - 1, w0[i]), (p[i], w1[i])):  # padded index -> node -> array index

@@ -114,6 +114,20 @@ def test_quiet_steps_are_most_steps_of_an_open_strum(force):
     assert min(share.values()) > 0.9, share
 
 
+@pytest.mark.parametrize("string", [1, 6])
+def test_without_fretboard_and_frets_every_step_after_the_pluck_is_quiet(string):
+    """``benchmarks.speed``'s linear string (no Kirchhoff-Carrier, fretboard or frets): nothing can
+    touch the string, so every step after the pluck's force is quiet.  (At f0ec3c4 the nodes an
+    8 N pluck drove below where the board would be sent steps to the general path, and the
+    linear string the speed targets divide by took longer.)"""
+    sc = scene([pluck(string, force=8.0)], duration=0.5)
+    opts = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
+    _, eng, _ = _render(sc, **opts)
+    v = eng.voices[0]
+    forced = int(v.ctl.arrays.pl_start[0] + v.ctl.arrays.pl_len[0]) + 2  # (+ the step after)
+    assert int(v.state.run_steps[0]) >= v.step - forced, (v.state.run_steps, v.step, forced)
+
+
 def test_quiet_steps_are_exact_in_a_strum_with_articulations():
     sc = scene([pluck(6 - i, time=0.02 * i, force=2.0) for i in range(6)]
                + [fret(2, 3, time=0.3), pluck(2, time=0.32, force=1.0),

@@ -104,6 +104,8 @@ class Geo(NamedTuple):
     out_p: np.ndarray  # per pickup: interpolant
     out_w0: np.ndarray
     out_w1: np.ndarray
+    # False: no fretboard and no frets, so the linear pass has no nodes to count (``_pass_kc``)
+    counts: bool = True
     # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
     quiet: bool = True
     # False: the steps of a held note take the general path too (``RenderOptions.held_steps``)
@@ -267,16 +269,17 @@ def interp(x: float, h: float, n: int):
 # counts the six arrays it passes.  The kernels take the coefficients they use, not ``Coefs``:
 # every field passed is an argument to marshal in each call.
 @njit(**JIT_NO_NRT)
-def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near):
+def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over
     the N intervals of u^n, and the nodes of u^n below the fretboard and within reach of a fret
     tip (``Geo.near``); returns (q.q, q.u_free, q.u^(n-1), S, below, close).
 
     S is the size of the Kirchhoff-Carrier tension rise (``Coefs.kc_s_skip``).  The counts are
-    integers, which vectorise with the rest (a float min() does not), and are taken in every
-    call.  Until 520c8ee they sat behind a flag, on which LLVM split the loop in two versions
-    whose float sums it need not vectorise alike, and the quiet run passed another flag than the
-    general path in the same step; the quiet run then counted again in a loop of its own."""
+    integers, which vectorise with the rest (a float min() does not).  They are taken unless
+    ``count`` is False, which a string without fretboard and frets passes in every call
+    (``Geo.counts``): LLVM splits the loop in two versions on the flag, whose float sums it need
+    not vectorise alike, so the flag must not differ between the loops that step one string.  Up
+    to 520c8ee the quiet run passed another flag than the general path in the same step."""
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
@@ -299,14 +302,15 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near):
         qu1 += qv * u1
         dm = m - b
         s2 += dm * dm
-        below += m < board[j]
-        close += m < near[j]
+        if count:
+            below += m < board[j]
+            close += m < near[j]
     last = U0[n]  # the interval from node N-1 to the fixed end
     return qq, quf, qu1, s2 + last * last, below, close
 
 
 @njit(**JIT_NO_NRT)
-def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near):
+def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count):
     """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_pass_kc``); returns
     (S, below, close)."""
     s2 = 0.0
@@ -324,22 +328,26 @@ def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near):
         )
         dm = m - b
         s2 += dm * dm
-        below += m < board[j]
-        close += m < near[j]
+        if count:
+            below += m < board[j]
+            close += m < near[j]
     last = U0[n]
     return s2 + last * last, below, close
 
 
 @njit(**JIT_INLINE)
-def _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near):
-    """``_pass_kc`` with the string's coefficients (b0, b1: the stencil's, bent or not)."""
-    return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, board, near)
+def _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q):
+    """``_pass_kc`` with the string's coefficients (b0, b1: the stencil's, bent or not) and
+    geometry."""
+    return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, geo.board, geo.near,
+                    geo.counts)
 
 
 @njit(**JIT_INLINE)
-def _linear_pass(c, b0, b1, U0, U1, UF, board, near):
-    """``_pass`` with the string's coefficients."""
-    return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, board, near)
+def _linear_pass(c, geo, b0, b1, U0, U1, UF):
+    """``_pass`` with the string's coefficients and geometry."""
+    return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, geo.board, geo.near,
+                 geo.counts)
 
 
 @njit(**JIT_INLINE)
@@ -426,7 +434,6 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     general path's many variables crowd the loop).
     """
     Q, fret_active, du = st.q, st.fret_active, w.du
-    board, near = geo.board, geo.near
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
@@ -444,10 +451,10 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
         with_kc = c.kc > 0.0 and s_last >= c.kc_s_skip
         xk = 0.0
         if with_kc:
-            qq, quf, qu1, s, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near)
+            qq, quf, qu1, s, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
             xk = _kc_multiplier(c, qq, quf, qu1)
         else:
-            s, below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
+            s, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)
         if (below > 0 or close > 0) and _contact(c, below, close, UF, du, Q, fret_p, fret_w0,
                                                  fret_w1, fret_m0, fret_active, lam * xk):
             return done, s
@@ -859,7 +866,6 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     """
     Q, psi, f_state, tens, fret_active = st.q, st.psi, st.f_state, st.tens, st.fret_active
     f_w, f_w1, f_psi, f_bprev = st.f_w, st.f_w1, st.f_psi, st.f_bprev
-    board, near = geo.board, geo.near
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
@@ -917,9 +923,9 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         quf = 0.0
         qu1 = 0.0
         if c.kc > 0.0:
-            qq, quf, qu1, s, below, _ = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board, near)
+            qq, quf, qu1, s, below, _ = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
         else:
-            s, below, _ = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
+            s, below, _ = _linear_pass(c, geo, b0, b1, U0, U1, UF)
         if c.board_k > 0.0 and below > 0:
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
@@ -1049,7 +1055,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     psi, gprev_b, gprev_f, has_gprev = st.psi, st.gprev_b, st.gprev_f, st.has_gprev
     fret_active, f_state, f_w, f_w1, f_psi, f_bprev = (
         st.fret_active, st.f_state, st.f_w, st.f_w1, st.f_psi, st.f_bprev)
-    board, near = geo.board, geo.near
+    board = geo.board
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
         ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
@@ -1138,10 +1144,9 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         quf = 0.0
         qu1 = 0.0
         if c.kc > 0.0:
-            qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, b0, b1, U0, U1, UF, Q, board,
-                                                                 near)
+            qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
         else:
-            s_last, below, close = _linear_pass(c, b0, b1, U0, U1, UF, board, near)
+            s_last, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)

@@ -128,6 +128,20 @@ def test_without_fretboard_and_frets_every_step_after_the_pluck_is_quiet(string)
     assert int(v.state.run_steps[0]) >= v.step - forced, (v.state.run_steps, v.step, forced)
 
 
+def test_without_fretboard_and_frets_the_pass_counts_nothing_and_the_runs_stay_exact():
+    """Such a string's linear pass leaves out the counts of nodes near a contact (``Geo.counts``),
+    in every loop alike: quiet and held steps are bit-identical to the general path."""
+    sc = scene([pluck(1, force=8.0), fret(3, 5), pluck(3, time=0.01, force=8.0)], duration=0.2)
+    opts = {"fretboard": False, "frets": False, "kc_tolerance": 0.0}
+    a, eng, _ = _render(sc, **opts)
+    b, _, _ = _render(sc, skip_contacts=False, **opts)
+    assert not any(v.geom.counts for v in eng.voices)
+    quiet = sum(int(v.state.run_steps[0]) for v in eng.voices)
+    held, _ = held_steps(eng)
+    assert quiet > 0 and held > 0, (quiet, held)
+    assert np.array_equal(a, b)
+
+
 def test_quiet_steps_are_exact_in_a_strum_with_articulations():
     sc = scene([pluck(6 - i, time=0.02 * i, force=2.0) for i in range(6)]
                + [fret(2, 3, time=0.3), pluck(2, time=0.32, force=1.0),

@@ -300,8 +300,12 @@ class WorkerPool:
             try:
                 w = await asyncio.wait_for(self._idle.get(), max(remaining, 0.0))
             except TimeoutError:
+                ready = sum(x.ready for x in self._workers)
+                why = (f"; the workers are still starting ({ready} of {self.size} ready: they "
+                       "compile or load the engine's kernels first, /health tells when)"
+                       if ready < self.size and not self._warm else "")
                 raise PoolBusy(f"no render worker became free within "
-                               f"{self.settings.queue_timeout_s:g} s") from None
+                               f"{self.settings.queue_timeout_s:g} s{why}") from None
             if w.alive and w.ready and w.job is None:
                 return w
 

@@ -7,8 +7,13 @@ import asyncio
 import os
 import signal
 import time
+from types import SimpleNamespace
 
+import pytest
 from svc_helpers import brief, chord_scene, decode, heavy_scene, pluck_scene, same_bytes
+
+from service.config import Settings
+from service.pool import PoolBusy, WorkerPool
 
 
 def wait_for(check, timeout: float = 30.0) -> None:
@@ -130,3 +135,22 @@ def test_health_reports_pool_state(harness) -> None:
     body = harness.get("/health").json()
     assert body["status"] == "ok" and body["ready"] is True
     assert body["pool"]["workers"] == 2 and body["pool"]["capacity"] == 10
+
+
+def test_a_wait_that_runs_out_while_the_workers_start_says_so() -> None:
+    """A request that comes before the workers have compiled or loaded the kernels waits for one
+    (``queue_timeout_s``); if none is ready by then, the 503 says why (a fresh machine compiles
+    for about a minute) and points at /health, which a full pool's 503 does not."""
+    pool = WorkerPool(Settings(workers=2, queue_size=0, queue_timeout_s=0.05))
+    pool._workers = [SimpleNamespace(ready=False), SimpleNamespace(ready=True)]
+
+    async def wait():
+        pool.loop = asyncio.get_running_loop()
+        with pytest.raises(PoolBusy, match=r"still starting \(1 of 2 ready.*/health"):
+            await pool._acquire()
+        pool._warm = True  # started once: a later timeout is a busy pool
+        with pytest.raises(PoolBusy) as busy:
+            await pool._acquire()
+        assert "starting" not in str(busy.value)
+
+    asyncio.run(wait())

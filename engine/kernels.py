@@ -104,8 +104,6 @@ class Geo(NamedTuple):
     out_p: np.ndarray  # per pickup: interpolant
     out_w0: np.ndarray
     out_w1: np.ndarray
-    # False: no fretboard and no frets, so the linear pass has no nodes to count (``_pass_kc``)
-    counts: bool = True
     # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
     quiet: bool = True
     # False: the steps of a held note take the general path too (``RenderOptions.held_steps``)
@@ -277,7 +275,7 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     S is the size of the Kirchhoff-Carrier tension rise (``Coefs.kc_s_skip``).  The counts are
     integers, which vectorise with the rest (a float min() does not).  They are taken unless
     ``count`` is False, which a string without fretboard and frets passes in every call
-    (``Geo.counts``): LLVM splits the loop in two versions on the flag, whose float sums it need
+    (``_counted``): LLVM splits the loop in two versions on the flag, whose float sums it need
     not vectorise alike, so the flag must not differ between the loops that step one string.  Up
     to 520c8ee the quiet run passed another flag than the general path in the same step."""
     qq = 0.0
@@ -336,18 +334,26 @@ def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count):
 
 
 @njit(**JIT_INLINE)
+def _counted(c, geo):
+    """Does the linear pass count the nodes near a contact?  Not on a string without fretboard
+    and frets (``benchmarks.speed``'s linear string), which has none to count; a property of the
+    string, so every loop that steps it passes the same flag."""
+    return c.board_k > 0.0 or geo.fret_p.shape[0] > 0
+
+
+@njit(**JIT_INLINE)
 def _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q):
     """``_pass_kc`` with the string's coefficients (b0, b1: the stencil's, bent or not) and
     geometry."""
     return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, geo.board, geo.near,
-                    geo.counts)
+                    _counted(c, geo))
 
 
 @njit(**JIT_INLINE)
 def _linear_pass(c, geo, b0, b1, U0, U1, UF):
     """``_pass`` with the string's coefficients and geometry."""
     return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, geo.board, geo.near,
-                 geo.counts)
+                 _counted(c, geo))
 
 
 @njit(**JIT_INLINE)

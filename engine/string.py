@@ -385,12 +385,10 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
     ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  Without
     ``fretboard`` the board is out of reach everywhere, so that no node counts as below it (the
-    kernel forms no board column then, and quiet steps do not stop for it); without fretboard and
-    frets the linear pass counts nothing (``Geo.counts``).  ``quiet`` False
+    kernel forms no board column then, and quiet steps do not stop for it).  ``quiet`` False
     sends every step through the kernel's general path, ``held`` False the steps of a held note
-    (``kernels._held_run``).
-    ``fret_shifts`` (fret -> metres, ``engine.intonation.fret_shifts``) moves those frets'
-    interpolants along the string; their heights stay those at x_q."""
+    (``kernels._held_run``).  ``fret_shifts`` (fret -> metres, ``engine.intonation.fret_shifts``)
+    moves those frets' interpolants along the string; their heights stay those at x_q."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q)
@@ -415,4 +413,4 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     pk = [interp(x * model.length_m, h, n) for x in pickups]
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
                np.array([a[1] for a in pk]), np.array([a[2] for a in pk]),
-               fretboard or len(q) > 0, quiet, quiet and held)
+               quiet, quiet and held)

@@ -108,8 +108,9 @@ class RequestContextMiddleware:
         render_s = state.get("render_seconds")
         audio_s = state.get("audio_seconds")
         if render_s is not None:
-            fields["render_seconds"] = round(render_s, 6)  # as X-Render-Seconds: a fast render
-            # is a few ms, which 4 decimals would round by several per cent
+            # 6 decimals, as X-Render-Seconds: a fast render is a few ms, which 4 would round by
+            # several per cent
+            fields["render_seconds"] = round(render_s, 6)
         if audio_s is not None and not error:
             fields["audio_seconds"] = audio_s
             if render_s:

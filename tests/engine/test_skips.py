@@ -129,13 +129,14 @@ def test_without_fretboard_and_frets_every_step_after_the_pluck_is_quiet(string)
 
 
 def test_without_fretboard_and_frets_the_pass_counts_nothing_and_the_runs_stay_exact():
-    """Such a string's linear pass leaves out the counts of nodes near a contact (``Geo.counts``),
-    in every loop alike: quiet and held steps are bit-identical to the general path."""
+    """Such a string's linear pass leaves out the counts of nodes near a contact
+    (``kernels._counted``), in every loop alike: quiet and held steps are bit-identical to the
+    general path."""
     sc = scene([pluck(1, force=8.0), fret(3, 5), pluck(3, time=0.01, force=8.0)], duration=0.2)
     opts = {"fretboard": False, "frets": False, "kc_tolerance": 0.0}
     a, eng, _ = _render(sc, **opts)
     b, _, _ = _render(sc, skip_contacts=False, **opts)
-    assert not any(v.geom.counts for v in eng.voices)
+    assert all(v.coefs.board_k == 0.0 and len(v.geom.fret_p) == 0 for v in eng.voices)
     quiet = sum(int(v.state.run_steps[0]) for v in eng.voices)
     held, _ = held_steps(eng)
     assert quiet > 0 and held > 0, (quiet, held)

@@ -7,7 +7,9 @@ pluck with every nonlinearity on against the same pluck on the linear string.
 Table 2, whole scenes: a six-string strum (open strings), a fretted chord, and the paper's Table 1
 configuration for comparison (their C++: 40-180 ms per second of audio per string).
 Table 3, where a fretted string's time goes: each force switched on in turn, ns, cycles and
-instructions per time step.
+instructions per time step, and the time over the linear string's.  Table 4, the tension rise that
+pressing alone gives each string: above the Kirchhoff-Carrier skip's level, a fretted note needs the
+column in every step (which table 3's "KC in every step" rows price).
 
     python -m benchmarks.speed [--quality standard] [--seconds 2] [--repeat 3]
 
@@ -28,8 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmarks.counters import Counters
-from engine.guitar import Engine, RenderOptions, prepare
+from engine.guitar import QUALITY, Engine, RenderOptions, prepare
 from engine.scene import Scene
+from engine.string import kc_skip_level
 
 
 @dataclass
@@ -135,7 +138,8 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
 
 
 def components(seconds: float, repeat: int, string: int = 4) -> None:
-    """Where a fretted string's time goes: each force added in turn, at 1x (per time step)."""
+    """Where a fretted string's time goes: each force added in turn, at 1x (per time step), and
+    each row's time over the linear string's (the first row)."""
     print(f"\nwhere the time goes: string {string} at x1, finger at fret 5, 8 N pluck, body 'none' "
           "(compute per time step)")
     base = {"duration": seconds, "output": {"body": "none"}}
@@ -147,6 +151,8 @@ def components(seconds: float, repeat: int, string: int = 4) -> None:
     rows = [
         ("open string, linear", open_, off),
         ("open string, + Kirchhoff-Carrier", open_, {**off, "kirchhoff_carrier": True}),
+        ("the same, KC in every step", open_,
+         {**off, "kirchhoff_carrier": True, "kc_tolerance": 0.0}),
         ("open string, full model", open_, {}),
         ("open string, full model, KC in every step", open_, {"kc_tolerance": 0.0}),
         ("fretted: finger only", fretted, off),
@@ -155,13 +161,38 @@ def components(seconds: float, repeat: int, string: int = 4) -> None:
         ("fretted: full model (+ Kirchhoff-Carrier)", fretted, {}),
         ("the same, held steps in the general path", fretted, {"held_steps": False}),
     ]
-    print("configuration                              | ns per step | cycles per step | "
+    print("configuration                              | ns per step | / linear | cycles per step | "
           "instructions per step")
+    first = None
     for name, sc, opts in rows:
         t = best_time(sc, RenderOptions(oversample=1, skip_decayed=False, **opts), repeat)
         steps = seconds * t.engine.scene.sample_rate
-        print(f"{name:42s} | {t.seconds / steps * 1e9:11.0f} | {_per(t.cycles, steps, 15)} | "
-              f"{_per(t.instructions, steps, 21)}")
+        first = first or t.seconds
+        print(f"{name:42s} | {t.seconds / steps * 1e9:11.0f} | {t.seconds / first:8.2f} | "
+              f"{_per(t.cycles, steps, 15)} | {_per(t.instructions, steps, 21)}")
+
+
+def pressed_tension_rise(quality: str, seconds: float = 0.5) -> None:
+    """The Kirchhoff-Carrier tension rise of a string pressed at fret 5 and not plucked, after
+    ``seconds``: what the static shape alone adds, against the level below which the quiet steps
+    leave the column out (``string.kc_skip_level``, the quality's ``kc_tolerance``)."""
+    sc = Scene.model_validate({"duration": seconds, "quality": quality, "output": {"body": "none"},
+                               "events": [{"type": "fret", "time": 0.0, "string": s, "fret": 5}
+                                          for s in range(1, 7)]})
+    eng = prepare(sc, RenderOptions(skip_decayed=False))
+    for _block in eng.blocks():
+        pass
+    tol = QUALITY[quality].kc_tolerance
+    print(f"\na string pressed at fret 5, not plucked, after {seconds:g} s: its Kirchhoff-Carrier "
+          f"tension rise over T0 (quality '{quality}' leaves the column out of quiet steps below "
+          f"{tol:g})")
+    print("string | rise / T0 | / skip level")
+    for v in eng.voices:
+        n = v.coefs.n
+        u = v.state.u[1:n + 2]  # node 0 (fixed) to node N (fixed)
+        rise = float(np.sum(np.diff(u) ** 2)) / kc_skip_level(v.model, 1.0)
+        level = f"{rise / tol:12.1f}" if tol > 0 else f"{'-':>12s}"
+        print(f"{v.index:>6d} | {rise:9.2e} | {level}")
 
 
 def scenes(quality: str, seconds: float, repeat: int) -> None:
@@ -190,6 +221,7 @@ def main() -> None:
     per_string(args.quality, args.seconds, args.repeat)
     scenes(args.quality, args.seconds, args.repeat)
     components(args.seconds, args.repeat)
+    pressed_tension_rise(args.quality)
 
 
 if __name__ == "__main__":

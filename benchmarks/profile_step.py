@@ -15,9 +15,13 @@ lands in one function's code.  The second child's kernels are compiled with line
 (``NUMBA_DEBUGINFO=1``, in a fresh cache directory, so nothing is reused), samples it with Linux
 ``perf`` (by default on the software clock: no hardware counters needed, it works in any VM;
 ``--event instructions`` counts work instead of time where the machine has counters), and maps
-every sampled address inside those functions to its line of ``engine/kernels.py`` (binutils'
-``addr2line`` on the compiled object), then to the helper whose ``def`` encloses that line; a run's
+every sampled address inside those functions to its source line (binutils' ``addr2line`` on the
+compiled object), then to the helper whose ``def`` encloses that line; a run's
 own lines, and the lines the tables do not attribute inside a run, get rows of their own.
+
+numba's line tables give an inlined helper's lines the file of the function it was inlined into,
+so the second child runs a copy of the engine whose kernels are one module: the package's modules
+concatenated, their imports dropped (``_one_file_engine``); the code compiled is the same.
 
 It also prints how many columns the step's small system has (the solves per step by size), from a
 short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
@@ -33,6 +37,7 @@ loop control).  Needs ``perf`` (Debian: linux-perf) and ``addr2line`` (binutils)
 from __future__ import annotations
 
 import argparse
+import ast
 import collections
 import json
 import os
@@ -47,7 +52,8 @@ from pathlib import Path
 from engine.guitar import RenderOptions
 from engine.scene import Scene
 
-KERNELS = Path(__file__).resolve().parent.parent / "engine" / "kernels.py"
+ROOT = Path(__file__).resolve().parent.parent
+KERNELS = ROOT / "engine" / "kernels"  # the package: one module per part of the step
 # the step loops that step_block runs, and the linear pass they all call (not inlined); each has
 # its own rows in the table
 RUNS = ("_advance", "_quiet_run", "_held_run", "_pass_kc", "_pass")
@@ -89,27 +95,19 @@ while True:
 
 
 # The sizes: the same scene, 0.25 s, with the kernels as Python functions, counting the solves of
-# the step loop (not the one inside ``_ray_blocked``, which solves without the new fret).
+# the step loops: the general path's (``kernels.step``) and the held run's (``kernels.runs``), not
+# the one inside ``_ray_blocked`` (``kernels.system``), which solves without the new fret.
 SIZES = r"""
 import collections, json, sys
 from benchmarks.profile_step import scene_and_options
-from engine import kernels
+from engine.kernels import runs, step, system
 from engine.guitar import prepare
 string, fret, kc = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
 sizes = collections.Counter()
-inner = [False]
-solve, ray_blocked = kernels._solve, kernels._ray_blocked
 def counted(A, r, n):
-    if not inner[0]:
-        sizes[n] += 1
-    return solve(A, r, n)
-def ray_blocked_uncounted(*args):
-    inner[0] = True
-    try:
-        return ray_blocked(*args)
-    finally:
-        inner[0] = False
-kernels._solve, kernels._ray_blocked = counted, ray_blocked_uncounted
+    sizes[n] += 1
+    return system._solve(A, r, n)
+step._solve = runs._solve = counted
 eng = prepare(*scene_and_options(string, fret, kc, 0.25))
 for _ in eng.blocks():
     pass
@@ -129,9 +127,37 @@ def scene_and_options(string: int, fret: int, kc: bool,
     return scene, RenderOptions(oversample=1, skip_decayed=False, kirchhoff_carrier=kc)
 
 
-def _helpers() -> list[tuple[int, str]]:
-    """(first line, name) of every top-level def in kernels.py, in order."""
-    lines = KERNELS.read_text().splitlines()
+def _one_file_engine(tmp: str) -> Path:
+    """A copy of the engine in ``tmp`` whose ``kernels`` is one module, ``kernels.py``: the
+    package's modules (``data`` first: the others use its constants and classes at import)
+    concatenated, each without its docstring and imports, under the imports they all need.  Returns
+    the folder to put first on PYTHONPATH."""
+    src = Path(tmp) / "src"
+    shutil.copytree(ROOT / "engine", src / "engine", ignore=shutil.ignore_patterns(
+        "__pycache__", "kernels"))
+    parts = ["from __future__ import annotations\n\nimport math\nfrom typing import NamedTuple\n\n"
+             "import numpy as np\nfrom numba import njit\n\n"
+             "from .config import JIT, JIT_INLINE, JIT_NO_NRT, JIT_STEP\n"]
+    modules = sorted(KERNELS.glob("*.py"), key=lambda p: (p.stem != "data", p.stem))
+    for path in modules:
+        if path.stem == "__init__":
+            continue
+        text = path.read_text()
+        lines = text.splitlines(keepends=True)
+        drop = set()
+        for node in ast.parse(text).body:
+            if isinstance(node, ast.Import | ast.ImportFrom) or (
+                    isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)):
+                drop.update(range(node.lineno - 1, node.end_lineno))
+        parts.append("\n\n" + "".join(x for i, x in enumerate(lines) if i not in drop).strip("\n")
+                     + "\n")
+    (src / "engine" / "kernels.py").write_text("".join(parts))
+    return src
+
+
+def _helpers(kernels: Path) -> list[tuple[int, str]]:
+    """(first line, name) of every top-level def in the one-module kernels, in order."""
+    lines = kernels.read_text().splitlines()
     return [(i + 1, m.group(1)) for i, line in enumerate(lines)
             if (m := re.match(r"def (\w+)", line))]
 
@@ -160,12 +186,14 @@ def _record(tmp: str, string: int, fret: int, kc: bool, seconds: float, event: s
     ((address in the child, offset in the object, size, function)) and the object's path."""
     ready = os.path.join(tmp, "ready.json")
     env = {**os.environ, "NUMBA_CACHE_DIR": os.path.join(tmp, "nc"),
-           "PYTHONPATH": str(KERNELS.parent.parent)}
+           "PYTHONPATH": str(ROOT)}
     env.pop("NUMBA_DEBUGINFO", None)
     if line_tables:
         env["NUMBA_DEBUGINFO"] = "1"
+        env["PYTHONPATH"] = f"{_one_file_engine(tmp)}{os.pathsep}{ROOT}"
+    # (run in tmp: ``python -c`` puts its working folder ahead of PYTHONPATH)
     child = subprocess.Popen([sys.executable, "-c", CHILD, str(string), str(fret),
-                              "1" if kc else "0", ready], env=env,
+                              "1" if kc else "0", ready], env=env, cwd=tmp,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         t0 = time.monotonic()
@@ -241,11 +269,11 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
             for a, loc in zip(chunk, out, strict=True):
                 m = re.search(r"kernels\.py:(\d+)", loc)
                 lines[a] = int(m.group(1)) if m else None
+        helpers = _helpers(Path(tmp) / "src" / "engine" / "kernels.py")
     sizes = json.loads(subprocess.run(
         [sys.executable, "-c", SIZES, str(string), str(fret), "1" if kc else "0"],
-        env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(KERNELS.parent.parent)},
+        env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(ROOT)},
         capture_output=True, text=True, check=True).stdout)
-    helpers = _helpers()
     by_helper: collections.Counter = collections.Counter()
     for a, n in offsets.items():
         helper = _helper_of(lines[a], helpers)

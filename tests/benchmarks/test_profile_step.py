@@ -8,3 +8,32 @@ def test_each_sample_goes_to_the_function_whose_code_holds_it():
     spans = [(0x1000, 0, 0x100, "_held_run"), (0x2000, 0x100, 0x10, "_pass_kc")]
     ips = ["1000", "10ff", "2000", "200f", "2010", "fff", "1100"]
     assert _by_function(ips, spans) == {"_held_run": 2, "_pass_kc": 2, "outside": 3}
+
+
+def test_the_line_table_build_has_every_kernel_in_one_module(tmp_path):
+    """numba's line tables name the file of the function code was inlined into, so the profile
+    compiles a copy of the engine whose kernels are one module; it must define what the package
+    defines, and nothing must be left over from the package's own imports."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from benchmarks.profile_step import ROOT, _helpers, _one_file_engine
+
+    src = _one_file_engine(str(tmp_path))
+    probe = ("import json, engine.kernels as k; "
+             "print(json.dumps([k.__file__, sorted(n for n in vars(k) if not n.startswith('__'))]))")
+    names = {}
+    for path in (f"{src}{os.pathsep}{ROOT}", str(ROOT)):
+        out = subprocess.run([sys.executable, "-c", probe], env={**os.environ, "PYTHONPATH": path},
+                             capture_output=True, text=True, check=True, cwd=tmp_path).stdout
+        file, defined = json.loads(out)
+        names[file.endswith("kernels.py")] = set(defined)
+    one, package = names[True], names[False]
+    submodules = {"data", "linear", "excitation", "collisions", "sav", "system", "energy", "runs",
+                  "step", "decimate"}
+    assert package - submodules <= one
+    helpers = [name for _, name in _helpers(src / "engine" / "kernels.py")]
+    assert {"_held_run", "_pass_kc", "_solve", "step_block", "fir_decimate"} <= set(helpers)
+    assert len(helpers) == len(set(helpers))

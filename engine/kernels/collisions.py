@@ -1,0 +1,194 @@
+"""The collisions: the fretboard's SAV gradient, eqs. (7) and (54)-(55a); the frets, either as penalty
+SAV contacts, eqs. (8), (24b) and (55b), or as one-sided rigid constraints (the K_F -> infinity
+limit: the active set's columns and the check that no other fret is penetrated); the quiet run's
+question whether any contact acts at all; and where a finger is along the string (slides).  The
+finger's own update, eqs. (9)-(10), (25)-(27), (39)-(41) and (55c-d), is written out in the step
+loops (``step._advance``, ``runs._held_run``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..config import JIT_INLINE, JIT_STEP
+from .data import EPS, RIGID
+from .linear import _q_index
+from .sav import _apply_gamma
+
+
+@njit(**JIT_STEP)
+def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
+    """Does a contact act in a step with no other force (see ``_quiet_run``), given the counts of
+    the linear pass, of which one is not 0?  Not inlined: a branch that the quiet steps of a
+    soft pluck rarely take (inlined, it slowed their loop)."""
+    if below > 0:
+        return True
+    if c.fret_mode != 1:  # penalty frets act on u^n: within reach is all there is to know
+        return True
+    return _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
+                     kq) >= 0
+
+
+@njit(**JIT_INLINE)
+def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
+    """The rigid frets' active-set check: the fret outside the active set that the predicted
+    u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
+    fret is looked at: which fret is added must not depend on the skip's margin.
+
+    The indices are unsigned (see ``_q_index``): numba's wrap-around of negative indices cost a
+    measurable share of a fretted step in this loop (``benchmarks.speed``)."""
+    add = -1
+    wval = -1e-12
+    for q in range(fret_p.shape[0]):
+        p_ = fret_p[q]
+        p0 = np.uint64(p_)
+        p1 = np.uint64(p_ + 1)
+        pv = fret_w0[q] * (UF[p0] + du[p0]) + fret_w1[q] * (UF[p1] + du[p1])
+        if with_q:
+            pv += kq * (fret_w0[q] * Q[_q_index(p_)] + fret_w1[q] * Q[_q_index(p_ + 1)])
+        viol = pv - fret_m0[q]
+        if viol < wval and fret_active[q] == 0:
+            wval = viol
+            add = q
+    return add
+
+
+@njit(**JIT_INLINE)
+def _finger_x(x0, x1, ms, me, step):
+    """Finger position x / L... in metres: x0 until step ms, gliding linearly to x1 at step me."""
+    if me <= ms:
+        return x0 if step < ms else x1
+    if step <= ms:
+        return x0
+    if step >= me:
+        return x1
+    return x0 + (x1 - x0) * (step - ms) / (me - ms)
+
+
+@njit(**JIT_INLINE)
+def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx, cval, nent,
+               scr):
+    """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used, gamma,
+    s~) (see ``_apply_gamma``)."""
+    n = c.n
+    start = nent
+    if contact:
+        vpot = 0.0
+        for j in range(n - 1):
+            pen = board[j] - U0[j + 2]
+            if pen > 0.0:
+                vpot += c.h * c.board_k / (c.board_alpha + 1.0) * pen ** (c.board_alpha + 1.0)
+        den = math.sqrt(2.0 * vpot + EPS)
+        for j in range(n - 1):
+            pen = board[j] - U0[j + 2]
+            if pen > 0.0:
+                cidx[nent] = j + 2
+                cval[nent] = -c.h * c.board_k * pen**c.board_alpha / den
+                nent += 1
+        # keep the gradient for the out-of-contact rule
+        gprev[:] = 0.0
+        for e in range(start, nent):
+            gprev[cidx[e]] = cval[e]
+        has_gprev[0] = 1
+    else:
+        if not has_gprev[0]:
+            return nent, False, 0.0, 0.0
+        for j in range(n - 1):
+            if gprev[j + 2] != 0.0:
+                cidx[nent] = j + 2
+                cval[nent] = gprev[j + 2]
+                nent += 1
+    return _apply_gamma(c, UF, U1, psi, 0, contact, joint, cidx, cval, start, nent)
+
+
+@njit(**JIT_INLINE)
+def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
+               joint, cidx, cval, nent, scr):
+    """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used,
+    gamma, s~, contact)."""
+    start = nent
+    vpot = 0.0
+    nf = fret_p.shape[0]
+    contact = False
+    for q in range(nf):
+        p_ = fret_p[q]
+        pen = fret_m0[q] - (fret_w0[q] * U0[p_] + fret_w1[q] * U0[p_ + 1])
+        if pen > 0.0:
+            contact = True
+            vpot += c.fret_k / (c.fret_alpha + 1.0) * pen ** (c.fret_alpha + 1.0)
+    if contact:
+        den = math.sqrt(2.0 * vpot + EPS)
+        for q in range(nf):
+            p_ = fret_p[q]
+            pen = fret_m0[q] - (fret_w0[q] * U0[p_] + fret_w1[q] * U0[p_ + 1])
+            if pen > 0.0:
+                f = -c.fret_k * pen**c.fret_alpha / den
+                scr[p_] += f * fret_w0[q]
+                scr[p_ + 1] += f * fret_w1[q]
+        gprev[:] = 0.0
+        for q in range(nf):
+            p_ = fret_p[q]
+            for pp in (p_, p_ + 1):
+                if scr[pp] != 0.0:
+                    cidx[nent] = pp
+                    cval[nent] = scr[pp]
+                    gprev[pp] = scr[pp]
+                    scr[pp] = 0.0
+                    nent += 1
+        has_gprev[1] = 1
+    else:
+        if psi[1] == 0.0 or not has_gprev[1]:
+            return nent, False, 0.0, 0.0, False
+        for q in range(nf):
+            p_ = fret_p[q]
+            for pp in (p_, p_ + 1):
+                if gprev[pp] != 0.0 and scr[pp] == 0.0:
+                    scr[pp] = 1.0
+                    cidx[nent] = pp
+                    cval[nent] = gprev[pp]
+                    nent += 1
+        for e in range(start, nent):
+            scr[cidx[e]] = 0.0
+    nent, used, gm, s = _apply_gamma(c, UF, U1, psi, 1, contact, joint, cidx, cval, start, nent)
+    return nent, used, gm, s, contact
+
+
+@njit(**JIT_INLINE)
+def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret_w0, fret_w1,
+               fret_m0, UF, U1, ca, vfree, v1):
+    p_ = fret_p[q]
+    kind[nc] = RIGID
+    cslot[nc] = -1
+    cfret[nc] = q
+    cidx[nent] = p_
+    cval[nent] = fret_w0[q]
+    cidx[nent + 1] = p_ + 1
+    cval[nent + 1] = fret_w1[q]
+    ca[nc] = fret_m0[q]
+    vfree[nc] = fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1]
+    v1[nc] = fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1]
+    cstart[nc + 1] = nent + 2
+    return nent + 2
+
+
+@njit(**JIT_INLINE)
+def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1, xp):
+    """Remove column i (a rigid fret, always stored after the others) and compact the storage."""
+    width = cstart[i + 1] - cstart[i]
+    for m in range(i, nc - 1):
+        kind[m] = kind[m + 1]
+        cslot[m] = cslot[m + 1]
+        cfret[m] = cfret[m + 1]
+        ca[m] = ca[m + 1]
+        cc[m] = cc[m + 1]
+        vfree[m] = vfree[m + 1]
+        v1[m] = v1[m + 1]
+        xp[m] = xp[m + 1]
+        for e in range(cstart[m + 1], cstart[m + 2]):
+            cidx[e - width] = cidx[e]
+            cval[e - width] = cval[e]
+        cstart[m + 1] = cstart[m + 2] - width
+    return nc - 1

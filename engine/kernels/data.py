@@ -151,7 +151,7 @@ class Work(NamedTuple):
     g: np.ndarray  # the Gram matrix of the columns
     a: np.ndarray  # the small system
     x: np.ndarray
-    xp: np.ndarray  # the rigid frets' last feasible multipliers (see the active-set loop)
+    xp: np.ndarray  # the rigid frets' last feasible multipliers (``step._advance``'s active set)
     cgam: np.ndarray  # gamma of an SAV or finger column (sec. 4.7)
     cs: np.ndarray  # its s~ = v~^T Lambda v~ (unscaled gradient)
     cbt: np.ndarray  # a finger column's unscaled beta~

@@ -194,7 +194,7 @@ def entry_point(dispatcher, args):
     visible share of a short render, so the result is kept per process, keyed by ``_type_key``,
     which is much cheaper to compute.  Only for arguments of exactly these types (it unboxes by the
     signature it was compiled for).  With ``NUMBA_DISABLE_JIT=1`` the kernels are Python, indexed
-    with numpy's bounds checks (``tests/engine/test_kernels.py`` renders that way)."""
+    with numpy's bounds checks (``tests/engine/kernels/test_step.py`` renders that way)."""
     if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: a plain Python function
         return dispatcher
     key = (dispatcher, _type_key(args))

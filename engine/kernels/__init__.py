@@ -34,7 +34,8 @@ The modules, low to high (each opens with the equations it implements):
 * ``data``        constants, ``Coefs``, ``Geo``, ``Controls``, ``State``, ``Work``; ``entry_point``
 * ``linear``      the string's linear update and Kirchhoff-Carrier column, a); the interpolant; pickups
 * ``excitation``  the pluck force, b)
-* ``collisions``  fretboard, frets (penalty and rigid), where a finger is, c) and d)
+* ``collisions``  fretboard and frets (penalty and rigid), c) and d)
+* ``finger``      the finger's contact and update, d)
 * ``sav``         the gradient correction of sec. 4.7
 * ``system``      the small system and its solves, f)
 * ``energy``      H, Q and P of eqs. (42)-(46)
@@ -49,7 +50,6 @@ the tests and the benchmarks look it up.
 from .collisions import (  # noqa: F401
     _add_rigid,
     _contact,
-    _finger_x,
     _fret_hit,
     _remove_col,
     _sav_board,
@@ -84,6 +84,7 @@ from .data import (  # noqa: F401
 from .decimate import fir_decimate  # noqa: F401
 from .energy import _energy, _step_energy  # noqa: F401
 from .excitation import _pluck_force, _pluck_forces  # noqa: F401
+from .finger import _beta, _eta, _finger_x, _w_free  # noqa: F401
 from .linear import (  # noqa: F401
     _add_kc,
     _bent_stencil,

@@ -1,9 +1,8 @@
 """The collisions: the fretboard's SAV gradient, eqs. (7) and (54)-(55a); the frets, either as penalty
 SAV contacts, eqs. (8), (24b) and (55b), or as one-sided rigid constraints (the K_F -> infinity
 limit: the active set's columns and the check that no other fret is penetrated); the quiet run's
-question whether any contact acts at all; and where a finger is along the string (slides).  The
-finger's own update, eqs. (9)-(10), (25)-(27), (39)-(41) and (55c-d), is written out in the step
-loops (``step._advance``, ``runs._held_run``).
+question whether any contact acts at all.  The finger, the third kind of contact, has a module of
+its own (``finger``).
 """
 
 from __future__ import annotations
@@ -54,18 +53,6 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
             wval = viol
             add = q
     return add
-
-
-@njit(**JIT_INLINE)
-def _finger_x(x0, x1, ms, me, step):
-    """Finger position x / L... in metres: x0 until step ms, gliding linearly to x1 at step me."""
-    if me <= ms:
-        return x0 if step < ms else x1
-    if step <= ms:
-        return x0
-    if step >= me:
-        return x1
-    return x0 + (x1 - x0) * (step - ms) / (me - ms)
 
 
 @njit(**JIT_INLINE)

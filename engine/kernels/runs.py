@@ -8,15 +8,14 @@ general path is and calling the same linear pass, it gives its samples to the la
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
 from ..config import JIT_NO_NRT, JIT_STEP
 from .collisions import _add_rigid, _contact, _fret_hit
-from .data import ACTIVE, EPS, FINGER, IDLE, KC
+from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
 from .excitation import _pluck_forces
+from .finger import _beta, _eta, _w_free
 from .linear import _add_kc, _bent_stencil, _kc_multiplier, _linear_pass, _linear_pass_kc, _pickups
 from .sav import _joint_gamma
 from .system import _assemble, _gram, _gram_kc, _scatter, _solve, _unscatter
@@ -253,15 +252,13 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
         # the finger, eqs. (39), (25)-(27), (55c-d), as in the general path
-        wfree = 2.0 * f_w[slot] - f_w1[slot] + lam_f * -force
-        eta = fw0 * U0[fpos] + fw1 * U0[fpos + 1] - f_w[slot]
+        wfree = _w_free(f_w[slot], f_w1[slot], lam_f, -force)
+        eta = _eta(fw0, fw1, fpos, U0, f_w[slot])
         if not eta > 0.0:
             return done, s_last
-        eta1 = fw0 * U1[fpos] + fw1 * U1[fpos + 1] - f_w1[slot]
-        etaf = fw0 * UF[fpos] + fw1 * UF[fpos + 1] - wfree
-        ea = eta if c.fg_alpha == 1.0 else eta**c.fg_alpha
-        vpot = c.fg_k / (c.fg_alpha + 1.0) * ea * eta
-        bt = c.fg_k * ea / math.sqrt(2.0 * vpot + EPS)
+        eta1 = _eta(fw0, fw1, fpos, U1, f_w1[slot])
+        etaf = _eta(fw0, fw1, fpos, UF, wfree)
+        bt = _beta(c, eta)
         cf = 0.25 * bt * bt + cf_damp
         ca[fc] = bt * f_psi[slot] - cf * eta1
         cc[fc] = cf
@@ -312,7 +309,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         if xk != 0.0:
             _add_kc(n, UF, Q, lam * xk)
         wn = wfree - lam_f * x[fc]
-        etan = fw0 * UF[fpos] + fw1 * UF[fpos + 1] - wn
+        etan = _eta(fw0, fw1, fpos, UF, wn)
         deta = etan - v1[fc]
         f_psi[slot] += 0.5 * bt * deta
         qloss = 0.0

@@ -11,12 +11,11 @@ import numpy as np
 from numba import njit
 
 from ..config import JIT, JIT_NO_NRT, JIT_STEP
-from .collisions import _add_rigid, _finger_x, _fret_hit, _remove_col, _sav_board, _sav_frets
+from .collisions import _add_rigid, _fret_hit, _remove_col, _sav_board, _sav_frets
 from .data import (
     ACTIVE,
     BOARD,
     DAMPER,
-    EPS,
     FINGER,
     FRETPEN,
     GAMMA_JOINT,
@@ -30,6 +29,7 @@ from .data import (
 )
 from .energy import _step_energy
 from .excitation import _pluck_forces
+from .finger import _beta, _eta, _finger_x, _w_free
 from .linear import (
     _add_kc,
     _bent_stencil,
@@ -194,7 +194,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 xs = _finger_x(fs_x0[s], fs_x1[s], fs_ms[s], fs_me[s], step)
                 fp[s], fw0[s], fw1[s] = interp(xs, c.h, n)
             p_ = fp[s]
-            eta = fw0[s] * U0[p_] + fw1[s] * U0[p_ + 1] - f_w[s]
+            eta = _eta(fw0[s], fw1[s], p_, U0, f_w[s])
             if step >= fs_rel[s]:
                 if -eta > c.fg_lift and f_w[s] > f_w1[s]:
                     # far above the string and rising: the finger leaves the model, and its
@@ -206,7 +206,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 fext[s] = fs_force[s]  # lifting
             else:
                 fext[s] = -fs_force[s]  # pressing towards the board
-            wfree[s] = 2.0 * f_w[s] - f_w1[s] + lam_f * fext[s]
+            wfree[s] = _w_free(f_w[s], f_w1[s], lam_f, fext[s])
         # ---- assemble the columns --------------------------------------------------------------
         nc = 0
         nent = 0
@@ -251,14 +251,12 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             if f_state[s] != ACTIVE:
                 continue
             p_ = fp[s]
-            eta = fw0[s] * U0[p_] + fw1[s] * U0[p_ + 1] - f_w[s]
-            eta1 = fw0[s] * U1[p_] + fw1[s] * U1[p_ + 1] - f_w1[s]
-            etaf = fw0[s] * UF[p_] + fw1[s] * UF[p_ + 1] - wfree[s]
+            eta = _eta(fw0[s], fw1[s], p_, U0, f_w[s])
+            eta1 = _eta(fw0[s], fw1[s], p_, U1, f_w1[s])
+            etaf = _eta(fw0[s], fw1[s], p_, UF, wfree[s])
             contact = eta > 0.0
             if contact:
-                ea = eta if c.fg_alpha == 1.0 else eta**c.fg_alpha  # pow() is slow
-                vpot = c.fg_k / (c.fg_alpha + 1.0) * ea * eta
-                bt = c.fg_k * ea / math.sqrt(2.0 * vpot + EPS)
+                bt = _beta(c, eta)
                 f_bprev[s] = bt
             elif f_psi[s] != 0.0:
                 bt = f_bprev[s]
@@ -446,7 +444,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             if ci >= 0:
                 wn -= lam_f * x[ci]
             p_ = fp[s]
-            etan = fw0[s] * UF[p_] + fw1[s] * UF[p_ + 1] - wn
+            etan = _eta(fw0[s], fw1[s], p_, UF, wn)
             if ci >= 0:
                 deta = etan - v1[ci]
                 f_psi[s] += 0.5 * fbeta[s] * deta

@@ -31,8 +31,8 @@ def test_the_line_table_build_has_every_kernel_in_one_module(tmp_path):
         file, defined = json.loads(out)
         names[file.endswith("kernels.py")] = set(defined)
     one, package = names[True], names[False]
-    submodules = {"data", "linear", "excitation", "collisions", "sav", "system", "energy", "runs",
-                  "step", "decimate"}
+    submodules = {"data", "linear", "excitation", "collisions", "finger", "sav", "system",
+                  "energy", "runs", "step", "decimate"}
     assert package - submodules <= one
     helpers = [name for _, name in _helpers(src / "engine" / "kernels.py")]
     assert {"_held_run", "_pass_kc", "_solve", "step_block", "fir_decimate"} <= set(helpers)

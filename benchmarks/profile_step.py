@@ -130,14 +130,13 @@ def scene_and_options(string: int, fret: int, kc: bool,
 def _one_file_engine(tmp: str) -> Path:
     """A copy of the engine in ``tmp`` whose ``kernels`` is one module, ``kernels.py``: the
     package's modules (``data`` first: the others use its constants and classes at import)
-    concatenated, each without its docstring and imports, under the imports they all need.  Returns
-    the folder to put first on PYTHONPATH."""
+    concatenated, each without its docstring and imports, under the imports they make of other
+    packages (``..config`` becoming ``.config``).  Returns the folder to put first on PYTHONPATH."""
     src = Path(tmp) / "src"
     shutil.copytree(ROOT / "engine", src / "engine", ignore=shutil.ignore_patterns(
         "__pycache__", "kernels"))
-    parts = ["from __future__ import annotations\n\nimport math\nfrom typing import NamedTuple\n\n"
-             "import numpy as np\nfrom numba import njit\n\n"
-             "from .config import JIT, JIT_INLINE, JIT_NO_NRT, JIT_STEP\n"]
+    imports = {"from __future__ import annotations": None}
+    bodies = []
     modules = sorted(KERNELS.glob("*.py"), key=lambda p: (p.stem != "data", p.stem))
     for path in modules:
         if path.stem == "__init__":
@@ -146,12 +145,18 @@ def _one_file_engine(tmp: str) -> Path:
         lines = text.splitlines(keepends=True)
         drop = set()
         for node in ast.parse(text).body:
-            if isinstance(node, ast.Import | ast.ImportFrom) or (
-                    isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)):
-                drop.update(range(node.lineno - 1, node.end_lineno))
-        parts.append("\n\n" + "".join(x for i, x in enumerate(lines) if i not in drop).strip("\n")
-                     + "\n")
-    (src / "engine" / "kernels.py").write_text("".join(parts))
+            if isinstance(node, ast.Import | ast.ImportFrom):
+                if isinstance(node, ast.ImportFrom) and node.level == 2:  # from ..config
+                    names = ", ".join(a.name for a in node.names)
+                    imports[f"from .{node.module} import {names}"] = None
+                elif not (isinstance(node, ast.ImportFrom) and node.level == 1):  # not a sibling
+                    imports[ast.get_source_segment(text, node)] = None
+            elif not (isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)):
+                continue  # (the module's docstring is dropped too)
+            drop.update(range(node.lineno - 1, node.end_lineno))
+        bodies.append("".join(x for i, x in enumerate(lines) if i not in drop).strip("\n"))
+    (src / "engine" / "kernels.py").write_text("\n".join(imports) + "\n\n\n"
+                                               + "\n\n\n".join(bodies) + "\n")
     return src
 
 

@@ -96,6 +96,7 @@ from .linear import (  # noqa: F401
     _pass_kc,
     _pickups,
     _q_index,
+    _step_start,
     _tension_ratio,
     interp,
 )

@@ -140,6 +140,27 @@ def _linear_pass(c, geo, b0, b1, U0, U1, UF):
 
 
 @njit(**JIT_INLINE)
+def _step_start(c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q):
+    """The start of a step of the general path and of the held run: the ghost cells of the simply
+    supported ends (eq. (2)), the stencil under a bend's tension at this step (ratio, b0, b1 are
+    kept without a bend), and the linear pass a), with the Kirchhoff-Carrier sums when the string
+    has the column; returns (ratio, b0, b1, q.q, q.u_free, q.u^(n-1), S, below, close)."""
+    n = c.n
+    U0[0] = -U0[2]
+    U0[n + 2] = -U0[n]
+    if tb_step.shape[0] > 0:
+        ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
+    qq = 0.0
+    quf = 0.0
+    qu1 = 0.0
+    if c.kc > 0.0:
+        qq, quf, qu1, s, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
+    else:
+        s, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)
+    return ratio, b0, b1, qq, quf, qu1, s, below, close
+
+
+@njit(**JIT_INLINE)
 def _kc_multiplier(c, qq, quf, qu1):
     """The Kirchhoff-Carrier column alone (the common free-vibration step): a 1x1 system."""
     return -c.kc * (qu1 + quf) / (1.0 + c.kc * c.lam * qq)

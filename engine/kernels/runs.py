@@ -16,7 +16,15 @@ from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
 from .excitation import _pluck_forces
 from .finger import _beta, _eta, _w_free
-from .linear import _add_kc, _bent_stencil, _kc_multiplier, _linear_pass, _linear_pass_kc, _pickups
+from .linear import (
+    _add_kc,
+    _bent_stencil,
+    _kc_multiplier,
+    _linear_pass,
+    _linear_pass_kc,
+    _pickups,
+    _step_start,
+)
 from .sav import _joint_gamma
 from .system import _assemble, _gram, _gram_kc, _scatter, _solve, _unscatter
 
@@ -205,7 +213,6 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     b0 = c.b0
     b1 = c.b1
     lam_f = k * k / c.fg_mass
-    tb_n = tb_step.shape[0]
     nfret = fret_p.shape[0]
     ratio = 1.0
     # the columns, laid out as the general path lays them out: KC, the finger, the active frets
@@ -237,17 +244,8 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     done = 0
     for i in range(it, it_end):
         step = step0 + i
-        U0[0] = -U0[2]
-        U0[n + 2] = -U0[n]
-        if tb_n > 0:
-            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
-        qq = 0.0
-        quf = 0.0
-        qu1 = 0.0
-        if c.kc > 0.0:
-            qq, quf, qu1, s, below, _ = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
-        else:
-            s, below, _ = _linear_pass(c, geo, b0, b1, U0, U1, UF)
+        ratio, b0, b1, qq, quf, qu1, s, below, _ = _step_start(
+            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q)
         if c.board_k > 0.0 and below > 0:
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)

@@ -32,11 +32,9 @@ from .excitation import _pluck_forces
 from .finger import _beta, _eta, _finger_x, _w_free
 from .linear import (
     _add_kc,
-    _bent_stencil,
     _kc_multiplier,
-    _linear_pass,
-    _linear_pass_kc,
     _pickups,
+    _step_start,
     interp,
 )
 from .runs import _held_run, _held_until, _quiet_run, _quiet_until
@@ -103,7 +101,6 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     scr, du, wfree, fext, fp, fw0, fw1, fchi, fbeta, fcol = (
         w.scr, w.du, w.wfree, w.fext, w.fp, w.fw0, w.fw1, w.fchi, w.fbeta, w.fcol)
     lam_f = k * k / c.fg_mass
-    tb_n = ctl.tb_step.shape[0]
     status = OK
 
     b0 = c.b0
@@ -162,18 +159,9 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 st.run_steps[1] += done
                 if done > 0:
                     continue
-        U0[0] = -U0[2]
-        U0[n + 2] = -U0[n]
-        if tb_n > 0:
-            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         # ---- a) linear update (+ KC vector, + S and the counts of nodes near a contact) ------
-        qq = 0.0
-        quf = 0.0
-        qu1 = 0.0
-        if c.kc > 0.0:
-            qq, quf, qu1, s_last, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
-        else:
-            s_last, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)
+        ratio, b0, b1, qq, quf, qu1, s_last, below, close = _step_start(
+            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
@@ -425,13 +413,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         held = (geo.held and joint and c.fret_mode != 2 and status == OK
                 and nbase == nk + 1 and kind[nk] == FINGER and ccon[nk])
         # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
-        xk = 0.0
-        for ci in range(nc):
-            if kind[ci] == KC:
-                xk = x[ci]
-                continue
-            for e in range(cstart[ci], cstart[ci + 1]):
-                UF[cidx[e]] += lam * cval[e] * x[ci]
+        xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, UF)
         if xk != 0.0:
             _add_kc(n, UF, Q, lam * xk)
         # fingers' new positions and psi updates, eqs. (41), (48)

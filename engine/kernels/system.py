@@ -265,7 +265,8 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
 
 @njit(**JIT_INLINE)
 def _scatter(nc, kind, cstart, cidx, cval, x, lam, du):
-    """du = Lambda * sum of the sparse columns' forces; returns the KC multiplier."""
+    """du += Lambda * sum of the sparse columns' forces (du: a scratch, or z itself); returns the
+    KC multiplier."""
     xk = 0.0
     for ci in range(nc):
         if kind[ci] == KC:

@@ -4,11 +4,12 @@ not move with the machine.
     python -m benchmarks.instructions [--quality standard] [--seconds 1]
 
 Times move between sessions by more than most changes are worth, and with the vector width of the
-machine a session gets (README, "Speed"); hardware counters (``benchmarks.counters``) are missing
-on most of these machines.  This script counts the instructions of the same renders as
-``benchmarks.speed``'s per-string table (the fretted full model against the linear string at the
-same factor x, and an open string's 2 N pluck with every nonlinearity against the linear string),
-plus its open strum and fretted chord, with ``valgrind --tool=callgrind``, which needs no counters.
+machine a session gets (docs/measurements.md, "Speed"); hardware counters
+(``benchmarks.counters``) are missing on most of these machines.  This script counts the
+instructions of the same renders as ``benchmarks.speed``'s per-string table (the fretted full
+model against the linear string at the same factor x, and an open string's 2 N pluck with every
+nonlinearity against the linear string), plus its open strum and fretted chord, with
+``valgrind --tool=callgrind``, which needs no counters.
 
 How: one child process prepares every scene and renders each once briefly (so that loading the
 compiled kernels is not counted), then renders each in full under callgrind with

@@ -18,7 +18,8 @@ from .data import EPS
 
 @njit(**JIT_INLINE)
 def _finger_x(x0, x1, ms, me, step):
-    """Finger position x / L... in metres: x0 until step ms, gliding linearly to x1 at step me."""
+    """The finger's place along the string (m) at a step: x0 until step ms, gliding linearly to
+    x1 at step me (a slide), or moving at once at ms if me <= ms."""
     if me <= ms:
         return x0 if step < ms else x1
     if step <= ms:

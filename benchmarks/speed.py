@@ -188,9 +188,8 @@ def pressed_tension_rise(quality: str, seconds: float = 0.5) -> None:
           f"{tol:g})")
     print("string | rise / T0 | / skip level")
     for v in eng.voices:
-        n = v.coefs.n
-        u = v.state.u[1:n + 2]  # node 0 (fixed) to node N (fixed)
-        rise = float(np.sum(np.diff(u) ** 2)) / kc_skip_level(v.model, 1.0)
+        # S as the kernel's pass last took it (``State.s_last``), the number the skip decides on
+        rise = float(v.state.s_last[0]) / kc_skip_level(v.model, 1.0)
         level = f"{rise / tol:12.1f}" if tol > 0 else f"{'-':>12s}"
         print(f"{v.index:>6d} | {rise:9.2e} | {level}")
 

@@ -140,11 +140,11 @@ def _linear_pass(c, geo, b0, b1, U0, U1, UF):
 
 
 @njit(**JIT_INLINE)
-def _step_start(c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q):
-    """The start of a step of the general path and of the held run: the ghost cells of the simply
-    supported ends (eq. (2)), the stencil under a bend's tension at this step (ratio, b0, b1 are
-    kept without a bend), and the linear pass a), with the Kirchhoff-Carrier sums when the string
-    has the column; returns (ratio, b0, b1, q.q, q.u_free, q.u^(n-1), S, below, close)."""
+def _step_start(c, geo, tb_step, tb_ratio, step, ratio, b0, b1, with_kc, U0, U1, UF, Q):
+    """The start of a step in every loop (the general path, the quiet and the held run): the ghost
+    cells of the simply supported ends (eq. (2)), the stencil under a bend's tension at this step
+    (ratio, b0, b1 are kept without a bend), and the linear pass a), with the Kirchhoff-Carrier
+    sums if ``with_kc``; returns (ratio, b0, b1, q.q, q.u_free, q.u^(n-1), S, below, close)."""
     n = c.n
     U0[0] = -U0[2]
     U0[n + 2] = -U0[n]
@@ -153,7 +153,7 @@ def _step_start(c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q):
     qq = 0.0
     quf = 0.0
     qu1 = 0.0
-    if c.kc > 0.0:
+    if with_kc:
         qq, quf, qu1, s, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
     else:
         s, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)

@@ -18,10 +18,7 @@ from .excitation import _pluck_forces
 from .finger import _beta, _eta, _w_free
 from .linear import (
     _add_kc,
-    _bent_stencil,
     _kc_multiplier,
-    _linear_pass,
-    _linear_pass_kc,
     _pickups,
     _step_start,
 )
@@ -97,20 +94,13 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     b0 = c.b0
     b1 = c.b1
     lam = c.lam
-    tb_n = tb_step.shape[0]
+    ratio = 1.0
     done = 0
     for i in range(it, it_end):
-        U0[0] = -U0[2]
-        U0[n + 2] = -U0[n]
-        if tb_n > 0:
-            _, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step0 + i)
         with_kc = c.kc > 0.0 and s_last >= c.kc_s_skip
-        xk = 0.0
-        if with_kc:
-            qq, quf, qu1, s, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
-            xk = _kc_multiplier(c, qq, quf, qu1)
-        else:
-            s, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)
+        ratio, b0, b1, qq, quf, qu1, s, below, close = _step_start(
+            c, geo, tb_step, tb_ratio, step0 + i, ratio, b0, b1, with_kc, U0, U1, UF, Q)
+        xk = _kc_multiplier(c, qq, quf, qu1) if with_kc else 0.0
         if (below > 0 or close > 0) and _contact(c, below, close, UF, du, Q, fret_p, fret_w0,
                                                  fret_w1, fret_m0, fret_active, lam * xk):
             return done, s
@@ -245,7 +235,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     for i in range(it, it_end):
         step = step0 + i
         ratio, b0, b1, qq, quf, qu1, s, below, _ = _step_start(
-            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q)
+            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, c.kc > 0.0, U0, U1, UF, Q)
         if c.board_k > 0.0 and below > 0:
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)

@@ -161,7 +161,7 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                     continue
         # ---- a) linear update (+ KC vector, + S and the counts of nodes near a contact) ------
         ratio, b0, b1, qq, quf, qu1, s_last, below, close = _step_start(
-            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, U0, U1, UF, Q)
+            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, c.kc > 0.0, U0, U1, UF, Q)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)

@@ -22,7 +22,8 @@ import numpy as np
 import engine
 from benchmarks.scenes import SR, scene, tap
 from engine.analysis import cents, partials, spectrum_peak
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.presets import PRESETS
 from engine.scene import Scene
 

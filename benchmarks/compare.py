@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CHILD = r"""
 import json, sys
 from benchmarks.speed import best_time
-from engine.guitar import RenderOptions
+from engine.options import RenderOptions
 seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
 scenes = json.loads(sys.argv[3])
 out = {}

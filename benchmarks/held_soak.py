@@ -27,7 +27,8 @@ from pydantic import ValidationError
 from benchmarks.skips import held_steps
 from benchmarks.soak import make_case
 from engine.config import FASTMATH
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 

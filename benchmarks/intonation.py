@@ -24,8 +24,8 @@ import numpy as np
 
 import engine
 from engine.analysis import cents, spectrum_peak
-from engine.guitar import QUALITY, Quality, RenderOptions
 from engine.intonation import REFERENCE_H_M
+from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import get_preset
 
 FRETS = tuple(range(1, 13))

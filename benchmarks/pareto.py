@@ -54,9 +54,11 @@ import engine.string
 from benchmarks.accuracy import ENERGY_SCENES
 from benchmarks.intonation import FRETS, decay_db_per_s
 from engine.analysis import cents, partials, spectrum_peak
-from engine.guitar import FRET_PENALTY, QUALITY, Quality, RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import get_preset
 from engine.scene import Scene
+from engine.string import FRET_PENALTY
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = pathlib.Path(__file__).parent / "out"
@@ -430,7 +432,7 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
                        f"{r['p10']:.3f} / {r['p10_measured']:.3f}", f"{r['p20']:.3f}",
                        f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}",
                        f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", f"{r['energy']:.1e}"])
-    out += ["### Quality levels (the scene's `quality`; `engine.guitar.QUALITY`)",
+    out += ["### Quality levels (the scene's `quality`; `engine.options.QUALITY`)",
             md_table(["level", "Quality", "x per string (fingered)", "ms/s six strings",
                       "ms/s per string", "open f0 (c)", "partials 1-10 exact / measured (c)",
                       "partials 1-20 (c)", "fretted vs 12-TET (c)", "fretted vs x8 (c)",
@@ -613,7 +615,7 @@ def main() -> None:
         for k in SPECTRAL:
             if ("audio", n, k) not in res:
                 continue
-            x, _ = res["audio", n, k]  # every factor lines up in time (guitar.Decimator)
+            x, _ = res["audio", n, k]  # every factor lines up in time (output.Decimator)
             ref, _ = res["audio", REFERENCE.name, k]
             res["spectral", n, k] = spectral_error_db(x, ref)
     ref_check = {k: res["spectral", FINE, k] for k in SPECTRAL}

@@ -49,7 +49,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from engine.guitar import RenderOptions
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 ROOT = Path(__file__).resolve().parent.parent

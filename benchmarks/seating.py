@@ -27,10 +27,12 @@ from multiprocessing import Pool
 import numpy as np
 
 from engine.controls import events_on
-from engine.guitar import QUALITY, RenderOptions, prepare, string_model
+from engine.guitar import prepare
 from engine.intonation import SEAT_MARGIN, press_force, seating_force
+from engine.options import QUALITY, RenderOptions
 from engine.presets import get_preset
 from engine.scene import Scene
+from engine.voice import string_model
 
 SR = 44100
 PLUCKS_N = (1.0, 4.0)

@@ -28,7 +28,9 @@ import numpy as np
 
 from benchmarks.speed import chord_events, fretted_events, strum_events
 from engine.analysis import cents, spectrum_peak
-from engine.guitar import FIXED_GAIN, RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
+from engine.output import FIXED_GAIN
 from engine.scene import Scene
 
 

@@ -35,7 +35,7 @@ from pydantic import ValidationError
 
 from benchmarks.pareto import write_docs
 from benchmarks.stability import LIMITS, NumpyDraw, Report, check, random_scene, violations
-from engine.guitar import RenderOptions
+from engine.options import RenderOptions
 
 LONG_EVERY = 100
 LONG_S = 60.0

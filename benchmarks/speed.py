@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from benchmarks.counters import Counters
-from engine.guitar import QUALITY, Engine, RenderOptions, prepare
+from engine.guitar import Guitar, prepare
+from engine.options import QUALITY, RenderOptions
 from engine.scene import Scene
 from engine.string import kc_skip_level
 
@@ -43,7 +44,7 @@ class Timing:
     seconds: float
     cycles: float | None
     instructions: float | None
-    engine: Engine | None
+    engine: Guitar | None
 
 
 def _fewest(a: float | None, b: int | None) -> float | None:

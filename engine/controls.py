@@ -50,6 +50,8 @@ from .scene import (
     Vibrato,
 )
 
+# events that put a finger on the string (a harmonic touches it without pressing)
+FINGER_EVENTS = ("fret", "tap", "hammer_on", "slide")
 FINGER_BEHIND = 0.3  # of the spacing between fret q-1 and fret q
 TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
 NEVER = np.iinfo(np.int64).max // 4

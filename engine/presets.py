@@ -88,6 +88,16 @@ class StringSpec:
         """E I of a solid round section, I = pi r^4 / 4."""
         return self.youngs_modulus_pa * math.pi * self.radius_m**4 / 4.0
 
+    def pitch_tension_n(self, length_m: float) -> float:
+        """4 L^2 rho A f0^2: the tension an ideal (flexible) string needs for its pitch."""
+        return 4.0 * length_m**2 * self.linear_density_kg_m * self.frequency_hz**2
+
+    def stiffness_tension_n(self, length_m: float) -> float:
+        """pi^2 E I / L^2: the part of the stiff string's f_1^2 (4 L^2 rho A) that stiffness
+        supplies; the tension is ``pitch_tension_n`` minus this, so a string is playable only
+        below that."""
+        return math.pi**2 * self.bending_stiffness_nm2 / length_m**2
+
 
 @dataclass(frozen=True)
 class FingerSpec:

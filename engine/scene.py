@@ -12,7 +12,6 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from .presets import DEFAULT_PRESET, PRESETS, Preset, apply_overrides, get_preset, note_frequency
-from .string import pitch_tension_n, stiffness_tension_n
 
 MAX_DURATION_S = 120.0
 MAX_EVENTS = 2000
@@ -410,8 +409,8 @@ class Scene(_Model):
         low = 2.0 ** (-2.0 * MAX_VIBRATO_CENTS / 1200.0)
         for i, spec in enumerate(preset.strings, start=1):
             length = preset.string_length_m(i)
-            stiff = stiffness_tension_n(spec, length)
-            limit = low * pitch_tension_n(spec, length)
+            stiff = spec.stiffness_tension_n(length)
+            limit = low * spec.pitch_tension_n(length)
             if stiff < limit:
                 continue
             # the field that made it so: the string's override, else a lowered tuning
@@ -432,3 +431,11 @@ class Scene(_Model):
 
 def parse_scene(scene: Scene | dict) -> Scene:
     return scene if isinstance(scene, Scene) else Scene.model_validate(scene)
+
+
+def frame_count(scene: Scene | dict) -> int:
+    """The number of output frames ``engine.render`` (and ``engine.blocks``, concatenated) returns
+    for a scene: its duration at its rate, rounded.  Known before anything is simulated (a
+    stream's WAV header needs it)."""
+    sc = parse_scene(scene)
+    return int(round(sc.duration * sc.sample_rate))

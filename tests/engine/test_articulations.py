@@ -5,7 +5,8 @@ import pytest
 
 import engine
 from benchmarks import articulations as art
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 from .conftest import pluck, scene

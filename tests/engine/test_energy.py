@@ -5,7 +5,8 @@ import pytest
 
 import engine
 from benchmarks.stability import LIMITS, check
-from engine.guitar import QUALITY, Quality, RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import QUALITY, Quality, RenderOptions
 from engine.scene import Scene
 from engine.string import FRET_PENALTY
 

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from benchmarks.skips import held_steps
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 from .conftest import fret, pluck, scene, tap

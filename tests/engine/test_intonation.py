@@ -13,7 +13,6 @@ from benchmarks.intonation import decay_db_per_s
 from benchmarks.seating import holds, resting_share
 from engine.analysis import cents, spectrum_peak
 from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
-from engine.guitar import QUALITY, RenderOptions, string_model
 from engine.intonation import (
     SEAT_MARGIN,
     TOLERANCE_CENTS,
@@ -23,8 +22,10 @@ from engine.intonation import (
     reference_model,
     seating_force,
 )
+from engine.options import QUALITY, RenderOptions
 from engine.scene import Fret, Scene
 from engine.string import geometry, tune
+from engine.voice import string_model
 
 from .conftest import SR, fret, pluck, scene
 

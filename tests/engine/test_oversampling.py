@@ -10,7 +10,8 @@ import pytest
 from scipy import signal
 
 import engine
-from engine.guitar import Decimator, RenderOptions
+from engine.options import RenderOptions
+from engine.output import Decimator
 
 from .conftest import SR, pluck, scene
 

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 import engine
-from engine.guitar import RenderOptions, prepare
+from engine import guitar as guitar_module
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 from .conftest import fret, pluck
@@ -176,3 +178,25 @@ def test_a_press_that_holds_the_string_at_rest_but_not_bent_is_warned_about():
     warned = engine.scene_warnings(bent)
     assert len(warned) == 1 and warned[0].startswith("string 3: the fret at 0 s presses 3 N")
     assert prepare(bent).warnings() == warned  # the voice keeps the bent tension
+
+
+def test_render_result_carries_the_warnings_without_diagnostics_and_survives_their_failure(
+        monkeypatch, caplog):
+    """The service's workers take the warnings from ``render_result`` (no energy terms computed:
+    ``energy_error`` is None).  Warnings are advice: if working them out fails, the audio still
+    comes, without them, and the failure is logged."""
+    light_tap = {"duration": 0.2, "events": [
+        {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 0.9}]}
+    result = engine.render_result(light_tap)
+    assert result.energy_error is None
+    assert result.warnings == engine.scene_warnings(engine.parse_scene(light_tap))
+    assert len(result.warnings) == 1
+    assert engine.blocks(light_tap).warnings == result.warnings
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(guitar_module, "finger_warnings", broken)
+    failed = engine.render_result(light_tap)
+    assert failed.warnings == [] and np.array_equal(failed.audio, result.audio)
+    assert "warnings failed" in caplog.text

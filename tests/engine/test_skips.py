@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from benchmarks.skips import held_steps, kc_skip_pitch_shift, quiet_share
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 from .conftest import fret, pluck, scene

@@ -22,7 +22,8 @@ from pydantic import ValidationError
 import engine
 from benchmarks.accuracy import board_depth
 from benchmarks.stability import LIMITS, QUIET_S, PsiProbe, check, random_scene, violations
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N, MAX_TAP_VELOCITY_M_S, Scene
 
 from .conftest import fret, pluck, scene, tap

@@ -24,9 +24,8 @@ class Quality:
     kc_tolerance: float = 0.0
     # the interpolants of the frets a scene's fingers stop are calibrated on the string's grid
     # (``engine.intonation``): the held note gets the fine grid's pitch.  On at draft and standard,
-    # where it takes the grid's 13.8 and 4.9 cents out of the fretted pitch (against x8 everywhere,
-    # benchmarks/pareto.py); off at high, whose fine grid leaves 1.7 cents and where it cost more
-    # spectral accuracy (tap, fret buzz) than it bought (docs/accuracy.md)
+    # where it takes most of the grid's error out of the fretted pitch; off at high, where it cost
+    # more spectral accuracy (tap, fret buzz) than it bought (docs/accuracy.md, "Quality levels")
     calibrate_frets: bool = False
 
 

@@ -1,6 +1,6 @@
 """Steps that do the general path's arithmetic without its bookkeeping: quiet steps, in which nothing
 but the string's own forces acts, and the held steps of a fretted note, in which the forces that
-act do not change (docs/engine.md, items 1 and 6).  Each run checks, in every step, every decision
+act do not change (docs/engine.md, "Skips").  Each run checks, in every step, every decision
 the general path would take, and returns at the first step on which one differs; compiled as the
 general path is and calling the same linear pass, it gives its samples to the last bit
 (``tests/engine/test_held.py``, ``tests/engine/test_skips.py``).

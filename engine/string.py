@@ -13,11 +13,13 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from scipy import optimize
 
 from .kernels import Coefs, Geo, interp
 from .presets import Preset, StringSpec, get_preset
@@ -249,18 +251,13 @@ def _mode_error(mode, target, args, ei, tension, x):
 
 
 def _secant(err, x0: float) -> float:
-    """Root of err near x0 (err is smooth and monotonic here)."""
-    x1 = x0 * 1.01
-    e0, e1 = err(x0), err(x1)
-    for _ in range(60):
-        if e1 == e0:
-            break
-        x2 = x1 - e1 * (x1 - x0) / (e1 - e0)
-        x0, e0 = x1, e1
-        x1, e1 = x2, err(x2)
-        if abs(e1) < 1e-13 * max(abs(x1), 1.0) * 1e3:
-            break
-    return x1
+    """Root of err near x0 by the secant method (err is smooth and monotonic here), to the last
+    few ulps; NaN if it does not converge (``_tune`` then gives up on the grid)."""
+    with warnings.catch_warnings():  # flat at the root to machine precision: scipy warns, done
+        warnings.simplefilter("ignore", RuntimeWarning)
+        root, info = optimize.newton(err, x0, x1=x0 * 1.01, tol=1e-12 * abs(x0), maxiter=60,
+                                     full_output=True, disp=False)
+    return root if info.converged or info.flag == "convergence error" else math.nan
 
 
 def coefficients(model: StringModel, preset: Preset, fret_mode: int,

@@ -251,13 +251,13 @@ def _mode_error(mode, target, args, ei, tension, x):
 
 
 def _secant(err, x0: float) -> float:
-    """Root of err near x0 by the secant method (err is smooth and monotonic here), to the last
-    few ulps; NaN if it does not converge (``_tune`` then gives up on the grid)."""
-    with warnings.catch_warnings():  # flat at the root to machine precision: scipy warns, done
+    """Root of err near x0 by the secant method (err is smooth and monotonic here).  Where err is
+    flat to machine precision before the step tolerance is met, scipy stops with a warning: that
+    is the root to the last few ulps, and it is taken (``_tune`` checks that it is physical)."""
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        root, info = optimize.newton(err, x0, x1=x0 * 1.01, tol=1e-12 * abs(x0), maxiter=60,
-                                     full_output=True, disp=False)
-    return root if info.converged or info.flag == "convergence error" else math.nan
+        return optimize.newton(err, x0, x1=x0 * 1.01, tol=1e-12 * abs(x0), maxiter=60,
+                               disp=False)
 
 
 def coefficients(model: StringModel, preset: Preset, fret_mode: int,

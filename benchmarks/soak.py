@@ -1,6 +1,7 @@
 """Stability soak: thousands of random valid scenes, some of them 60 s long, checked for finite
 output, energy balance, stored energy bounded by the work done, non-negative dissipation and the
-auxiliary variables of sec. 4.7 (``benchmarks.stability``).
+auxiliary variables of sec. 4.7 (``engine.testing.stability``), on scenes from
+``engine.testing.random_scenes``, the generator the tests draw from through hypothesis.
 
     python -m benchmarks.soak [--minutes 3] [--seed 0] [--jobs 2] [--no-docs]
 
@@ -34,8 +35,9 @@ import numpy as np
 from pydantic import ValidationError
 
 from benchmarks.pareto import write_docs
-from benchmarks.stability import LIMITS, NumpyDraw, Report, check, random_scene, violations
 from engine.guitar import RenderOptions
+from engine.testing.random_scenes import NumpyDraw, random_scene
+from engine.testing.stability import LIMITS, Report, check, violations
 
 LONG_EVERY = 100
 LONG_S = 60.0

@@ -1,7 +1,7 @@
 import pytest
 
-from benchmarks.scenes import SR, fret, pluck, scene, tap  # noqa: F401  (the tests' builders)
 from engine.presets import get_preset
+from engine.testing.scenes import SR, fret, pluck, scene, tap  # noqa: F401  (the one set of builders)
 
 
 @pytest.fixture(scope="session")

@@ -168,6 +168,7 @@ def test_a_finger_with_no_force_of_its_own_holds_the_high_frets(steel):
     assert press_force(m, steel, 19) == pytest.approx(SEAT_MARGIN * seating_force(m, steel, 19))
     assert press_force(m, steel, 5) == steel.finger.press_force_n
     assert not _holds(3, 19, steel.finger.press_force_n)
+    assert _holds(3, 19, None)  # the default force seats the string on its fret
     no_force = {"type": "fret", "time": 0.0, "string": 3, "fret": 19}
     sc = scene([no_force, pluck(3, time=0.05, force=1.0)], duration=1.0)
     audio = engine.render(sc)

@@ -27,6 +27,7 @@ import argparse
 import collections
 import json
 import math
+import sys
 import threading
 import time
 from multiprocessing import Pool
@@ -166,7 +167,12 @@ def main() -> None:
     if args.replay:
         kind, sc = make_case(*args.replay)
         print(json.dumps(sc, indent=1))
-        rep = check(sc)
+        try:
+            rep = check(sc)
+        except ValidationError as e:  # the soak skips these cases too
+            print(f"case {args.replay[1]} of seed {args.replay[0]} is not a valid scene (the soak "
+                  f"skipped it): {e.errors()[0]['msg']}", file=sys.stderr)
+            sys.exit(2)
         print(rep, violations(rep), sep="\n")
         return
     t0 = time.perf_counter()

@@ -24,11 +24,11 @@ import time
 import numpy as np
 from pydantic import ValidationError
 
-from benchmarks.skips import held_steps
 from benchmarks.soak import make_case
 from engine.config import FASTMATH
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
+from engine.testing.measure import held_steps
 
 
 def compare(seed: int, i: int) -> tuple[float, int, int, float] | None:

@@ -7,8 +7,7 @@ import engine
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 from engine.testing import articulations as art
-
-from .conftest import pluck, scene
+from engine.testing.scenes import pluck, scene
 
 # Each target is measured by engine.testing.articulations; benchmarks/articulations.py prints the
 # same figures as a table.

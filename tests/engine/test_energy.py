@@ -7,9 +7,8 @@ import engine
 from engine.guitar import QUALITY, Quality, RenderOptions, prepare
 from engine.scene import Scene
 from engine.string import FRET_PENALTY
+from engine.testing.scenes import fret, pluck, scene, tap
 from engine.testing.stability import LIMITS, check
-
-from .conftest import fret, pluck, scene, tap
 
 TOL = 1e-11
 

@@ -12,8 +12,7 @@ import pytest
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 from engine.testing.measure import held_steps
-
-from .conftest import fret, pluck, scene, tap
+from engine.testing.scenes import fret, pluck, scene, tap
 
 
 def _ev(kind, time, string, **kw):

@@ -24,8 +24,7 @@ from engine.intonation import (
 from engine.scene import Fret, Scene
 from engine.string import geometry, tune
 from engine.testing.measure import holds, resting_share
-
-from .conftest import SR, fret, pluck, scene
+from engine.testing.scenes import SR, fret, pluck, scene
 
 
 def _string(preset, s, rate=SR):

@@ -11,8 +11,7 @@ from scipy import signal
 
 import engine
 from engine.guitar import Decimator, RenderOptions
-
-from .conftest import SR, pluck, scene
+from engine.testing.scenes import SR, pluck, scene
 
 
 def _pulse(t):

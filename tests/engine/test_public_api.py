@@ -12,8 +12,7 @@ import pytest
 import engine
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
-
-from .conftest import fret, pluck
+from engine.testing.scenes import fret, pluck
 
 ROOT = Path(__file__).resolve().parents[2]
 

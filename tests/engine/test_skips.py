@@ -8,8 +8,7 @@ import pytest
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
 from engine.testing.measure import held_steps, kc_skip_pitch_shift, quiet_share
-
-from .conftest import fret, pluck, scene
+from engine.testing.scenes import fret, pluck, scene
 
 
 # The exact comparisons below take every skip of contact work on one side (quiet steps, the

@@ -8,8 +8,7 @@ from pydantic import ValidationError
 import engine
 from engine.scene import MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N, MAX_TAP_VELOCITY_M_S, Scene
 from engine.testing.random_scenes import scenes
-
-from .conftest import fret, pluck, scene, tap
+from engine.testing.scenes import fret, pluck, scene, tap
 
 
 @pytest.mark.parametrize("preset", ["steel-acoustic", "nylon-classical"])

@@ -23,9 +23,8 @@ from engine.guitar import RenderOptions, prepare
 from engine.scene import MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N, MAX_TAP_VELOCITY_M_S, Scene
 from engine.testing.measure import board_depth
 from engine.testing.random_scenes import scenes
+from engine.testing.scenes import fret, pluck, scene, tap
 from engine.testing.stability import LIMITS, QUIET_S, PsiProbe, check, violations
-
-from .conftest import fret, pluck, scene, tap
 
 
 # derandomize: CI must be reproducible; the soak (benchmarks/soak.py) explores new cases

@@ -6,8 +6,7 @@ import numpy as np
 from engine import kernels
 from engine.guitar import RenderOptions, prepare
 from engine.scene import Scene
-
-from ..conftest import fret, pluck, scene
+from engine.testing.scenes import fret, pluck, scene
 
 
 def _voice_args(v, nsteps=400):

@@ -20,6 +20,8 @@ from engine import QUALITY, RenderOptions, Scene
 from engine.analysis import cents, spectrum_peak
 from engine.guitar import prepare  # the prepared strings: their state is what these measure
 from engine.testing.scenes import SR, scene, tap
+from engine.testing.scenes import fret as fret_at
+from engine.testing.scenes import pluck as pluck_at
 
 # ---- the fretboard ------------------------------------------------------------------------------
 
@@ -49,14 +51,10 @@ def seating_scene(preset_name: str, string: int, fret: int, force: float | None,
                   extra: tuple = (), duration: float = 1.0) -> Scene:
     """A finger behind ``fret`` pressing with ``force`` (None: the engine's default), a pluck of
     ``pluck`` N at 0.05 s and the ``extra`` events, mono at the fixed gain, no body."""
-    finger = {"type": "fret", "time": 0.0, "string": string, "fret": fret}
-    if force is not None:
-        finger["force"] = force
-    return Scene.model_validate({
-        "duration": duration, "sample_rate": SR, "guitar": {"preset": preset_name},
-        "output": {"body": "none", "channels": 1, "normalize": False},
-        "events": [finger, {"type": "pluck", "time": 0.05, "string": string, "force": pluck},
-                   *extra]})
+    events = [fret_at(string, fret, force=force), pluck_at(string, 0.05, force=pluck), *extra]
+    return Scene.model_validate(scene(
+        events, duration, guitar={"preset": preset_name},
+        output={"body": "none", "channels": 1, "normalize": False}))
 
 
 def resting_share(preset_name: str, quality: str, string: int, fret: int, force: float | None,

@@ -10,7 +10,9 @@ compressor's ``threshold_db`` or a drive's ``gain_db`` mean the same thing whate
 normalisation.
 
 Convolution takes only a built-in impulse response (``ir``: the modal guitar bodies of
-``engine.output.BODIES``); a file path would let a request read the server's files.  Python callers
+``engine.output.BODIES``, run as their recursive filter, which is exact convolution with the whole
+response); a file path would let a request read the server's files and an uploaded response would
+let it fill the server's memory.  Python callers
 can convolve any response they hold with ``engine.render(..., impulse_response=...)``.
 
 Tails: a delay's repeats and a reverb's tail that would sound after the scene's ``duration`` are
@@ -124,8 +126,9 @@ class Reverb(_Effect):
 
 
 class Convolution(_Effect):
-    """Convolution with a built-in impulse response (pedalboard ``Convolution``): ``ir`` names a
-    modal guitar body of ``engine.output.BODIES`` (1 s of its response at the scene's rate)."""
+    """Convolution with a built-in impulse response: ``ir`` names a modal guitar body of
+    ``engine.output.BODIES`` (an acoustic's or a classical's), e.g. to give an electric's track an
+    acoustic body; ``mix`` of it added to ``1 - mix`` of the dry signal."""
 
     type: Literal["convolution"] = "convolution"
     ir: Literal["acoustic", "classical"] = Field(description="built-in impulse response")

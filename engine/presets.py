@@ -306,8 +306,9 @@ def added_string(preset: Preset, note: str) -> StringSpec:
     core-to-gauge ratio, so the same effective Young's modulus; its decay times and saddle
     setback), at the mean tension of the preset's two lowest strings (within their range), with
     the radius that gives that tension at ``note``: rho A = T / (2 L f0)^2, solved together with
-    the small stiffness term.  The electric's B1 comes out at 0.064" (7-string sets: .059-.064),
-    the bass's B0 at 0.141" (5-string sets: .125-.135)."""
+    the small stiffness term.  ``tests/engine/test_tracks.py`` prints the results: the electric's
+    B1 at 0.063" (7-string sets sell .059-.064), the steel acoustic's B1 at 0.074", the bass's B0
+    at 0.141" (5-string sets: .125-.135; our bass's E1 is heavy, .105, too)."""
     low = preset.strings[-1]
     pair = preset.strings[-2:]
     n = preset.n_strings

@@ -14,8 +14,12 @@ two cannot disagree:
 
 from __future__ import annotations
 
+import time
+import tracemalloc
+
 import numpy as np
 
+import engine
 from engine import QUALITY, RenderOptions, Scene
 from engine.analysis import cents, spectrum_peak
 from engine.guitar import prepare  # the prepared strings: their state is what these measure
@@ -125,3 +129,17 @@ def kc_skip_pitch_shift(string: int, force: float = 2.0, seconds: float = 2.0,
     late = slice(int(0.5 * sr), None)
     shift = float(cents(spectrum_peak(outs[0][late], sr, f0), spectrum_peak(outs[1][late], sr, f0)))
     return shift, not np.array_equal(outs[0], outs[1])
+
+
+def stream_peak(scene: dict) -> tuple[float, float, int]:
+    """(wall seconds, peak traced bytes, output bytes) of streaming the scene's blocks."""
+    tracemalloc.start()
+    t0 = time.perf_counter()
+    frames = 0
+    for block in engine.blocks(scene):
+        frames += len(block)
+        assert np.all(np.isfinite(block))
+    seconds = time.perf_counter() - t0
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    return seconds, peak, frames * 2 * 8

@@ -37,3 +37,27 @@ def tap(string: int, fret: int, time: float = 0.0, force: float = 1.0, velocity:
         **kw) -> dict:
     return {"type": "tap", "time": time, "string": string, "fret": fret, "force": force,
             "velocity": velocity, **kw}
+
+
+def song(seconds: float, quality: str = "draft", note_every_s: float = 4.0) -> dict:
+    """Two tracks (an electric lead through drive, delay and reverb, and a bass), one plucked and
+    damped note per track every ``note_every_s`` seconds, on strings that change from note to note."""
+    lead, bass = [], []
+    t = 0.0
+    i = 0
+    while t + note_every_s <= seconds:
+        s = 1 + i % 3
+        lead += [{"type": "fret", "time": t, "string": s, "fret": 2 + i % 5},
+                 {"type": "pluck", "time": t + 0.01, "string": s},
+                 {"type": "damp", "time": t + 0.8, "string": s}]
+        bass += [{"type": "pluck", "time": t + 0.5 * note_every_s, "string": 1 + i % 2},
+                 {"type": "damp", "time": t + 0.5 * note_every_s + 0.8, "string": 1 + i % 2}]
+        t += note_every_s
+        i += 1
+    return {"duration": seconds, "quality": quality, "output": {"channels": 2},
+            "tracks": [
+                {"name": "Lead", "guitar": {"preset": "electric"}, "events": lead, "pan": -0.3,
+                 "effects": [{"type": "drive", "gain_db": 12}, {"type": "delay", "delay_s": 0.3},
+                             {"type": "reverb", "room_size": 0.6}]},
+                {"name": "Bass", "guitar": {"preset": "bass"}, "events": bass, "pan": 0.2,
+                 "gain_db": -3.0}]}

@@ -454,7 +454,7 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         else:
                             warnings.append(f"{w}: tapping an open string, plucked instead")
                     elif slap:
-                        p.articulations.append(slap[:-3] if slap.endswith("ing") else slap)
+                        p.articulations.append({"slapping": "slap", "popping": "pop"}[slap])
                     if eff.isHarmonic and not p.dead:
                         _harmonic(p, eff.harmonic, tr, s, fret, w, warnings)
                     if eff.vibrato or be.vibrato:
@@ -709,7 +709,7 @@ def _trill(p: Planned, trill, tr, s, spt, t0, t1, w, warnings) -> list[Planned]:
     while t < t1 - 0.25 * period and len(out) < 256:
         f = frets[k % 2]
         q = Planned(p.track, s, f, t, t1, p.force, float(tr.tuning[s - 1] + f), style=p.style,
-                    where=w, articulations=["trill"])
+                    where=w, articulations=["trill"], repeat=True)
         prev = out[-1]
         prev.end = t
         q.attack = "hammer_on" if f > prev.fret else "pull_off"
@@ -728,7 +728,8 @@ def _tremolo(p: Planned, trem, spt, t0, t1) -> list[Planned]:
     t = t0 + period
     while t < t1 - 0.25 * period and len(out) < 512:
         q = Planned(p.track, p.string, p.fret, t, t1, p.force, p.pitch, style=p.style,
-                    where=p.where, articulations=["tremolo_picking"], palm_mute=p.palm_mute)
+                    where=p.where, articulations=["tremolo_picking"], palm_mute=p.palm_mute,
+                    repeat=True)
         out[-1].end = t
         out[-1].let_ring = True  # the next pick stops it
         out.append(q)

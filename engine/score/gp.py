@@ -463,8 +463,6 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         p.articulations.append("vibrato")
                     if eff.isBend:
                         _bend(p, eff.bend.points, t0, end, w, warnings, "bend")
-                    for sl in eff.slides:
-                        _slide(p, sl.name, tr, w, warnings, pending_legato)
                     # legato from the previous note on this string (its hammer/slide flag)
                     leg = pending_legato.pop(s, None)
                     prev = last_on_string.get(s)
@@ -472,6 +470,8 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                             and p.attack == "pluck" and not p.dead:
                         kind = leg[0]
                         _legato(p, prev, kind, w, warnings)
+                    for sl in eff.slides:
+                        _slide(p, sl.name, tr, w, warnings, pending_legato)
                     if eff.hammer:
                         pending_legato[s] = ("hammer", p)
                     if eff.letRing:
@@ -588,7 +588,7 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
         # the engine returns over the rise time after ``release``: start back that much earlier,
         # and be back by the note's end, so that the string's next note starts unbent
         rise = max(min(rise, (t1 - bt) / 2.0), 1e-3)
-        rel = (t0 + fall * dur if fall is not None else t1) - rise
+        rel = t0 + fall * dur if fall is not None else t1 - rise
         rel = max(min(rel, t1 - rise), bt + rise)
         p.bends.append((bt, round(peak, 4), rise, rel))
         if pre and p.attack in ("pluck", "strum"):
@@ -672,11 +672,11 @@ def _grace(p: Planned, g, tr, s, spt, w, warnings, planned) -> Planned | None:
         return None
     gd = spt * g.durationTime
     gd = min(gd, 0.5 * max(p.end - p.time, 1e-3), 0.12)
-    if g.isOnBeat:
+    if g.isOnBeat or p.time < gd:  # (before the first beat there is no time to steal)
         gt = p.time
         p.time = p.time + gd
     else:
-        gt = max(p.time - gd, 0.0)
+        gt = p.time - gd
     force = C.force_for_velocity(g.velocity)
     gn = Planned(p.track, s, fret, gt, p.time, force, float(tr.tuning[s - 1] + fret),
                  style=p.style, where=w, articulations=["grace"])

@@ -164,3 +164,5 @@ def warmup() -> float:
     for scene in WARMUP_SCENES:
         render(scene)
     return time.perf_counter() - t0
+from .score import ScoreError, scene_labels, score_to_scene  # noqa: E402, I001 (engine/score)
+__all__ += ["ScoreError", "scene_labels", "score_to_scene"]

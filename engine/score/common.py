@@ -113,7 +113,8 @@ class Planned:
     def report(self, names: list[str]) -> dict:
         return {"track": self.track, "track_name": names[self.track], "string": self.string,
                 "fret": self.fret, "time": _r(self.time), "end": _r(self.end),
-                "pitch": round(self.pitch, 4), "dead": self.dead, "repeat": self.repeat, "articulations": list(self.articulations),
+                "pitch": round(self.pitch, 4), "dead": self.dead, "repeat": self.repeat,
+                "articulations": list(self.articulations),
                 "where": self.where}
 
 

@@ -274,7 +274,7 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
             continue
         n_strings = len(t.strings)
         if not 1 <= n_strings <= 12:
-            warnings.append(f"{label}: {n_strings} strings, left out")
+            warnings.append(f"bar 1, beat 1, {label}: {n_strings} strings, left out")
             continue
         program = t.channel.instrument
         preset = C.preset_for_program(program, n_strings)
@@ -290,8 +290,9 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
         tuning = [s.value + capo for s in sorted(t.strings, key=lambda s: s.number)]
         bad = [p for p in tuning if not 25.0 <= 440 * 2 ** ((p - 69) / 12) <= 1400.0]
         if bad:
-            warnings.append(f"{label}: tuning {[C.midi_name(p) for p in bad]} outside the "
-                            "strings' range 25..1400 Hz, left out")
+            names = [C.midi_name(p) for p in bad]
+            warnings.append(f"bar 1, beat 1, {label}: tuning {names} outside the strings' "
+                            "range 25..1400 Hz, left out")
             continue
         base_frets = _presets.get_preset(preset).frets
         tr = _Track(len(tracks), t.number, t.name or f"Track {t.number}", preset, tuning, base_frets)
@@ -305,8 +306,8 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
             guitar["frets"] = min(used, 24)
             tr.frets = guitar["frets"]
         if capo:
-            warnings.append(f"{label}: capo at fret {capo} played as strings tuned {capo} "
-                            "semitones up")
+            warnings.append(f"bar 1, beat 1, {label}: capo at fret {capo} played as strings "
+                            f"tuned {capo} semitones up")
         balance = getattr(t.channel, "balance", 64)
         volume = getattr(t.channel, "volume", 104)
         tracks.append(tr)

@@ -19,8 +19,8 @@ from engine.score.common import preset_tuning
 from .conftest import check_scene, corpus, match_labels, no_overlap
 
 
-def _files():
-    return corpus("midi", "*.mid")
+def _files(collecting: bool = False):
+    return corpus("midi", "*.mid", collecting)
 
 
 def _pm(path):
@@ -29,7 +29,7 @@ def _pm(path):
         return pretty_midi.PrettyMIDI(path)
 
 
-@pytest.mark.parametrize("path", _files(), ids=os.path.basename)
+@pytest.mark.parametrize("path", _files(collecting=True), ids=os.path.basename)
 def test_midi_file_becomes_scene_with_matching_labels(path):
     scene = score_to_scene(path)
     check_scene(scene)
@@ -59,7 +59,7 @@ def test_midi_file_becomes_scene_with_matching_labels(path):
     assert octave <= moved + dropped
 
 
-@pytest.mark.parametrize("path", _files(), ids=os.path.basename)
+@pytest.mark.parametrize("path", _files(collecting=True), ids=os.path.basename)
 def test_fingering_is_playable_and_beats_greedy(path):
     """No two notes on one string at once, no chord wider than 5 frets or needing more than four
     fingers, and less hand movement than the greedy lowest-fret assignment."""

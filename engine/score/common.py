@@ -206,9 +206,7 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
         ends_here = n.slide_out is not None or not (n.let_ring or legato_next)
         if ends_here and gap > GAP_FOR_DAMP_S:
             out.append({"type": "damp", "time": _r(end), "string": s})
-            free_from = end
-        else:
-            free_from = end if not n.let_ring else n.time
+        free_from = end  # the next fret goes down only once this note is over
         n.end = end
     return out
 

@@ -134,3 +134,19 @@ def test_triplet_feel_swings_eighths():
     assert _swing(960 + 480, gp.TripletFeel.eighth) == pytest.approx(960 + 640)
     assert _swing(240, gp.TripletFeel.sixteenth) == pytest.approx(320)
     del s
+
+
+def test_sources_path_bytes_file_object_and_json(tmp_path):
+    import json
+
+    data = song([[[(1, 3, None)], [(2, 5, None)]]])
+    p = tmp_path / "x.gp5"
+    p.write_bytes(data)
+    a = score_to_scene(str(p))
+    b = score_to_scene(data)
+    with open(p, "rb") as f:
+        c = score_to_scene(f)
+    assert a == b == c and a.notes == c.notes and a.format == "gp"
+    assert json.loads(json.dumps(a)) == dict(a)  # the scene is plain JSON
+    only = score_to_scene(data, tracks=[1], presets={1: "nylon-classical"})
+    assert only["tracks"][0]["guitar"]["preset"] == "nylon-classical"

@@ -28,6 +28,10 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     rendering    the public functions: scene in, audio out
     precompile   compile or load every kernel once per process (``warmup``)
 
+Beside them, knowing only the scene's JSON form and the presets:
+
+    score/       scores in (Guitar Pro 3-5, MIDI) -> scenes, fingering, JAMS labels of any scene
+
 The schema layer (``Scene``, ``parse_scene``, ``frame_count``, presets) is imported eagerly and
 loads no numerics, so a front end that only validates scenes never imports numba; the rest is
 imported on first use.
@@ -55,6 +59,9 @@ _LAZY = {
     "tuned_tension": "string",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
+    "ScoreError": "score",
+    "scene_labels": "score",
+    "score_to_scene": "score",
 }
 
 __all__ = ["PRESETS", "Preset", "Scene", "frame_count", "get_preset", "parse_scene", *_LAZY]

@@ -28,12 +28,13 @@ or the test's hypothesis adapter, so both explore the same space and hypothesis 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from engine import kernels
 from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.presets import PRESETS, get_preset, note_frequency
 from engine.scene import (
     MAX_BEND_SEMITONES,
@@ -258,7 +259,7 @@ def check(scene: dict, options=None, probe_frames: int = PROBE_FRAMES) -> Report
     sc = Scene.model_validate({**scene, "diagnostics": True})
     rep = Report(seconds=sc.duration)
     try:
-        eng = prepare(sc, options)
+        eng = prepare(sc, replace(options or RenderOptions(), energy_series=True))
         probe = PsiProbe(eng.voices)
         for block in eng.blocks(probe_frames):
             if not np.all(np.isfinite(block)):

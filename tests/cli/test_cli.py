@@ -4,13 +4,20 @@ progress bar, and one line with exit status 2 for each kind of bad input."""
 from __future__ import annotations
 
 import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 import soundfile as sf
 
+from ..score_files import (
+    NOTES,
+    STANDARD_TUNING,
+    small_gp5,
+    truncated_gp5,
+    truncated_midi,
+    zip_as_gp5,
+)
 from .helpers import one_error_line, run
 
 SCENE = {"duration": 0.3, "events": [
@@ -148,12 +155,6 @@ def test_usage_errors_are_one_line(tmp_path: Path) -> None:
                                                  "--max-seconds", "-3"))
 
 
-def truncated_gp5() -> bytes:
-    """The first bytes of a Guitar Pro 5 file (its version string) and nothing after."""
-    version = b"FICHIER GUITAR PRO v5.00"
-    return bytes([len(version)]) + version.ljust(30, b"\0") + b"\x05\x00\x00"
-
-
 def test_truncated_guitar_pro_file(tmp_path: Path) -> None:
     (tmp_path / "t.gp5").write_bytes(truncated_gp5())
     line = one_error_line(run("render", tmp_path / "t.gp5", "-o", tmp_path / "x.wav"))
@@ -161,13 +162,44 @@ def test_truncated_guitar_pro_file(tmp_path: Path) -> None:
 
 
 def test_zip_renamed_gp5(tmp_path: Path) -> None:
-    with zipfile.ZipFile(tmp_path / "z.gp5", "w") as z:
-        z.writestr("Content/score.gpif", "<GPIF/>")  # a Guitar Pro 7 file is a zip like this
+    (tmp_path / "z.gp5").write_bytes(zip_as_gp5())
     line = one_error_line(run("scene", tmp_path / "z.gp5", "-o", tmp_path / "x.json"))
-    assert "z.gp5" in line
+    assert "z.gp5" in line and "zip" in line
 
 
 def test_truncated_midi_file(tmp_path: Path) -> None:
-    (tmp_path / "t.mid").write_bytes(b"MThd\x00\x00\x00\x06\x00\x01\x00\x02\x01\xe0MTrk\x00\x00")
+    (tmp_path / "t.mid").write_bytes(truncated_midi())
     line = one_error_line(run("scene", tmp_path / "t.mid", "-o", tmp_path / "x.json"))
     assert "t.mid" in line
+
+
+# ---- scores -----------------------------------------------------------------------------------
+
+
+def test_scene_of_a_guitar_pro_file(tmp_path: Path) -> None:
+    (tmp_path / "s.gp5").write_bytes(small_gp5())
+    r = run("scene", tmp_path / "s.gp5", "-o", tmp_path / "s.json", "--tracks", "2",
+            "--preset", "nylon-classical")
+    assert r.returncode == 0, r.stderr
+    scene = json.loads((tmp_path / "s.json").read_text())
+    assert [t["name"] for t in scene["tracks"]] == ["Track 2"]
+    assert scene["tracks"][0]["guitar"]["preset"] == "nylon-classical"
+    plucks = [(e["string"], e["time"]) for e in scene["tracks"][0]["events"]
+              if e["type"] == "pluck"]
+    assert [s for s, _ in plucks] == [s for s, _ in NOTES]  # the score's strings, in its order
+    assert [t for _, t in plucks] == pytest.approx([0.0, 0.5, 1.0, 1.5])  # quarters at 120 bpm
+
+
+def test_render_a_guitar_pro_file_with_labels(tmp_path: Path) -> None:
+    import jams
+
+    (tmp_path / "s.gp5").write_bytes(small_gp5(tracks=1))
+    r = run("render", tmp_path / "s.gp5", "-o", tmp_path / "s.wav", "--labels",
+            tmp_path / "s.jams", "--max-seconds", "2.2", "--quality", "draft")
+    assert r.returncode == 0, r.stderr
+    x, rate = sf.read(tmp_path / "s.wav")
+    assert len(x) == round(2.2 * rate) and np.all(np.isfinite(x)) and np.max(np.abs(x)) > 0.5
+    jam = jams.load(str(tmp_path / "s.jams"))
+    notes = sorted((o.time, o.value) for a in jam.search(namespace="note_midi") for o in a.data)
+    open_midi = dict(enumerate(STANDARD_TUNING, 1))
+    assert notes == [(pytest.approx(0.5 * i), open_midi[s] + f) for i, (s, f) in enumerate(NOTES)]

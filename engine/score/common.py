@@ -108,11 +108,12 @@ class Planned:
     articulations: list[str] = field(default_factory=list)
     where: str = ""  # "bar 3, beat 2" (for warnings)
     position: float = 0.8  # pluck position x / L
+    repeat: bool = False  # a further attack of one score note (trill, tremolo picking)
 
     def report(self, names: list[str]) -> dict:
         return {"track": self.track, "track_name": names[self.track], "string": self.string,
                 "fret": self.fret, "time": _r(self.time), "end": _r(self.end),
-                "pitch": round(self.pitch, 4), "dead": self.dead, "articulations": list(self.articulations),
+                "pitch": round(self.pitch, 4), "dead": self.dead, "repeat": self.repeat, "articulations": list(self.articulations),
                 "where": self.where}
 
 

@@ -115,19 +115,19 @@ def parse_song(data: bytes):
 
 def playback_order(headers) -> list[int]:
     """Measure indices in the order they are played: repeats (``repeatClose`` = times repeated)
-    and alternate endings (bit k of ``repeatAlternative`` = played on pass k+1) expanded."""
+    and alternate endings (bit k of ``repeatAlternative`` = played on pass k+1) expanded.  A
+    section starts at a repeat sign, after a finished repeat, or after its last ending."""
     order: list[int] = []
-    i, start, passno, furthest = 0, 0, 0, -1
+    i, start, passno, furthest, after_alt = 0, 0, 0, -1, False
     n = len(headers)
     while i < n:
         h = headers[i]
-        if h.isRepeatOpen and i > furthest:
+        alt = h.repeatAlternative
+        if i > furthest and (h.isRepeatOpen or (after_alt and not alt)):
             start, passno = i, 0
         furthest = max(furthest, i)
-        alt = h.repeatAlternative
+        after_alt = bool(alt)
         if alt and not (alt >> passno) & 1:
-            if h.repeatClose > 0 and passno >= h.repeatClose:
-                start, passno = i + 1, 0
             i += 1
             continue
         order.append(i)
@@ -138,7 +138,9 @@ def playback_order(headers) -> list[int]:
                 passno += 1
                 i = start
                 continue
-            start, passno = i + 1, 0
+            start = i + 1
+            if not (i + 1 < n and headers[i + 1].repeatAlternative):
+                passno = 0
         i += 1
     return order
 
@@ -452,7 +454,7 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         else:
                             warnings.append(f"{w}: tapping an open string, plucked instead")
                     elif slap:
-                        p.articulations.append(slap[:-3] if slap.endswith("ing") else slap)
+                        p.articulations.append({"slapping": "slap", "popping": "pop"}[slap])
                     if eff.isHarmonic and not p.dead:
                         _harmonic(p, eff.harmonic, tr, s, fret, w, warnings)
                     if eff.vibrato or be.vibrato:
@@ -583,9 +585,11 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
         else:
             bt = t0 + start * dur
             rise = max((peak_pos - start) * dur, 0.005)
-        # the engine returns over the rise time after ``release``: start back that much earlier
+        # the engine returns over the rise time after ``release``: start back that much earlier,
+        # and be back by the note's end, so that the string's next note starts unbent
+        rise = max(min(rise, (t1 - bt) / 2.0), 1e-3)
         rel = (t0 + fall * dur if fall is not None else t1) - rise
-        rel = max(rel, bt + rise)
+        rel = max(min(rel, t1 - rise), bt + rise)
         p.bends.append((bt, round(peak, 4), rise, rel))
         if pre and p.attack in ("pluck", "strum"):
             p.pitch += peak
@@ -705,7 +709,7 @@ def _trill(p: Planned, trill, tr, s, spt, t0, t1, w, warnings) -> list[Planned]:
     while t < t1 - 0.25 * period and len(out) < 256:
         f = frets[k % 2]
         q = Planned(p.track, s, f, t, t1, p.force, float(tr.tuning[s - 1] + f), style=p.style,
-                    where=w, articulations=["trill"])
+                    where=w, articulations=["trill"], repeat=True)
         prev = out[-1]
         prev.end = t
         q.attack = "hammer_on" if f > prev.fret else "pull_off"
@@ -724,7 +728,8 @@ def _tremolo(p: Planned, trem, spt, t0, t1) -> list[Planned]:
     t = t0 + period
     while t < t1 - 0.25 * period and len(out) < 512:
         q = Planned(p.track, p.string, p.fret, t, t1, p.force, p.pitch, style=p.style,
-                    where=p.where, articulations=["tremolo_picking"], palm_mute=p.palm_mute)
+                    where=p.where, articulations=["tremolo_picking"], palm_mute=p.palm_mute,
+                    repeat=True)
         out[-1].end = t
         out[-1].let_ring = True  # the next pick stops it
         out.append(q)

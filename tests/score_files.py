@@ -52,3 +52,22 @@ def zip_as_gp5() -> bytes:
 def truncated_midi() -> bytes:
     """A MIDI header announcing two tracks, and a first track cut short."""
     return b"MThd\x00\x00\x00\x06\x00\x01\x00\x02\x01\xe0MTrk\x00\x00"
+
+
+def small_midi(pitches: tuple[int, ...] = (52, 55, 59, 64), beat_s: float = 0.5,
+               program: int = 25) -> bytes:
+    """A Standard MIDI File of one part on ``program`` (General MIDI, 0-based: 25 is the steel
+    guitar) playing ``pitches`` one after another, ``beat_s`` apart, at 120 bpm."""
+    import mido
+
+    mid = mido.MidiFile(type=1, ticks_per_beat=480)
+    track = mido.MidiTrack([mido.MetaMessage("set_tempo", tempo=500_000, time=0),
+                            mido.Message("program_change", program=program, time=0)])
+    ticks = round(beat_s * 960)
+    for p in pitches:
+        track.append(mido.Message("note_on", note=p, velocity=90, time=0))
+        track.append(mido.Message("note_off", note=p, velocity=0, time=ticks))
+    mid.tracks.append(track)
+    buf = io.BytesIO()
+    mid.save(file=buf)
+    return buf.getvalue()

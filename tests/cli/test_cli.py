@@ -14,6 +14,7 @@ from ..score_files import (
     NOTES,
     STANDARD_TUNING,
     small_gp5,
+    small_midi,
     truncated_gp5,
     truncated_midi,
     zip_as_gp5,
@@ -203,3 +204,62 @@ def test_render_a_guitar_pro_file_with_labels(tmp_path: Path) -> None:
     notes = sorted((o.time, o.value) for a in jam.search(namespace="note_midi") for o in a.data)
     open_midi = dict(enumerate(STANDARD_TUNING, 1))
     assert notes == [(pytest.approx(0.5 * i), open_midi[s] + f) for i, (s, f) in enumerate(NOTES)]
+
+
+def test_scene_of_a_midi_file_gets_strings_and_frets(tmp_path: Path) -> None:
+    (tmp_path / "tune.mid").write_bytes(small_midi((52, 55, 59, 64)))  # E3 G3 B3 E4
+    r = run("scene", tmp_path / "tune.mid", "-o", "-")
+    assert r.returncode == 0, r.stderr
+    scene = json.loads(r.stdout)
+    (track,) = scene["tracks"]
+    assert track["guitar"]["preset"] == "steel-acoustic"  # GM program 25
+    plucks = [e for e in track["events"] if e["type"] == "pluck"]
+    assert [e["time"] for e in plucks] == pytest.approx([0.0, 0.5, 1.0, 1.5])
+    held = {}  # the fret each string holds when it is plucked: open pitch + fret = the note
+    for e in sorted(track["events"], key=lambda e: (e["time"], e["type"] != "fret")):
+        if e["type"] == "fret":
+            held[e["string"]] = e["fret"]
+        elif e["type"] == "pluck":
+            e["pitch"] = STANDARD_TUNING[e["string"] - 1] + held.get(e["string"], 0)
+    assert [e["pitch"] for e in plucks] == [52, 55, 59, 64]
+
+
+def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
+    """`guitar-synth serve` is the service (GET /health, /limits with GUITAR_* settings)."""
+    import os
+    import signal
+    import socket
+    import subprocess
+    import time
+
+    import httpx
+
+    from .helpers import ROOT, command
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "GUITAR_MAX_EVENTS": "123"}
+    log = open(tmp_path / "serve.log", "wb")  # noqa: SIM115 - closed below
+    proc = subprocess.Popen([command(), "serve", "--port", str(port), "--workers", "1",
+                             "--log-level", "warning"], env=env, stdout=log,
+                            stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            assert proc.poll() is None, (tmp_path / "serve.log").read_text()[-2000:]
+            try:
+                if httpx.get(f"http://127.0.0.1:{port}/health", timeout=2).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "not healthy within 120 s"
+            time.sleep(0.2)
+        limits = httpx.get(f"http://127.0.0.1:{port}/limits", timeout=5).json()
+        assert limits["max_events"] == 123
+    finally:
+        os.kill(proc.pid, signal.SIGTERM)
+        # uvicorn shuts down (the pool's workers with it), then re-raises the signal it caught,
+        # as `uvicorn service.app:app` does
+        assert proc.wait(30) in (0, -signal.SIGTERM)
+        log.close()

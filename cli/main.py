@@ -187,13 +187,20 @@ def _score_options(args: argparse.Namespace) -> dict[str, Any]:
     return opts
 
 
+_FLAGS = {"options.tracks": "--tracks", "options.presets": "--preset",
+          "options.tempo_scale": "--tempo-scale", "options.max_seconds": "--max-seconds"}
+
+
 def _read_score(p: Path, args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
     from engine import score
 
     try:
         result = score.score_to_scene(p, **_score_options(args))
     except score.ScoreError as e:
-        raise BadInput(f"{p}: {e}") from None
+        msg = str(e)
+        for option, flag in _FLAGS.items():  # the importer names its options; here they are flags
+            msg = msg.replace(option, flag)
+        raise BadInput(f"{p}: {msg}") from None
     except MemoryError:
         raise BadInput(f"{p}: the score needs more memory than there is") from None
     except Exception as e:  # a corrupt file reaching a path the importer's checks missed

@@ -156,6 +156,12 @@ def test_usage_errors_are_one_line(tmp_path: Path) -> None:
                                                  "--max-seconds", "-3"))
 
 
+def test_an_unknown_preset_for_a_score_names_the_flag(tmp_path: Path) -> None:
+    (tmp_path / "s.gp5").write_bytes(small_gp5())
+    line = one_error_line(run("scene", tmp_path / "s.gp5", "-o", "-", "--preset", "banjo"))
+    assert "--preset: unknown preset 'banjo'" in line
+
+
 def test_truncated_guitar_pro_file(tmp_path: Path) -> None:
     (tmp_path / "t.gp5").write_bytes(truncated_gp5())
     line = one_error_line(run("render", tmp_path / "t.gp5", "-o", tmp_path / "x.wav"))

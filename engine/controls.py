@@ -24,8 +24,8 @@ How each event acts on the physics
 * ``damp``: the player stops the string.  Any fretting finger lifts (relaxes: it stops pressing)
   and the hand's fingertips rest on the string from where that finger was (or from over fret
   ``DAMP_OPEN_FRET`` on an open string) towards the bridge: ``DAMP_FINGERS`` point dampers
-  ``DAMP_SPACING_M`` apart, each R = ``DAMP_DAMPING`` sqrt(T rho A), losses in the balance's Q.  It stays until the
-  string's next event (of any type).  docs/engine.md gives the decay times it gives.
+  ``DAMP_SPACING_M`` apart, each R = ``DAMP_DAMPING`` sqrt(T rho A), losses in the balance's Q.
+  They stay until the string's next event (of any type).  docs/engine.md gives the decay times.
 * ``bend``/``vibrato``: the tension T(t) = T0 * ratio(t), piecewise linear between breakpoints; the
   ratio for a pitch change is solved from the scheme's dispersion relation.  The grid is built for
   the highest tension the scene reaches (``max_tension_ratio``).

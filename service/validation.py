@@ -103,7 +103,7 @@ def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None
         errors.append(_error(
             "events" if scene.tracks is None else "tracks", "too_long",
             f"List should have at most {limit} items "
-            f"(service limit {which}), not {events}", events,
+            f"(service limit {which}, counted over all tracks), not {events}", events,
             {"max_length": limit}))
     if not settings.min_sample_rate <= scene.sample_rate <= settings.max_sample_rate:
         errors.append(_error(

@@ -14,6 +14,7 @@ import os
 import sys
 import warnings
 
+from engine import presets
 from engine.score import common, fingering
 
 CORPUS = os.path.join(os.path.dirname(__file__), "..", ".cache", "score-corpus", "midi")
@@ -46,7 +47,7 @@ def main(files: list[str]) -> None:
         n_notes = 0
         for preset, times, ends, pitches in parts(path):
             tuning = common.preset_tuning(preset)
-            frets = __import__("engine.presets", fromlist=["x"]).get_preset(preset).frets
+            frets = presets.get_preset(preset).frets
             n_notes += len(times)
             for name, fn in (("greedy", fingering.greedy), ("viterbi", fingering.viterbi)):
                 m = fingering.measure(fn(times, ends, pitches, tuning, frets), times)

@@ -146,13 +146,13 @@ def _bend_range(inst) -> float:
 
 
 def _humps(bends, rng, scale):
-    """Pitch-wheel events -> [(start, peak semitones, peak time, release time, end)] and whether a
-    downward bend was met."""
+    """Pitch-wheel events -> [(start, peak semitones, peak time, release time, end)] and the time
+    of the first downward bend (None if there is none)."""
     pts = [(b.time / scale, b.pitch / 8192.0 * rng) for b in sorted(bends, key=lambda b: b.time)]
-    humps, down, i = [], False, 0
+    humps, down, i = [], None, 0
     while i < len(pts):
-        if pts[i][1] < -0.05:
-            down = True
+        if pts[i][1] < -0.05 and down is None:
+            down = pts[i][0]
         if pts[i][1] <= 0.05:
             i += 1
             continue
@@ -261,9 +261,9 @@ def _bends(inst, notes: list[Planned], scale, warnings, label, where):
     if not inst.pitch_bends:
         return
     humps, down = _humps(inst.pitch_bends, _bend_range(inst), scale)
-    if down:
-        warnings.append(f"{label}: downward pitch bends not playable (the engine raises a "
-                        "string's tension only), ignored")
+    if down is not None:
+        warnings.append(f"{where(down * scale)}, {label}: downward pitch bends (this one and any "
+                        "later) not playable (the engine raises a string's tension only), ignored")
     for start, peak, tp, tr, te in humps:
         if peak > 3.0:
             warnings.append(f"{where(start * scale)}, {label}: pitch bend of {peak:.2f} semitones "

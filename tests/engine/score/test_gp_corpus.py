@@ -17,8 +17,8 @@ from .conftest import check_scene, corpus, match_labels, no_overlap
 BROKEN = {"chord-fail.gp3"}  # PyGuitarPro's own test expects this file to fail to parse
 
 
-def _files():
-    return corpus("gp", "*.gp[345]")
+def _files(collecting: bool = False):
+    return corpus("gp", "*.gp[345]", collecting)
 
 
 def _independent_count(path: str, scene) -> int:
@@ -49,7 +49,7 @@ def test_corpus_is_there():
     assert len(files) >= 60, files
 
 
-@pytest.mark.parametrize("path", _files(), ids=os.path.basename)
+@pytest.mark.parametrize("path", _files(collecting=True), ids=os.path.basename)
 def test_gp_file_becomes_scene_with_matching_labels(path):
     name = os.path.basename(path)
     if name in BROKEN:
@@ -136,6 +136,12 @@ def test_demo_tracks_tempo_and_repeats():
     # measures 1-4 with a repeat of 1-3 (order 0 1 2 3 0 1 2 4 ...): bar 1 is played twice
     order = playback_order(song.measureHeaders)
     assert order[:8] == [0, 1, 2, 3, 0, 1, 2, 4]
+    # D.S. al Coda at bar 37: back to the Segno (bar 18), then from "Da Coda" (bar 25) to the
+    # Coda (bar 38), which plays to the end
+    k = order.index(36)
+    assert order[k + 1:k + 10] == [17, 18, 19, 20, 21, 22, 23, 24, 37]
+    assert order[-1] == 48 and len(order) == 49 + 3 + 8
+    assert not any("direction" in w for w in scene.warnings)
     bar1 = [n for n in scene.notes if n["where"].startswith("bar 1,")]
     firsts = sorted({round(n["time"], 3) for n in bar1})
     assert firsts[0] == 0.0 and max(firsts) > 4 * 60 / song.tempo * 3  # after bars 1-3 again

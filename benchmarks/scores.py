@@ -99,6 +99,8 @@ class Note:
     end: float
     pitch: float  # MIDI, fractional
     articulations: tuple[str, ...]
+    string: int = 0  # 1 = highest
+    fret: int = 0
 
 
 def label_notes(jam) -> list[Note]:
@@ -107,7 +109,8 @@ def label_notes(jam) -> list[Note]:
         for obs, info in zip(ann.data, ann.sandbox.notes, strict=True):
             notes.append(Note(int(ann.sandbox.track), float(obs.time),
                               float(obs.time + obs.duration), float(obs.value),
-                              tuple(info.get("articulations") or ())))
+                              tuple(info.get("articulations") or ()),
+                              int(info.get("string") or 0), int(info.get("fret") or 0)))
     return sorted(notes, key=lambda n: (n.start, n.pitch))
 
 
@@ -337,7 +340,8 @@ def accuracy(path: Path, quality: str, soundfont: str | None, core: int, tmp: Pa
         print(f"guitar-synth's labels off by more than 10 cents ({len(bad)}):")
         for n, c in bad[:8]:
             print(f"  {n.start:7.3f} s  {librosa.midi_to_note(round(n.pitch))} "
-                  f"(MIDI {n.pitch:.2f}, held {n.end - n.start:.2f} s): {c:+.1f} cents")
+                  f"(MIDI {n.pitch:.2f}, string {n.string} fret {n.fret}, held "
+                  f"{n.end - n.start:.2f} s): {c:+.1f} cents")
     if missed:
         print(f"labels the tracker did not find in guitar-synth's audio ({len(missed)}; the "
               "first 8):")

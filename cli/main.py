@@ -8,7 +8,7 @@ Bad input (a missing, truncated or wrong-type file, an invalid scene, an unknown
 ends with one line on stderr naming the problem and exit status 2; an unexpected failure with one
 line and status 1 (``--debug`` shows the traceback).  The command knows the engine only by its
 public API (``engine.parse_scene``, ``engine.blocks``, ``engine.frame_count``,
-``engine.score.score_to_scene``, ``engine.score.scene_labels``) and the service only as
+``engine.score_to_scene``, ``engine.scene_labels``) and the service only as
 ``service.app:app``.
 """
 
@@ -192,11 +192,11 @@ _FLAGS = {"options.tracks": "--tracks", "options.presets": "--preset",
 
 
 def _read_score(p: Path, args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
-    from engine import score
+    import engine
 
     try:
-        result = score.score_to_scene(p, **_score_options(args))
-    except score.ScoreError as e:
+        result = engine.score_to_scene(p, **_score_options(args))
+    except engine.ScoreError as e:
         msg = str(e)
         for option, flag in _FLAGS.items():  # the importer names its options; here they are flags
             msg = msg.replace(option, flag)
@@ -402,9 +402,9 @@ def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> Non
 
 
 def write_labels(path: str, sc: Any, title: str = "") -> None:
-    from engine import score
+    import engine
 
-    score.scene_labels(sc, title=title).save(path)
+    engine.scene_labels(sc, title=title).save(path)
 
 
 def cmd_render(args: argparse.Namespace) -> int:

@@ -79,18 +79,18 @@ def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
 
 
 def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
-    """Import a score (``engine.score.score_to_scene``) from the uploaded bytes.  A file the importer
+    """Import a score (``engine.score_to_scene``) from the uploaded bytes.  A file the importer
     refuses (``ScoreError``) is the client's problem; so is one that trips the importer in any
     other way (a hostile or corrupt file reaching a path its checks missed): both are ``invalid``
     (422) with the reason, and the worker carries on."""
-    from engine import score
+    import engine
 
     t0 = time.perf_counter()
     source = io.BytesIO(payload["data"])
     source.name = payload.get("filename") or ""  # the importer's messages name the file
     try:
-        result = score.score_to_scene(source, **payload["options"])
-    except score.ScoreError as exc:
+        result = engine.score_to_scene(source, **payload["options"])
+    except engine.ScoreError as exc:
         conn.send(("error", job_id, "invalid", str(exc)))
         return
     except MemoryError:
@@ -107,11 +107,11 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
 
 
 def _labels(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
-    """The scene's note labels as JAMS (``engine.score.scene_labels``), serialized as JSON."""
-    from engine import score
+    """The scene's note labels as JAMS (``engine.scene_labels``), serialized as JSON."""
+    import engine
 
     t0 = time.perf_counter()
-    jam = score.scene_labels(payload["scene"])
+    jam = engine.scene_labels(payload["scene"])
     conn.send(("done", job_id, jam.dumps().encode(), {"seconds": time.perf_counter() - t0}))
 
 

@@ -15,13 +15,14 @@ from __future__ import annotations
 import json
 import re
 from pathlib import PurePath
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, File, Form, Request, Response, UploadFile
 from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 import engine
+from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 
 from .. import audio
 from ..pool import RenderFailed, RenderTimeout
@@ -50,8 +51,10 @@ class ScoreOptions(BaseModel):
     tempo_scale: float | None = Field(None, ge=0.05, le=20.0,
                                       description="multiplies the tempo (2: twice as fast)")
     max_seconds: float | None = Field(None, gt=0.0, description="keep only the first seconds")
-    sample_rate: int | None = Field(None, description="the scene's sample rate (default 44100)")
-    quality: str | None = Field(None, description="draft, standard or high (default standard)")
+    sample_rate: int | None = Field(None, ge=SAMPLE_RATE_MIN, le=SAMPLE_RATE_MAX,
+                                    description="the scene's sample rate (default 44100)")
+    quality: Literal["draft", "standard", "high"] | None = Field(
+        None, description="the scene's quality (default standard)")
 
 
 def _form_error(field: str, msg: str, kind: str = "value_error", value: Any = None) -> Any:
@@ -171,6 +174,7 @@ async def score_scene(
     scene, warnings = await _import(request, data, name, _importer_options(opts))
     if opts.quality is not None:
         scene["quality"] = opts.quality
+    _validate(scene)  # what goes out is a scene /render accepts (up to its limits)
     return Response(json.dumps(scene), media_type="application/json",
                     headers=_score_warnings(warnings))
 
@@ -219,12 +223,7 @@ async def render_score(
     if opts.quality is not None:
         scene["quality"] = opts.quality
     scene["output"] = {**scene.get("output", {}), **out_fields}
-    try:
-        sc = engine.Scene.model_validate(scene)
-    except ValidationError as exc:
-        raise RequestValidationError([
-            {**e, "loc": ("body", *_scene_loc(e["loc"]))} for e in exc.errors(include_url=False)
-        ]) from None
+    sc = _validate(scene)
     check_limits(sc, settings, max_events=settings.max_score_events)
     out = await pool.render(
         {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
@@ -244,6 +243,15 @@ async def render_score(
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)
     return Response(out.data, media_type=audio.MEDIA_TYPES[sc.output.format], headers=headers)
+
+
+def _validate(scene: dict[str, Any]) -> engine.Scene:
+    try:
+        return engine.Scene.model_validate(scene)
+    except ValidationError as exc:
+        raise RequestValidationError([
+            {**e, "loc": ("body", *_scene_loc(e["loc"]))} for e in exc.errors(include_url=False)
+        ]) from None
 
 
 def _scene_loc(loc: tuple) -> tuple:

@@ -269,3 +269,18 @@ def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
         # as `uvicorn service.app:app` does
         assert proc.wait(30) in (0, -signal.SIGTERM)
         log.close()
+
+
+def test_the_command_knows_the_engine_by_its_public_names() -> None:
+    """cli/ imports ``engine`` itself, never a module inside it, and the service only by the
+    application's name (``service.app:app``, as uvicorn runs it)."""
+    import ast
+
+    from .helpers import ROOT
+
+    for path in (ROOT / "cli").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            for name in names:
+                assert not name.startswith(("engine.", "service")), (path.name, name)

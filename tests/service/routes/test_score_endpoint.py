@@ -121,6 +121,8 @@ def test_bad_uploads_are_422_naming_the_problem(server, path: str, data: bytes |
     ({"max_seconds": -1}, "options.max_seconds"),
     ({"tempo_scale": "NaN"}, "options.tempo_scale"),
     ({"presets": "banjo"}, "options.presets"),  # refused by the importer, in the worker
+    ({"sample_rate": 1000}, "options.sample_rate"),
+    ({"quality": "ultra"}, "options.quality"),
 ])
 def test_bad_options_name_the_field(server, options: Any, field: str) -> None:
     r = post(server, "/score/scene", small_gp5(), options=options)

@@ -71,3 +71,23 @@ def small_midi(pitches: tuple[int, ...] = (52, 55, 59, 64), beat_s: float = 0.5,
     buf = io.BytesIO()
     mid.save(file=buf)
     return buf.getvalue()
+
+
+def midi_with_notes(n: int) -> bytes:
+    """A one-track MIDI file of ``n`` notes, 6 bytes each (running status): 10**6 notes in 6 MB."""
+    body = b"\x00\x90\x3c\x40" + b"\x60\x3c\x00\x00\x3c\x40" * (n - 1) + b"\x60\x3c\x00"
+    body += b"\x00\xff\x2f\x00"
+    return (b"MThd" + (6).to_bytes(4, "big") + b"\x00\x00\x00\x01\x01\xe0"
+            + b"MTrk" + len(body).to_bytes(4, "big") + body)
+
+
+def gp5_claiming_measures(count: int) -> bytes:
+    """A valid small Guitar Pro 5 file whose header then claims ``count`` measures (the engine's
+    score tests find where the count is stored)."""
+    from tests.engine.score.test_bad_input import _measure_count_offset
+
+    data = bytearray(small_gp5(tracks=1))
+    at = _measure_count_offset(bytes(data))
+    assert int.from_bytes(data[at:at + 4], "little") == 1
+    data[at:at + 4] = count.to_bytes(4, "little")
+    return bytes(data)

@@ -13,6 +13,8 @@ import soundfile as sf
 from ..score_files import (
     NOTES,
     STANDARD_TUNING,
+    gp5_claiming_measures,
+    midi_with_notes,
     small_gp5,
     small_midi,
     truncated_gp5,
@@ -172,6 +174,16 @@ def test_zip_renamed_gp5(tmp_path: Path) -> None:
     (tmp_path / "z.gp5").write_bytes(zip_as_gp5())
     line = one_error_line(run("scene", tmp_path / "z.gp5", "-o", tmp_path / "x.json"))
     assert "z.gp5" in line and "zip" in line
+
+
+@pytest.mark.parametrize("name,data,text", [
+    ("billion.gp5", gp5_claiming_measures(10**9), "declares 1000000000 measures"),
+    ("million.mid", midi_with_notes(10**6), "more than 100000 notes"),
+])
+def test_hostile_files(tmp_path: Path, name: str, data: bytes, text: str) -> None:
+    (tmp_path / name).write_bytes(data)
+    line = one_error_line(run("render", tmp_path / name, "-o", tmp_path / "x.wav", timeout=60))
+    assert name in line and text in line, line
 
 
 def test_truncated_midi_file(tmp_path: Path) -> None:

@@ -17,6 +17,8 @@ import engine
 from tests.score_files import (
     NOTES,
     STANDARD_TUNING,
+    gp5_claiming_measures,
+    midi_with_notes,
     small_gp5,
     truncated_gp5,
     truncated_midi,
@@ -101,6 +103,7 @@ def test_scene_labels(server) -> None:
     (zip_as_gp5(), "z.gp5", "file", "z.gp5: a zip archive"),
     (truncated_midi(), "t.mid", "file", "t.mid"),
     (b"\x00" * 100, "song.mid", "file", "not a MIDI file"),
+    (gp5_claiming_measures(10**9), "billion.gp5", "file", "declares 1000000000 measures"),
 ])
 def test_bad_uploads_are_422_naming_the_problem(server, path: str, data: bytes | None, name: str,
                                                 field: str, text: str) -> None:
@@ -152,6 +155,8 @@ def test_a_score_longer_than_the_limit_is_refused_unless_cut(server) -> None:
 def test_an_upload_over_the_body_limit_is_413(server) -> None:
     limit = httpx.get(server.url + "/limits").json()["max_body_bytes"]
     r = post(server, "/score/scene", small_gp5() + b"\x00" * limit)
+    assert r.status_code == 413, brief(r)
+    r = post(server, "/render/score", midi_with_notes(10**6), "million.mid")  # 6 MB
     assert r.status_code == 413, brief(r)
 
 

@@ -59,9 +59,10 @@ _LAZY = {
     "tuned_tension": "string",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
-    "ScoreError": "score",
-    "scene_labels": "score",
+    # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)
     "score_to_scene": "score",
+    "scene_labels": "score",
+    "ScoreError": "score",
 }
 
 __all__ = ["PRESETS", "Preset", "Scene", "frame_count", "get_preset", "parse_scene", *_LAZY]

@@ -19,7 +19,7 @@ from .config import Settings
 from .logs import setup_logging
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .pool import WorkerPool
-from .routes import health, pages, presets, render
+from .routes import health, pages, presets, render, score
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
 timed events: pluck, fret, tap and the articulations hammer-on, pull-off, slide, bend, vibrato,
@@ -47,7 +47,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
     app.add_middleware(RequestContextMiddleware)
     errors.install(app, settings.retry_after_s)
-    for router in (pages.router, health.router, presets.router, render.router):
+    for router in (pages.router, health.router, presets.router, render.router, score.router,
+                   score.labels_router):
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=pages.STATIC_DIR), name="static")
     return app

@@ -12,6 +12,7 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
 
     presets      instruments in physical units                       (numpy)
     scene        the validated input: events, output, quality, limits (pydantic; knows presets)
+    live_events  live play messages: a session's opening and its events without time (schema)
     kernels      the numba time-step loop of one string
     string       one string's grid, coefficients, tuning and geometry (knows kernels, presets)
     controls     events -> one string's control arrays                 (knows scene, kernels)
@@ -21,6 +22,7 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     voice        one string of a scene: state across blocks, energy bookkeeping
     playability  warnings: what may not sound as the player means it
     guitar       the voices of one instrument, block by block
+    live         an open-ended session: events pushed as played, blocks pulled (``Session``)
     rendering    the public functions: scene in, audio out
     precompile   compile or load every kernel once per process (``warmup``)
 
@@ -51,6 +53,10 @@ _LAZY = {
     "tuned_tension": "string",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
+    "Session": "live",
+    "LiveError": "live_events",
+    "parse_live_open": "live_events",
+    "parse_live_event": "live_events",
 }
 
 __all__ = ["PRESETS", "Preset", "Scene", "frame_count", "get_preset", "parse_scene", *_LAZY]

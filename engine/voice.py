@@ -21,6 +21,7 @@ from .controls import FINGER_EVENTS, NEVER, StringControls, max_tension_ratio
 from .options import Quality, RenderOptions
 from .output import Decimator
 from .presets import Preset
+from .scene import MAX_BEND_SEMITONES
 from .string import StringModel, dispersion_cents, tension_ratio_for_cents, tune
 
 
@@ -41,18 +42,20 @@ def string_model(preset: Preset, string: int, events: list, rate: float, q: Qual
                  opts: RenderOptions) -> tuple[int, StringModel, float]:
     """The internal oversampling factor, the tuned string on its grid for ``events`` (those on
     ``string``), built for the highest tension the scene's bends reach, and that tension over the
-    tuned one."""
+    tuned one.  ``opts.live_grid``: for any events (fingered, the largest bend allowed)."""
     spec = preset.strings[string - 1]
     length = preset.string_length_m(string)
     comp = opts.compensate_dispersion
     probe = tune(spec, length, rate, q.grid_scale, comp)
     rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
+    if opts.live_grid:  # any event may come: the largest bend the schema allows
+        rmax = max(rmax, tension_ratio_for_cents(probe, 100.0 * MAX_BEND_SEMITONES))
     if opts.oversample:
         return (opts.oversample,
                 tune(spec, length, rate * opts.oversample, q.grid_scale, comp, rmax), rmax)
     # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
     # finger touches in this scene needs only the dispersion criterion.
-    fingered = any(e.type in FINGER_EVENTS for e in events)
+    fingered = opts.live_grid or any(e.type in FINGER_EVENTS for e in events)
     q_string = q if fingered else replace(q, max_h_m=math.inf)
     return (*oversample_for(spec, length, rate, q_string, rmax, comp), rmax)
 
@@ -74,6 +77,9 @@ class Voice:
     decay_velocity: float
     policy: kernels.Policy
     tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
+    # events (on this string, sorted) -> (controls, geometry) on this grid (``guitar.prepare``):
+    # a live session recompiles them as events arrive
+    rebuild: object = field(default=None, repr=False)
     step: int = 0
     stopped: bool = False
     energy_h: list = field(default_factory=list)

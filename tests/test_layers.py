@@ -12,8 +12,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 # low to high, as engine/__init__.py lists them; a module may import only those before it
-ORDER = ["config", "presets", "scene", "kernels", "string", "controls", "intonation", "options",
-         "output", "voice", "playability", "guitar", "rendering", "precompile"]
+ORDER = ["config", "presets", "scene", "live_events", "kernels", "string", "controls", "intonation",
+         "options", "output", "voice", "playability", "guitar", "live", "rendering", "precompile"]
 
 
 def _engine_imports(path: Path) -> set[str]:

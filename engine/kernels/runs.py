@@ -177,7 +177,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
     The step is then the general path's arithmetic on the same helpers, in the same order, and
     both loops are compiled without fastmath and call the same linear pass (``config.JIT_STEP``),
-    so the samples are identical (``tests/engine/test_held.py``, ``benchmarks/held_soak.py``).
+    so the samples are identical (``tests/engine/test_held.py``, ``tools/held_soak.py``).
     It saves the general path's bookkeeping: the columns are laid out once per run, and the
     entries of the Gram matrix that do not involve the dense Kirchhoff-Carrier column, which depend
     only on the fixed interpolants, are worked out once (by ``_gram`` itself, so they are the same

@@ -4,13 +4,12 @@ import numpy as np
 import pytest
 
 import engine
-from benchmarks.stability import LIMITS, check
 from engine.guitar import prepare
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.scene import Scene
 from engine.string import FRET_PENALTY
-
-from .conftest import fret, pluck, scene, tap
+from engine.testing.scenes import fret, pluck, scene, tap
+from engine.testing.stability import LIMITS, check
 
 TOL = 1e-11
 
@@ -106,7 +105,7 @@ def test_balance_holds_when_the_rigid_frets_are_crowded():
 
 
 def test_crowded_frets_never_pull():
-    """No step dissipates negative energy (the soak's own check, ``benchmarks.stability``): a
+    """No step dissipates negative energy (the soak's own check, ``engine.testing.stability``): a
     rigid fret's reaction only pushes.  With the sign rule the active set cycled until its cap and
     the last solve left a fret pulling (k Q^n = -7.5e-3 of the stored energy in one step); Lawson
     and Hanson's step lengths settle it."""

@@ -4,8 +4,7 @@ import pytest
 
 import engine
 from engine.analysis import cents, spectrum_peak
-
-from .conftest import SR, pluck, scene
+from engine.testing.scenes import SR, pluck, scene
 
 
 def _glide(steel, string, force):

@@ -12,8 +12,7 @@ from scipy import signal
 import engine
 from engine.options import RenderOptions
 from engine.output import Decimator
-
-from .conftest import SR, pluck, scene
+from engine.testing.scenes import SR, pluck, scene
 
 
 def _pulse(t):

@@ -3,6 +3,7 @@
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -13,8 +14,7 @@ from engine import guitar as guitar_module
 from engine.guitar import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
-
-from .conftest import fret, pluck
+from engine.testing.scenes import fret, pluck
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -124,11 +124,17 @@ def test_warmup_leaves_nothing_to_compile():
     assert after == before
 
 
-def test_warmup_returns_its_time():
-    assert engine.warmup() >= 0.0
-    assert all(isinstance(s, dict) for s in engine.WARMUP_SCENES)
+def test_warmup_returns_its_time_and_its_scenes_sound():
+    """warmup() returns the seconds it spent (not a constant: positive, and no more than the wall
+    time around the call), and each of its scenes renders audible, finite audio, so that the
+    paths it compiles are the paths a real scene takes."""
+    t0 = time.perf_counter()
+    took = engine.warmup()
+    elapsed = time.perf_counter() - t0
+    assert 0.0 < took <= elapsed
     for sc in engine.WARMUP_SCENES:
-        assert np.isfinite(engine.render(sc, diagnostics=False)).all()
+        audio = engine.render(sc, diagnostics=False)
+        assert np.isfinite(audio).all() and np.max(np.abs(audio)) > 1e-6
 
 
 API_EXAMPLE = {  # the scene of ../shared/API.md

@@ -80,7 +80,7 @@ def _stiff_string(fraction):
 
 
 def test_a_string_just_inside_the_stiffness_limit_renders_a_full_vibrato():
-    from benchmarks.stability import check, violations
+    from engine.testing.stability import check, violations
 
     with pytest.raises(ValidationError):
         engine.parse_scene(_stiff_string(1.001))

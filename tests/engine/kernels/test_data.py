@@ -7,8 +7,7 @@ from engine import kernels
 from engine.guitar import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
-
-from ..conftest import fret, pluck, scene
+from engine.testing.scenes import fret, pluck, scene
 
 
 def _voice_args(v, nsteps=400):

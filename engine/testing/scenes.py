@@ -1,7 +1,8 @@
-"""Scene builders shared by the benchmarks and the engine tests (``tests/engine/conftest.py``).
+"""Scene builders: the one set the tests and the benchmarks use.
 
 Scenes are plain dicts in the format of ``../shared/API.md``; these helpers only fill in the
-fields a measurement cares about, with the defaults the physics checks use.
+fields a measurement cares about, with the defaults the physics checks use.  A benchmark that
+needs other values (the Pareto study's 2 N plucks and preset finger forces, say) passes them.
 """
 
 from __future__ import annotations
@@ -23,8 +24,13 @@ def pluck(string: int, time: float = 0.0, force: float = 1.0, position: float = 
             "position": position, **kw}
 
 
-def fret(string: int, fret: int, time: float = 0.0, force: float = 3.0, **kw) -> dict:
-    return {"type": "fret", "time": time, "string": string, "fret": fret, "force": force, **kw}
+def fret(string: int, fret: int, time: float = 0.0, force: float | None = 3.0, **kw) -> dict:
+    """A finger behind ``fret``; ``force=None`` leaves the force out, so the finger presses with
+    the engine's default (the preset's force, or more where the string needs it to seat)."""
+    ev = {"type": "fret", "time": time, "string": string, "fret": fret, "force": force, **kw}
+    if force is None:
+        del ev["force"]
+    return ev
 
 
 def tap(string: int, fret: int, time: float = 0.0, force: float = 1.0, velocity: float = 1.0,

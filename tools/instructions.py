@@ -1,11 +1,11 @@
 """Instructions per second of audio, counted by valgrind: the engine's cost in a measure that does
 not move with the machine.
 
-    python -m benchmarks.instructions [--quality standard] [--seconds 1]
+    python -m tools.instructions [--quality standard] [--seconds 1]
 
 Times move between sessions by more than most changes are worth, and with the vector width of the
 machine a session gets (docs/measurements.md, "Speed"); hardware counters
-(``benchmarks.counters``) are missing on most of these machines.  This script counts the
+(``tools.counters``) are missing on most of these machines.  This script counts the
 instructions of the same renders as ``benchmarks.speed``'s per-string table (the fretted full
 model against the linear string at the same factor x, and an open string's 2 N pluck with every
 nonlinearity against the linear string), plus its open strum and fretted chord, with

@@ -51,6 +51,20 @@ class Settings(BaseSettings):
     stream_block_frames: int = Field(4096, ge=256, le=1 << 20,
                                      description="frames per streamed block")
 
+    # Live play (WS /live): sessions run in processes of their own (service/live.py)
+    live_workers: int = Field(1, ge=0, le=16,
+                              description="live-session worker processes (0: WS /live refused)")
+    max_live_sessions: int = Field(4, ge=0, le=1000,
+                                   description="live sessions open at once; more are refused")
+    live_idle_timeout_s: float = Field(60.0, gt=0.0,
+                                       description="a session with no message for this long is "
+                                                   "closed")
+    live_lead_ms: float = Field(20.0, ge=0.0, le=1000.0,
+                                description="how far ahead of real time blocks are computed and "
+                                            "sent")
+    live_max_events_per_s: int = Field(200, ge=1, description="events a session may send per "
+                                                              "second; more are refused")
+
     # Logging
     log_level: str = Field("INFO", description="level of the service's JSON logs")
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import partial
+from functools import cache, partial
 
 import numpy as np
 
@@ -135,7 +135,9 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
         frets = range(1, preset.frets + 1) if opts.live_grid else stopped_frets(events)
         shifts = (fret_shifts(model, preset, frets)
                   if calibrate and fret_mode == FRET_RIGID else None)
-        build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, rmax,
+        # the default pressing force of each fret (a small static solve), once per string
+        press = cache(partial(press_force, model, preset, tension_ratio=rmax))
+        build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, press,
                         pickups, fret_mode, opts)
         ctl, geom = build(events)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
@@ -149,14 +151,13 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
                   {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
 
 
-def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, rmax: float,
+def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, press,
                            pickups: list[float], fret_mode: int, opts: RenderOptions, events: list):
     """String ``i``'s control arrays for ``events`` (those on it, sorted) on the grid of ``model``
     at the internal ``rate``, and its geometry with the contact margin those events need."""
     impedance = math.sqrt(model.tension_n * model.rho_a)
     ctl = string_controls(events, preset, i, model.h, model.n, rate, impedance,
-                          partial(tension_ratio_for_cents, model), shifts,
-                          partial(press_force, model, preset, tension_ratio=rmax))
+                          partial(tension_ratio_for_cents, model), shifts, press)
     margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
               if opts.skip_contacts else 1.0)
     geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,

@@ -14,6 +14,8 @@ Markdown table:
   sounding): a block is late if it arrives after the moment a client playing it would need it;
   the client starts playing ``jitter`` after the first block arrives (``--jitter-ms``, default 40 ms:
   the server's 20 ms lead plus 20 ms of jitter buffer, what the demo page keeps);
+* the live worker's CPU time (``/proc``) per second of the dense session's audio: what one session
+  costs a core, whatever else the machine runs (the late blocks above depend on that);
 * sessions per core: 1, 2, 3, ... concurrent sessions, each played like the dense one, for
   ``--step-seconds`` each, until one of them has a late block; the largest count without one.
 
@@ -74,6 +76,12 @@ class Server:
             time.sleep(0.5)
         self.stop()
         raise TimeoutError("the live worker did not become ready")
+
+    def cpu_seconds(self) -> float:
+        """CPU time (user + system) the live worker process has used so far."""
+        pid = httpx.get(f"http://{self.url}/live/status", timeout=5).json()["pids"][0]
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -217,6 +225,7 @@ def main() -> None:
     if a.quick:
         a.latency_seconds, a.dense_seconds, a.step_seconds, a.max_sessions = 4, 6, 4, 2
     jitter = a.jitter_ms / 1000.0
+    load0 = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     server = Server(a.max_sessions)
     rows = []
     try:
@@ -226,12 +235,16 @@ def main() -> None:
             rows.append((f"latency, {bf}-frame blocks ({bf / 44.1:.1f} ms)",
                          f"p50 {pct(ms, 50):.1f} ms, p99 {pct(ms, 99):.1f} ms "
                          f"({len(ms)} plucks); {r.late} late of {r.blocks} blocks"))
+        cpu0 = server.cpu_seconds()
         r = asyncio.run(session(server.url, 256, a.dense_seconds, dense, jitter, 2))
+        cpu = (server.cpu_seconds() - cpu0) / (r.blocks * 256 / 44100)
         ms = [x * 1000 for x in r.latencies]
         rows.append((f"dense six-string session, {a.dense_seconds:g} s, 256-frame blocks",
                      f"{r.late} late of {r.blocks} blocks (worst {r.worst_late_s * 1000:.1f} ms "
                      f"late); pluck latency p50 {pct(ms, 50):.1f} ms, p99 {pct(ms, 99):.1f} ms; "
                      f"{len(r.errors)} events refused"))
+        rows.append(("live worker CPU per second of the dense session",
+                     f"{cpu:.2f} s: a free core would carry {1 / cpu:.1f} such sessions"))
         best, tried = 0, []
         for n in range(1, a.max_sessions + 1):
             runs = asyncio.run(many(server.url, n, a.step_seconds, jitter))
@@ -246,8 +259,10 @@ def main() -> None:
                      f"{best} without a late block ({'; '.join(tried)})"))
     finally:
         server.stop()
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(f"\nLive play over loopback ({platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} CPUs shared with other work; client jitter buffer "
+          f"{os.cpu_count()} CPUs, load average {load0} at the start, {load} at the end; "
+          "client jitter buffer "
           f"{a.jitter_ms:g} ms; quality draft)\n")
     print("| measure | result |")
     print("| --- | --- |")

@@ -146,18 +146,22 @@ class Session:
         if rel is not None:
             update["release"] = t + rel
         e = e.model_copy(update=update)
+        n = self.preset.n_strings
+        if isinstance(e, Mute) and e.string is None:  # a mute per string, as controls.expand does
+            for s in range(1, n + 1):
+                each = e.model_copy(update={"string": s})
+                if self.record:
+                    self.recorded.append(each)
+                self._add(s, each)
+            return
         if self.record:
             self.recorded.append(e)
-        n = self.preset.n_strings
         if isinstance(e, Strum):  # as controls.expand does it
             strings = sorted(e.strings or range(1, n + 1), reverse=e.direction == "down")
             dt = e.spread / max(len(strings) - 1, 1)
             for i, s in enumerate(strings):
                 self._add(s, Pluck(time=t + i * dt, string=s, force=e.force, position=e.position,
                                    style=e.style))
-        elif isinstance(e, Mute) and e.string is None:
-            for s in range(1, n + 1):
-                self._add(s, e.model_copy(update={"string": s}))
         else:
             self._add(e.string, e)
 

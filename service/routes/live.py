@@ -15,7 +15,8 @@ Protocol (docs/service.md, "Live play", has it with examples):
   (``engine.FIXED_GAIN``), paced to real time ``GUITAR_LIVE_LEAD_MS`` ahead.
 * closes: 1000 when the client closes; 1013 (try again later) beyond ``GUITAR_MAX_LIVE_SESSIONS``
   or before a live worker is ready; 4408 after ``GUITAR_LIVE_IDLE_TIMEOUT_S`` without a message;
-  1011 if the session's worker failed (it is replaced).
+  1011 if the session's worker failed (it is replaced); 1008 if the client falls more than 2 s
+  behind reading the blocks.
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ router = APIRouter(tags=["live"])
 CLOSE_BUSY = 1013
 CLOSE_IDLE = 4408
 CLOSE_FAILED = 1011
+CLOSE_SLOW = 1008
+BACKLOG_S = 2.0  # a client that falls this far behind reading the blocks is closed (1008)
 MAX_MESSAGE_BYTES = 16 * 1024
 _HEADER = struct.Struct("<Q")
 
@@ -90,9 +93,10 @@ def _ident(body: dict) -> tuple[Any, str | None]:
 
 @router.get("/live/status")
 async def live_status(request: Request) -> dict[str, Any]:
-    """The live-session workers: how many are ready, and the sessions open against the limit."""
+    """The live-session workers: how many are ready, their process ids, and the sessions open
+    against the limit."""
     pool: LivePool = request.state.live
-    return {"ready": pool.ready, **pool.status()}
+    return {"ready": pool.ready, **pool.status(), "pids": pool.pids()}
 
 
 @router.websocket("/live")
@@ -131,7 +135,8 @@ async def live(ws: WebSocket) -> None:
             await ws.send_json({"type": "opened", **first[2]})
             preset = engine.Scene(duration=1.0, guitar=opened.scene_guitar()).preset()
             block_frames = opened.block_frames
-        sender = asyncio.create_task(_send(ws, session))
+        backlog = max(8, int(BACKLOG_S * opened.sample_rate / block_frames))
+        sender = asyncio.create_task(_send(ws, session, backlog))
         try:
             await _events(ws, pool, session, preset, block_frames, idle_s,
                           settings.live_max_events_per_s, sender)
@@ -143,6 +148,8 @@ async def live(ws: WebSocket) -> None:
         pass
     except _Failed as exc:
         await _close(ws, CLOSE_FAILED, str(exc)[:120])
+    except _SlowClient as exc:
+        await _close(ws, CLOSE_SLOW, str(exc)[:120])
     finally:
         if session is not None:
             pool.end(session)
@@ -150,6 +157,10 @@ async def live(ws: WebSocket) -> None:
 
 
 class _Failed(Exception):
+    pass
+
+
+class _SlowClient(Exception):
     pass
 
 
@@ -199,8 +210,10 @@ async def _events(ws: WebSocket, pool: LivePool, session: LiveSession, preset: A
         pool.event(session, body)
 
 
-async def _send(ws: WebSocket, session: LiveSession) -> None:
+async def _send(ws: WebSocket, session: LiveSession, backlog: int) -> None:
     while True:
+        if session.messages.qsize() > backlog:
+            raise _SlowClient(f"the client fell more than {BACKLOG_S:g} s behind reading the blocks")
         msg = await session.messages.get()
         kind = msg[0]
         try:

@@ -27,6 +27,9 @@ PLAN = {
     80: [{"type": "tap", "string": 2, "fret": 7, "release": 0.05},
          {"type": "harmonic", "string": 1, "fret": 12, "release": 0.1},
          {"type": "pluck", "string": 1, "offset": 3}],
+    85: [{"type": "mute", "amount": 0.5}],
+    90: [{"type": "release", "string": 3, "what": "mute"}, {"type": "pluck", "string": 3}],
+    95: [{"type": "release", "what": "mute"}],
 }
 
 

@@ -83,6 +83,9 @@ def test_play_from_keyboard_and_midi(page: Any) -> None:
     page.keyboard.down("b")
     page.wait_for_timeout(150)
     page.keyboard.up("b")
+    page.keyboard.down("m")  # a palm on every string, lifted
+    page.wait_for_timeout(100)
+    page.keyboard.up("m")
     assert page.get_attribute("#fretboard .cell[data-string='5'][data-fret='3']", "class").count("held")
     # the fretboard: a click plucks string 1 at fret 5
     page.click("#fretboard .cell[data-string='1'][data-fret='5']")

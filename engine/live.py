@@ -10,7 +10,7 @@ filter's look-ahead: a string's output frame m is centred on its internal step m
 the linear-phase filter needs ``Decimator.lead`` steps past it, so when a block ends a string has
 already been simulated ``lead`` steps (``ceil(lead / f)`` frames) beyond it.  An event acting there
 would change steps already computed; acting ``delay`` frames later (the largest over the strings,
-13 frames at factor 2: 0.3 ms at 44.1 kHz) it changes nothing computed.
+13 frames at factors 2 and 3: 0.3 ms at 44.1 kHz) it changes nothing computed.
 
 Grids.  A render chooses each string's grid from its events (a fingered string gets the finer
 contact grid; a bend raises the tension the grid must stay stable at).  A session cannot know its

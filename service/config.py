@@ -62,6 +62,9 @@ class Settings(BaseSettings):
     live_lead_ms: float = Field(20.0, ge=0.0, le=1000.0,
                                 description="how far ahead of real time blocks are computed and "
                                             "sent")
+    live_nice: int = Field(0, ge=-20, le=19,
+                           description="niceness of the live workers (negative: ahead of renders "
+                                       "and other load; needs CAP_SYS_NICE, else ignored)")
     live_max_events_per_s: int = Field(200, ge=1, description="events a session may send per "
                                                               "second; more are refused")
 

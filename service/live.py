@@ -52,7 +52,8 @@ class _LiveWorker:
         parent_conn, child_conn = ctx.Pipe(duplex=True)
         self.proc = ctx.Process(
             target=live_worker.main,
-            args=(child_conn, pool.settings.warmup, pool.settings.live_lead_ms / 1000.0),
+            args=(child_conn, pool.settings.warmup, pool.settings.live_lead_ms / 1000.0,
+                  pool.settings.live_nice),
             name=f"live-worker-{number}", daemon=True)
         self.proc.start()
         child_conn.close()

@@ -4,6 +4,8 @@ strings cost nothing, and messages that cannot be played are refused naming thei
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -145,3 +147,10 @@ def test_a_second_bend_waits_for_the_first_to_return():
     for _ in range(60):  # rise and return take the bend's duration (0.15 s) each
         s.block()
     s.push({"type": "vibrato", "string": 2, "duration": 0.2})
+
+
+def test_a_copy_of_a_prepared_session_plays_the_same():
+    """The live worker prepares a guitar once and opens each session as a copy of it."""
+    template = engine.Session("steel-acoustic", 44100, BLOCK)
+    copied = play(copy.deepcopy(template), PLAN, 100)
+    assert np.array_equal(copied, play(template, PLAN, 100))

@@ -23,7 +23,7 @@ On a machine busy with other work, at the default priority the blocks wait for t
 * sessions per core: 1, 2, 3, ... concurrent sessions, each played like the dense one, for
   ``--step-seconds`` each, until one of them has a late block; the largest count without one.
 
-The default run takes about three minutes.  The machine's other load shows in these figures.
+The default run takes three to five minutes.  The machine's other load shows in these figures.
 """
 
 from __future__ import annotations

@@ -63,7 +63,8 @@ class Server:
         self.url = f"127.0.0.1:{self.port}"
         env = {**os.environ, "PYTHONPATH": str(ROOT), "GUITAR_WORKERS": "1",
                "GUITAR_LIVE_WORKERS": "1", "GUITAR_MAX_LIVE_SESSIONS": str(max_sessions),
-               "GUITAR_LOG_LEVEL": "WARNING", "GUITAR_LIVE_NICE": str(nice)}
+               "GUITAR_LOG_LEVEL": "WARNING", "GUITAR_LIVE_NICE": str(nice),
+               "GUITAR_LIVE_PRESTART": "1"}
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "uvicorn", "service.app:app", "--host", "127.0.0.1", "--port",
              str(self.port), "--no-access-log"], cwd=ROOT, env=env,

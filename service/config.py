@@ -54,6 +54,10 @@ class Settings(BaseSettings):
     # Live play (WS /live): sessions run in processes of their own (service/live.py)
     live_workers: int = Field(1, ge=0, le=16,
                               description="live-session worker processes (0: WS /live refused)")
+    live_prestart: bool = Field(False, description="start the live workers with the server (default: "
+                                                   "on the first WS /live session)")
+    live_start_timeout_s: float = Field(180.0, gt=0.0, description="how long a first session "
+                                        "waits for a live worker to warm up")
     max_live_sessions: int = Field(4, ge=0, le=1000,
                                    description="live sessions open at once; more are refused")
     live_idle_timeout_s: float = Field(60.0, gt=0.0,

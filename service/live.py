@@ -5,8 +5,11 @@ next block within milliseconds, every few milliseconds, for as long as it is pla
 let one stall the other either way.  So ``GUITAR_LIVE_WORKERS`` processes (default 1) each host
 several sessions (``service.live_worker``), and the render workers stay as they are.  Sessions go
 to the least loaded live worker; at most ``GUITAR_MAX_LIVE_SESSIONS`` are open at once (more are
-refused: ``LiveBusy``).  A live worker that dies ends its sessions (their sockets are closed with
-1011) and is replaced, as a render worker is.
+refused: ``LiveBusy``).  The live workers start with the first session (which waits for them to warm
+up), not with the server: a server that only renders never pays for them (a warm worker holds the
+engine's compiled kernels, hundreds of MB), and their warm-up does not take CPU from the render
+workers' start.  ``GUITAR_LIVE_PRESTART`` starts them with the server instead.  A live worker that
+dies ends its sessions (their sockets are closed with 1011) and is replaced, as a render worker is.
 
 Threads and the loop, as in ``service.pool``: a reader thread per worker hands every message to the
 event loop; all state here is touched on the loop only.
@@ -106,12 +109,22 @@ class LivePool:
         self._numbers = itertools.count(1)
         self._ids = itertools.count(1)
         self._closing = False
+        self._started = False
+        self._opening = 0  # sessions waiting for a live worker to warm up
+        self._ready_event: asyncio.Event
         self.replaced = 0
 
     async def start(self) -> None:
         self.loop = asyncio.get_running_loop()
-        for _ in range(self.size):
-            self._spawn()
+        self._ready_event = asyncio.Event()
+        if self.settings.live_prestart:
+            self._start_workers()
+
+    def _start_workers(self) -> None:
+        if not self._started:
+            self._started = True
+            for _ in range(self.size):
+                self._spawn()
 
     def _spawn(self) -> None:
         w = _LiveWorker(self, self._ctx, next(self._numbers))
@@ -143,7 +156,8 @@ class LivePool:
         return sum(len(w.sessions) for w in self._workers)
 
     def status(self) -> dict[str, Any]:
-        return {"live_workers": self.size, "live_workers_ready": sum(w.ready for w in self._workers),
+        return {"live_workers": self.size, "started": self._started,
+                "live_workers_ready": sum(w.ready for w in self._workers),
                 "live_sessions": self.open_sessions, "max_live_sessions": self.limit}
 
     def pids(self) -> list[int]:
@@ -151,17 +165,28 @@ class LivePool:
 
     # ---- sessions ---------------------------------------------------------------------------
 
-    def open(self, message: dict) -> LiveSession:
-        """Start a session on the least loaded ready worker (the open message was validated);
+    async def open(self, message: dict) -> LiveSession:
+        """Start a session on the least loaded ready worker (the open message was validated),
+        starting the live workers first if they are not yet, and waiting for one to be ready;
         its first message (``opened`` or ``failed``) arrives on ``session.messages``."""
         if self._closing:
             raise LiveUnavailable("the server is shutting down")
-        if self.open_sessions >= self.limit:
+        if self.size == 0:
+            raise LiveUnavailable("live play is off on this server (GUITAR_LIVE_WORKERS=0)")
+        if self.open_sessions + self._opening >= self.limit:
             raise LiveBusy(f"too many live sessions: the limit is {self.limit}")
+        self._start_workers()
+        self._opening += 1
+        try:
+            await asyncio.wait_for(self._ready_event.wait(),
+                                   self.settings.live_start_timeout_s)
+        except TimeoutError:
+            raise LiveUnavailable("no live worker became ready in time") from None
+        finally:
+            self._opening -= 1
         ready = [w for w in self._workers if w.ready and w.alive]
-        if not ready:
-            raise LiveUnavailable("no live worker is ready yet (they load the engine's kernels "
-                                  "first; GET /live/status tells when)")
+        if not ready or self._closing:
+            raise LiveUnavailable("no live worker is ready; try again")
         w = min(ready, key=lambda x: len(x.sessions))
         s = LiveSession(next(self._ids), w)
         w.sessions[s.id] = s
@@ -194,6 +219,7 @@ class LivePool:
     def _on_message(self, w: _LiveWorker, msg: tuple) -> None:
         if msg[0] == "ready":
             w.ready = True
+            self._ready_event.set()
             log.info("live worker ready", extra={"fields": {
                 "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
             return
@@ -209,6 +235,8 @@ class LivePool:
         w.ready = False
         if w in self._workers:
             self._workers.remove(w)
+        if not any(x.ready for x in self._workers):
+            self._ready_event.clear()
         for s in list(w.sessions.values()):
             s.closed = True
             s.messages.put_nowait(("died", s.id, exitcode))

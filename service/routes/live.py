@@ -14,7 +14,8 @@ Protocol (docs/service.md, "Live play", has it with examples):
   sample, then ``block_frames`` float32 little-endian mono samples at the fixed gain
   (``engine.FIXED_GAIN``), paced to real time ``GUITAR_LIVE_LEAD_MS`` ahead.
 * closes: 1000 when the client closes; 1013 (try again later) beyond ``GUITAR_MAX_LIVE_SESSIONS``
-  or before a live worker is ready; 4408 after ``GUITAR_LIVE_IDLE_TIMEOUT_S`` without a message;
+  or when no live worker is ready within ``GUITAR_LIVE_START_TIMEOUT_S`` (the first session of a
+  server starts them and waits); 4408 after ``GUITAR_LIVE_IDLE_TIMEOUT_S`` without a message;
   1011 if the session's worker failed (it is replaced); 1008 if the client falls more than 2 s
   behind reading the blocks.
 """
@@ -93,8 +94,9 @@ def _ident(body: dict) -> tuple[Any, str | None]:
 
 @router.get("/live/status")
 async def live_status(request: Request) -> dict[str, Any]:
-    """The live-session workers: how many are ready, their process ids, and the sessions open
-    against the limit."""
+    """The live-session workers: whether they have started (with the first session, or with the
+    server under GUITAR_LIVE_PRESTART), how many are ready, their process ids, and the sessions
+    open against the limit."""
     pool: LivePool = request.state.live
     return {"ready": pool.ready, **pool.status(), "pids": pool.pids()}
 
@@ -123,7 +125,7 @@ async def live(ws: WebSocket) -> None:
                 await _error(ws, exc.field, exc.message)
                 continue
             try:
-                session = pool.open(opened.model_dump(exclude_unset=True))
+                session = await pool.open(opened.model_dump(exclude_unset=True))
             except (LiveBusy, LiveUnavailable) as exc:
                 await ws.close(CLOSE_BUSY, str(exc)[:120])
                 return

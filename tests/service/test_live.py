@@ -27,7 +27,7 @@ IDLE_S = 2.0
 def live_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[UvicornServer]:
     s = UvicornServer(tmp_path_factory.mktemp("live"), {
         "GUITAR_WORKERS": "1", "GUITAR_LIVE_WORKERS": "1", "GUITAR_MAX_LIVE_SESSIONS": "2",
-        "GUITAR_LIVE_IDLE_TIMEOUT_S": str(IDLE_S)}).start()
+        "GUITAR_LIVE_IDLE_TIMEOUT_S": str(IDLE_S), "GUITAR_LIVE_PRESTART": "1"}).start()
     wait_ready(lambda: httpx.get(s.url + "/live/status", timeout=2.0).json()["ready"])
     yield s
     s.stop()

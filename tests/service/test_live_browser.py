@@ -14,7 +14,7 @@ from typing import Any
 
 import httpx
 import pytest
-from conftest import UvicornServer, wait_ready
+from conftest import UvicornServer
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -41,9 +41,10 @@ FAKE_MIDI = """
 
 @pytest.fixture(scope="module")
 def live_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[UvicornServer]:
+    # the live worker starts with the first session (the page's Connect), which waits for it
     s = UvicornServer(tmp_path_factory.mktemp("live-browser"), {
         "GUITAR_WORKERS": "1", "GUITAR_LIVE_WORKERS": "1"}).start()
-    wait_ready(lambda: httpx.get(s.url + "/live/status", timeout=2.0).json()["ready"])
+    assert httpx.get(s.url + "/live/status").json()["started"] is False
     yield s
     s.stop()
 
@@ -70,7 +71,7 @@ def test_play_from_keyboard_and_midi(page: Any) -> None:
     assert page.inner_text("#live-midi") == "Test keyboard"
     assert page.locator("#fretboard .cell").count() == 6 * 13
     page.click("#live-connect")
-    page.wait_for_selector("body[data-live='1']", timeout=30_000)
+    page.wait_for_selector("body[data-live='1']", timeout=180_000)
     assert "playing steel-acoustic" in page.inner_text("#live-status")
     page.wait_for_function("Number(document.querySelector('#live-blocks').textContent) > 20",
                            timeout=20_000)

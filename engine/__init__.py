@@ -6,7 +6,8 @@
 
 Also: ``blocks`` (the same audio block by block, at the fixed gain), ``frame_count`` (its length,
 before rendering), ``tuned_tension`` (a preset string's tension) and ``warmup`` (load or compile
-every numba kernel once per process).
+every numba kernel once per process); ``Session`` plays a guitar live, event by event, block by
+block (``engine.live``).
 
 Layers, each knowing only those below it (docs/architecture.md draws them):
 

@@ -10,7 +10,7 @@ APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get insta
 IS_ROOT = [ "$$(id -u)" = 0 ]
 
 .PHONY: install venv-support serve test test-data lint browser docker-check docker-tools bench-tools bench \
-        bench-service clean
+        bench-service bench-live clean
 
 install: $(VENV)/.installed
 
@@ -83,6 +83,10 @@ bench: install test-data bench-tools
 # Latency, time to first byte and throughput of the service over real HTTP (uvicorn on a free port).
 bench-service: install
 	$(BIN)/python benchmarks/service_bench.py
+
+# Live play over a websocket: latency, underruns, sessions per core (about four minutes).
+bench-live: install
+	$(BIN)/python benchmarks/live.py
 
 clean:
 	rm -rf $(VENV) .numba_cache .pytest_cache .ruff_cache

@@ -95,11 +95,35 @@ def fit_setbacks(err: np.ndarray, scale: float) -> list[float]:
     return best
 
 
+def above_12th(preset_name: str, quality_name: str, pool) -> None:
+    """Frets 13-20 with the preset's setbacks (fitted to frets 1-12) at one quality: what a score
+    that climbs the neck gets."""
+    n = get_preset(preset_name).n_strings
+    frets = tuple(range(13, 21))
+    jobs = [(preset_name, s, q, QUALITY[quality_name], False) for s in range(1, n + 1)
+            for q in frets]
+    err = np.zeros((n, len(frets)))
+    for s, q, c, _ in pool.map(fretted_note, jobs):
+        err[s - 1, frets.index(q)] = c
+    print(f"\n{preset_name}, quality '{quality_name}', frets 13-20 with the preset's setbacks "
+          "(cents from 12-TET)")
+    print("string | " + " ".join(f"{q:>6d}" for q in frets) + " |  worst")
+    for s, row in enumerate(err, start=1):
+        worst = row[np.argmax(np.abs(row))]
+        print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst:+6.1f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--preset", default="steel-acoustic")
     ap.add_argument("--fit-only", action="store_true")
+    ap.add_argument("--above-12th", metavar="QUALITY", choices=sorted(QUALITY),
+                    help="only frets 13-20 at this quality, with the preset's setbacks")
     args = ap.parse_args()
+    if args.above_12th:
+        with Pool(2) as pool:
+            above_12th(args.preset, args.above_12th, pool)
+        return
     preset = get_preset(args.preset)
     reference = REFERENCE
     t0 = time.perf_counter()

@@ -341,6 +341,12 @@ class Scene(_Model):
     events: list[Event] = Field(default_factory=list, max_length=MAX_EVENTS)
     output: Output = Field(default_factory=Output)
     quality: Literal["draft", "standard", "high"] = "standard"
+    model: Literal["fdtd", "waveguide"] = Field(
+        "fdtd",
+        description="fdtd: the DAFx24 finite-difference string (default); waveguide: the digital "
+                    "waveguide of Evangelista & Eckerholm 2010, many times cheaper, driven by the "
+                    "same events (engine/waveguide)",
+    )
     diagnostics: bool = False
 
     model_config = ConfigDict(

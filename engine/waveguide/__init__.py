@@ -1,0 +1,165 @@
+"""The digital-waveguide guitar of Evangelista & Eckerholm 2010 (IEEE TASLP 18(4)), beside the
+finite-difference model: the same scenes, presets and output conventions.
+
+    >>> from engine import waveguide
+    >>> inst = waveguide.prepare(engine.parse_scene({... "model": "waveguide"}))
+    >>> audio = np.concatenate(list(inst.blocks(4096)))   # pickup velocity, m/s, mono
+
+Modules, one per object, each opening with the equations it implements:
+
+* ``string``     displacement-wave rails, the termination's fractional delay (third-order
+                 Lagrange), loss (one-pole fitted to the presets' two T60 values) and dispersion
+                 (allpass cascade) filters, the tuning;
+* ``pluck``      the plucking junction: a time-varying mass-spring-damper with the scene's force
+                 pulse, tapered over the contact (also the light finger, harmonic touch, palm);
+* ``fingering``  the fingering termination (a stopped string), its pitch and rest line;
+* ``collision``  the collision junctions along the neck (frets, fretboard), active only where the
+                 string can reach them;
+* ``glide``      tension modulation (pitch glide of hard plucks);
+* ``controls``   scene events -> a string's timeline;
+* ``kernel``     the numba sample loop;
+* ``voice``      one string's state across blocks and the changes of its stop.
+
+Output: the string velocity at the pickup positions (m/s) summed over strings, at the scene's
+sample rate (no oversampling: a waveguide at X = c T is exact for the ideal string), so
+``engine.FIXED_GAIN`` and the body response apply unchanged.  One difference of timing: the
+finite-difference output sample m is the velocity at (m + 1/2) / rate, this one's at
+(m - 1/2) / rate (a backward difference), one sample apart.
+
+Where each model is better (``benchmarks/waveguide.py`` measures it): the waveguide is much cheaper
+and tunes every note exactly (open strings, stopped strings, bends) through its fractional delay;
+the finite-difference model computes what the waveguide approximates: the frets' intonation
+physics (pressing stretch, stiffness over the crown), the finger's own dynamics on the string, a
+distributed Kirchhoff-Carrier tension, penalty contacts with an exact energy balance, and the
+transients of pressing and lifting a finger.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..presets import Preset
+from ..scene import Scene
+from .controls import timeline
+from .fingering import INTONATION
+from .string import physical
+from .voice import WaveguideVoice
+
+__all__ = ["WaveguideOptions", "WaveguideInstrument", "prepare"]
+
+
+@dataclass
+class WaveguideOptions:
+    """Switches of the waveguide model (the benchmarks and tests turn them)."""
+
+    intonation: str = "ideal"  # ``fingering``: "ideal" (12-TET at the frets) or "physical"
+    dispersion: bool = True
+    collisions: bool = True
+    glide: bool = True
+    skip_silent: bool = True
+    skip_decayed: bool = True
+    decay_velocity: float = 1e-7  # m/s, as the finite-difference model's
+    block_frames: int = 2048
+
+
+@dataclass
+class WaveguideInstrument:
+    scene: Scene
+    preset: Preset
+    voices: list[WaveguideVoice]
+    frames: int
+    options: WaveguideOptions
+    frame: int = 0
+    _warnings: list[str] = field(default_factory=list)
+
+    def blocks(self, block_frames: int | None = None):
+        """Yield the pickup velocity (m/s, mono) block by block at the scene's rate."""
+        bf = block_frames or self.options.block_frames
+        while self.frame < self.frames:
+            m = min(bf, self.frames - self.frame)
+            mix = np.zeros(m)
+            for v in self.voices:
+                mix += v.run(m)
+            self.frame += m
+            yield mix
+
+    def energy_error(self) -> float:
+        """0.0: the waveguide has no discrete energy balance to report.  Its terminations hold
+        state in recursive filters, so the stored energy is not one expression of the rails at an
+        instant; passivity is argued junction by junction in the modules' docstrings and checked
+        by ``tests/engine/waveguide/test_passivity.py`` (the rails' energy, ``WaveguideVoice
+        .energy``, never grows once the forces stop)."""
+        return 0.0
+
+    def warnings(self) -> list[str]:
+        return list(self._warnings)
+
+
+def _seating(preset: Preset, string: int, rate: float):
+    """seated(fret, force): does a finger pressing ``force`` N rest the string on ``fret``?  The
+    pressed string's statics (``engine.intonation.seating_force``, on the finite-difference grid
+    of the scene's rate, so both models agree on which notes are dead)."""
+    cache: dict[int, float] = {}
+
+    def seated(fret: int, force: float | None) -> bool:
+        if force is None or fret < 1:
+            return True  # a finger with no force of its own presses hard enough
+        if fret not in cache:
+            from ..intonation import seating_force
+            from ..string import tune
+
+            spec = preset.strings[string - 1]
+            model = tune(spec, preset.string_length_m(string), rate)
+            cache[fret] = seating_force(model, preset, fret)
+        return force >= cache[fret]
+
+    return seated
+
+
+def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideInstrument:
+    """Design every string that the scene plays and compile its events."""
+    opts = options or WaveguideOptions()
+    if opts.intonation not in INTONATION:
+        raise ValueError(f"intonation must be one of {INTONATION}")
+    preset = scene.preset()
+    rate = float(scene.sample_rate)
+    out = scene.output
+    if out.pickups:
+        pickups = [p.position for p in out.pickups]
+        gains = np.array([p.gain for p in out.pickups], float)
+    else:
+        pickups = [out.pickup_position or preset.pickup_position]
+        gains = np.ones(1)
+    voices = []
+    warnings: list[tuple[float, str]] = []
+    for i in range(1, preset.n_strings + 1):
+        phys = physical(preset, i)
+        seated = _seating(preset, i, rate)
+        tl = timeline(scene, preset, i, rate, phys.impedance, seated)
+        if opts.skip_silent and not tl.slots and not tl.fingers:
+            continue
+        for f in tl.fingers:
+            if not f.seated:
+                warnings.append((f.on / rate, f"string {i}: the finger at {f.on / rate:g} s "
+                                 f"presses {f.force:g} N, too lightly to rest the string on "
+                                 f"fret {f.fret}: the note sounds dead"))
+        voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
+                                     opts.dispersion, opts.collisions, opts.glide,
+                                     opts.skip_decayed, opts.decay_velocity))
+    frames = int(round(scene.duration * scene.sample_rate))
+    inst = WaveguideInstrument(scene, preset, voices, frames, opts)
+    inst._warnings = [w for _, w in sorted(warnings)]
+    return inst
+
+
+def render(scene: Scene, options: WaveguideOptions | None = None) -> np.ndarray:
+    """The whole scene's pickup velocity (m/s, mono): the blocks concatenated."""
+    inst = prepare(scene, options)
+    parts = list(inst.blocks())
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+

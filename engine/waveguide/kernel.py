@@ -1,0 +1,222 @@
+"""The sample loop of one waveguide string (numba): terminations, junctions, collisions, pickups.
+
+Per sample, in this order (all at time step s; a point's values at s depend only on step s - 1):
+
+1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch ratio
+   of the breakpoints (bends, vibrato) and of the tension-modulation glide, P = fs / f; the termination's fractional delay
+   D = P - 2 (N - n_t) - tau, and the termination walks one grid step while D leaves [1, 3)
+   (``string``);
+2. the termination at n_t: Lagrange read of u- at delay D, the loss one-pole, the dispersion
+   allpass cascade, the reflection -g_f, written to u+(n_t, s);
+3. the bridge: u-(N, s) = -u+(N, s);
+4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes);
+5. the collision junctions whose bound reaches their obstacle (``collision``);
+6. every ``GLIDE_EVERY`` samples the elongation (``glide``);
+7. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``.
+
+Rails: u+(n, s) = R[(s - n) & mask], u-(n, s) = Mb[(s + n) & mask] (power-of-two ring buffers);
+the offsets s - n and s + n grow with s, so nothing is copied as the waves travel.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from ..config import JIT
+from .collision import REACH_EVERY, _collide
+from .glide import GLIDE_EVERY, _slope_sum
+from .pluck import _envelope, _msd
+
+# ist: integer state
+I_NT, I_PB = 0, 1
+# fst: float state; pickups' previous displacement from F_PICKUP on
+F_LOSS, F_GLIDE, F_D, F_PICKUP = 0, 1, 2, 3
+# cfg: the current termination and string constants
+C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE = range(10)
+HISTORY = 64  # samples of the u- history at the termination that the reach bound covers
+
+
+@njit(**JIT)
+def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
+              pb_step, pb_f,
+              js_on, js_off, js_len, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst, x_k0,
+              col_n, col_ref, col_cr, col_prev, col_live, seg_p, seg_m,
+              pk_n, pk_w, pk_g):
+    mask = R.shape[0] - 1
+    fs = cfg[C_FS]
+    loss_g = cfg[C_LOSS_G]
+    loss_a = cfg[C_LOSS_A]
+    disp_a = cfg[C_DISP_A]
+    refl = -cfg[C_REFL_G]
+    tau = cfg[C_TAU]
+    gain = cfg[C_GAIN]
+    glide_k = cfg[C_GLIDE_K]
+    dcap = cfg[C_DCAP]
+    fbase = cfg[C_FBASE]
+    nslot = js_on.shape[0]
+    ncol = col_n.shape[0]
+    npk = pk_n.shape[0]
+    npb = pb_step.shape[0]
+    n_t = ist[I_NT]
+    ib = ist[I_PB]
+    for i in range(nsteps):
+        s = step0 + i
+        # 1. the period and the termination's place
+        while ib + 1 < npb and pb_step[ib + 1] <= s:
+            ib += 1
+        if ib + 1 < npb and s >= pb_step[ib]:
+            a = (s - pb_step[ib]) / (pb_step[ib + 1] - pb_step[ib])
+            ratio = pb_f[ib] + a * (pb_f[ib + 1] - pb_f[ib])
+        else:
+            ratio = pb_f[ib]
+        period = fs / (fbase * ratio * fst[F_GLIDE])
+        d = period - 2.0 * (N - n_t) - tau
+        while d < 1.0 and n_t < N - 1:
+            n_t += 1
+            d += 2.0
+        while d >= 3.0 and n_t > 0:
+            n_t -= 1
+            d -= 2.0
+        if d < 1.0:
+            d = 1.0
+        if d > dcap:
+            d = dcap
+        fst[F_D] = d
+        # 2. the termination at n_t
+        j0 = int(d) - 1
+        x = d - j0
+        h0 = -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0
+        h1 = x * (x - 2.0) * (x - 3.0) / 2.0
+        h2 = -x * (x - 1.0) * (x - 3.0) / 2.0
+        h3 = x * (x - 1.0) * (x - 2.0) / 6.0
+        base = s + n_t - j0
+        y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
+             + h3 * Mb[(base - 3) & mask])
+        y = loss_g * (1.0 + loss_a) * y - loss_a * fst[F_LOSS]
+        fst[F_LOSS] = y
+        for k in range(disp_m):
+            v = disp_a * y + dsx[k] - disp_a * dsy[k]
+            dsx[k] = y
+            dsy[k] = v
+            y = v
+        R[(s - n_t) & mask] = refl * y
+        # 3. the bridge
+        Mb[(s + N) & mask] = -R[(s - N) & mask]
+        # 4. junctions
+        for j in range(nslot):
+            if s < js_on[j] or s >= js_off[j]:
+                continue
+            t = s - js_on[j]
+            env = _envelope(t, js_len[j])
+            envp = _envelope(t - 1, js_len[j]) if t > 0 else 0.0
+            for k in range(js_np[j]):
+                n = js_idx[j, k]
+                if n <= n_t or n >= N:
+                    continue
+                ip = (s - n) & mask
+                im = (s + n) & mask
+                uin = R[ip] + Mb[im]
+                st = jst[j, k]
+                if t == 0:
+                    st[0] = 0.0
+                    st[1] = 0.0
+                    st[2] = uin
+                    st[3] = uin
+                h = _msd(uin, st, envp * js_f[j, k], env * js_mp[j, k], env * js_rho[j, k],
+                         env * js_kappa[j, k], x_k0)
+                R[ip] += 0.5 * h
+                Mb[im] += 0.5 * h
+        # 5. collisions
+        if ncol > 0:
+            if i % REACH_EVERY == 0:
+                _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live,
+                       seg_p, seg_m, js_on, js_off, js_idx, js_np)
+            for c in range(ncol):
+                if col_live[c] == 0:
+                    continue
+                n = col_n[c]
+                if n <= n_t or n >= N:
+                    continue
+                col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
+                                       fs)
+        # 6. tension modulation
+        if glide_k > 0.0 and s % GLIDE_EVERY == 0:
+            rise = glide_k * _slope_sum(R, Mb, mask, s, n_t, N)
+            fst[F_GLIDE] = math.sqrt(1.0 + rise)
+        # 7. pickups
+        acc = 0.0
+        for p in range(npk):
+            n = pk_n[p]
+            if n <= n_t or n + 1 > N:
+                u = 0.0
+            else:
+                w = pk_w[p]
+                u = ((1.0 - w) * (R[(s - n) & mask] + Mb[(s + n) & mask])
+                     + w * (R[(s - n - 1) & mask] + Mb[(s + n + 1) & mask]))
+            acc += pk_g[p] * (u - fst[F_PICKUP + p]) * fs
+            fst[F_PICKUP + p] = u
+        out[i] = acc
+    ist[I_NT] = n_t
+    ist[I_PB] = ib
+    finite = True
+    for p in range(npk):
+        if not math.isfinite(fst[F_PICKUP + p]):
+            finite = False
+    return finite
+
+
+@njit(**JIT)
+def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg_p, seg_m,
+           js_on, js_off, js_idx, js_np):
+    """The collision points that the string can reach in the next ``REACH_EVERY`` samples
+    (``collision``): col_live[c] = 1 for those, 0 for the rest."""
+    B = REACH_EVERY
+    nseg = seg_p.shape[0]
+    for k in range(nseg):
+        seg_p[k] = 0.0
+        seg_m[k] = 0.0
+    maxp = 0.0
+    maxm = 0.0
+    lo = n_t - HISTORY
+    for n in range(lo, N + 1):
+        a = abs(R[(s - n) & mask])
+        b = abs(Mb[(s + n) & mask])
+        if b > maxm:
+            maxm = b
+        if n < n_t:
+            continue  # the u- history that the termination still reads
+        k = n // B
+        if a > seg_p[k]:
+            seg_p[k] = a
+        if b > seg_m[k]:
+            seg_m[k] = b
+        if a > maxp:
+            maxp = a
+    for c in range(col_n.shape[0]):
+        n = col_n[c]
+        if n <= n_t or n >= N:
+            col_live[c] = 0
+            continue
+        k = n // B
+        bp = seg_p[k]
+        if k > 0 and seg_p[k - 1] > bp:
+            bp = seg_p[k - 1]
+        if n - B <= n_t + 4:
+            bp = max(bp, gain * maxm)
+        bm = seg_m[k]
+        if k + 1 < nseg and seg_m[k + 1] > bm:
+            bm = seg_m[k + 1]
+        if n + B >= N:
+            bm = max(bm, maxp)
+        live = (bp + bm) * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
+        if not live:
+            for j in range(js_on.shape[0]):
+                if js_on[j] < s + B and js_off[j] > s:
+                    for q in range(js_np[j]):
+                        if abs(js_idx[j, q] - n) <= B:
+                            live = True
+        if live and col_live[c] == 0:
+            col_prev[c] = R[(s - n) & mask] + Mb[(s + n) & mask]
+        col_live[c] = 1 if live else 0

@@ -9,7 +9,8 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 2. the termination at n_t: Lagrange read of u- at delay D, the loss one-pole, the dispersion
    allpass cascade, the reflection -g_f, written to u+(n_t, s);
 3. the bridge: u-(N, s) = -u+(N, s);
-4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes);
+4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes),
+   and a pluck's force as a velocity blow (``pluck._blow``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
 6. every ``GLIDE_EVERY`` samples the elongation (``glide``);
 7. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``.
@@ -27,7 +28,7 @@ from numba import njit
 from ..config import JIT
 from .collision import REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
-from .pluck import _envelope, _msd
+from .pluck import _blow, _envelope, _msd
 
 # ist: integer state
 I_NT, I_PB = 0, 1
@@ -110,7 +111,6 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 continue
             t = s - js_on[j]
             env = _envelope(t, js_len[j])
-            envp = _envelope(t - 1, js_len[j]) if t > 0 else 0.0
             for k in range(js_np[j]):
                 n = js_idx[j, k]
                 if n <= n_t or n >= N:
@@ -124,10 +124,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                     st[1] = 0.0
                     st[2] = uin
                     st[3] = uin
-                h = _msd(uin, st, envp * js_f[j, k], env * js_mp[j, k], env * js_rho[j, k],
-                         env * js_kappa[j, k], x_k0)
+                h = _msd(uin, st, env * js_mp[j, k], env * js_rho[j, k], env * js_kappa[j, k])
                 R[ip] += 0.5 * h
                 Mb[im] += 0.5 * h
+                f = env * js_f[j, k]
+                if f != 0.0:
+                    _blow(R, Mb, mask, s, n, N, 0.5 * x_k0 * f)
         # 5. collisions
         if ncol > 0:
             if i % REACH_EVERY == 0:

@@ -22,30 +22,35 @@ A(z) = M' (1 - z^-1)^2 + rho (1 - z^-2) + kappa z^-1 + 1 (eq. (18)).  With M = K
 A = 1, h = 0: S is the identity and the junction costs nothing; a slot is only visited while its
 event acts.
 
-Passivity.  The paper notes (eq. (23)) that |1/A| can exceed 1, so S is not contractive in the
-waves' own norm; what bounds the string is the energy of the equivalent finite-difference scheme.
-A waveguide at X = c T *is* the centred scheme for u_tt = c^2 u_xx at Courant number 1, and (3) is
-that scheme with the lumped mass, spring and damper at n_p.  Its energy (per grid step, T = 1)
+Passivity.  S has the eigenvectors [1, 1] (eigenvalue 1/A) and [1, -1] (eigenvalue 1), which
+are orthogonal, so at each frequency the junction is contractive in the waves' energy (the sum
+over both rails of mu X (du/dt)^2, d'Alembert's kinetic plus potential energy) iff
+|A(e^jw)| >= 1.  With s = sin^2(w / 2),
 
-    H = sum_n mu X / 2 (u_n^m - u_n^{m-1})^2 + K0 / (2 X) sum_n (u_{n+1}^m - u_n^m)(u_{n+1}^{m-1} - u_n^{m-1})
-        + M / 2 (u_p^m - u_p^{m-1})^2 + K / 2 u_p^m u_p^{m-1}
+    |A|^2 = (1 + kappa - (2 + 4 M') s)^2 + 4 (1 + 2 rho)^2 s (1 - s),
 
-obeys H^{m+1/2} - H^{m-1/2} = -R (u_p^{m+1} - u_p^{m-1})^2 / 4 + F0 (u_p^{m+1} - u_p^{m-1}) / 2, and
-is non-negative when the string's part is (Courant number 1: it is, marginally) and the finger's is:
-K / 2 u^m u^{m-1} = K / 8 [(u^m + u^{m-1})^2 - (u^m - u^{m-1})^2], so M / 2 >= K / 8 (per step),
-i.e. K T^2 <= 4 M, the finger's own oscillator resolved at the sample rate.  ``controls`` clips K
-to that bound (a massless contact gets no spring) and R, M >= 0, so with F0 = 0 the junction only
-dissipates.  The parameters vary in time (they ramp with the force pulse); a change of M or K
-between steps is not energy-neutral, but the junction acts for a finite time and leaves the
-identity behind (the paper's BIBO argument, eqs. (24)-(25)), and the soak test checks that no
-scene grows.
+and |A|^2 - 1 is a quadratic in s that is >= 0 on [0, 1] when its linear coefficient and its
+value at s = 1 are: (1 + 2 rho)^2 >= (1 + kappa)(1 + 2 M') and kappa <= 4 M' (the finger's
+oscillator resolved at the sample rate, K T^2 <= 4 M).  A mass without damping fails the first
+(|1/A| ~ 1 + M' w^2 > 1 at low frequencies: the paper's eq. (23) warning), which the paper accepts
+for a pluck because it lasts milliseconds.  Here every junction is made passive at every value
+of its envelope e in [0, 1] (all three parameters scale with e): kappa <= 4 M' and
+rho >= max((kappa + 2 M') / 4, sqrt(kappa M' / 2)) are sufficient, and ``passive`` raises rho to
+that bound where a contact's own damping is less (a heavy finger resting on the string is then
+the heavily damped contact it is in life; in the limit it is the collision matrix S_c of eq. (29),
+norm 1).  The force is not part of (16) here: the scene's force is a force on the string, whose
+effect is a velocity (a point force F moves an ideal string at F / (2 Z)), and the balanced
+displacement injection of (16) would turn it into a displacement proportional to F.  It enters as
+the paper's velocity blow (eq. (38), ``_blow``) instead, a plateau of height F T / (2 Z) per
+sample, which is the finite-difference model's excitation on the same string.
 
 Force shapes and phases.  F0(t) is the scene's pluck pulse, the finite-difference model's f_e(t):
 F0 = F sin^2(pi t / (2 Delta)) for 0 <= t <= Delta, then released at once (the detach phase);
 ``style`` sets Delta and the sign (``engine.controls.PLUCK_STYLES``: pick 0.3 ms, finger 1 ms,
 slap 0.5 ms towards the fretboard, pop 2 ms away from it).  M(t), K(t) and R(t) follow the same
 envelope (the contact builds up with the force and ends at release), scaled by ``STYLES``: a
-fingertip is a heavier, softer, lossier contact than a plectrum.  The contact is spread over the
+fingertip is a heavier, softer, lossier contact than a plectrum (``passive`` then sets the
+damping each needs).  The contact is spread over the
 string with a tapering window (the paper's "tapered plucking zone for thick strings"): a bell
 (Hann) window ``width_m`` wide for a finger, a triangle for a pick, over as many grid points as it
 covers (X is 2.4 mm on the E2 string and 9.7 mm on E4 at 44.1 kHz), at most ``MAX_POINTS``.
@@ -117,21 +122,43 @@ def window(kind: str, width_m: float, x_m: float, grid_x: float, n_of) -> list[t
     return sorted(merged.items())
 
 
+def passive(mp: float, rho: float, kappa: float) -> tuple[float, float, float]:
+    """(M', rho, kappa) with kappa clipped to 4 M' and rho raised to the bound above, so that the
+    junction is passive at every envelope value."""
+    kappa = min(kappa, 4.0 * mp)
+    rho = max(rho, 0.25 * (kappa + 2.0 * mp), math.sqrt(0.5 * kappa * mp))
+    return mp, rho, kappa
+
+
 @njit(**JIT_INLINE)
-def _msd(uin, st, f_prev, mp, rho, kappa, x_k0):
-    """One step of eq. (16) at one point: the perturbation h(m+1) from the arriving displacement
-    ``uin`` = u_in(m+1), the point's state st = [h(m), h(m-1), u_in(m), u_in(m-1)] (updated), the
-    force F0(m) of the step before, and the dimensionless M', rho, kappa and X / K0."""
+def _msd(uin, st, mp, rho, kappa):
+    """One step of eq. (16) at one point, without its force term (the force is a velocity blow,
+    ``_blow``): the perturbation h(m+1) from the arriving displacement ``uin`` = u_in(m+1), the
+    point's state st = [h(m), h(m-1), u_in(m), u_in(m-1)] (updated) and the dimensionless M',
+    rho, kappa."""
     c1 = 1.0 + mp + rho
     c0 = 2.0 * mp - kappa
     cm1 = 1.0 + mp - rho
     h = (c0 * st[0] - (cm1 - 1.0) * st[1] + (1.0 - c1) * uin + c0 * st[2]
-         + (1.0 - cm1) * st[3] + x_k0 * f_prev) / c1
+         + (1.0 - cm1) * st[3]) / c1
     st[1] = st[0]
     st[0] = h
     st[3] = st[2]
     st[2] = uin
     return h
+
+
+@njit(**JIT_INLINE)
+def _blow(R, Mb, mask, s, n, N, c):
+    """A velocity blow at grid point n (E&E eq. (38)): -c on u+ and +c on u- at every point from n
+    to the bridge.  The displacement is unchanged now; from the next sample a plateau of height c
+    spreads from the point, i.e. the point moved c in one sample.  A force F acting for one
+    sample moves a point of an ideal string (two sides of impedance Z) by F T / (2 Z): c =
+    F X / (2 K0).  The step keeps u(N) = 0 at the bridge and changes the velocity integral w only
+    to the right of n, as (38) requires."""
+    for i in range(n, N + 1):
+        R[(s - i) & mask] -= c
+        Mb[(s + i) & mask] += c
 
 
 @njit(**JIT_INLINE)

@@ -4,8 +4,8 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 
 1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch ratio
    of the breakpoints (bends, vibrato) and of the tension-modulation glide, P = fs / f; the termination's fractional delay
-   D = P - 2 (N - n_t) - tau, and the termination walks one grid step while D leaves [1, 3)
-   (``string``);
+   D = P - 2 (N - n_t) - tau, and the termination walks one grid step when D leaves [1, 3)
+   (``string``; at most one step a sample, which the slow pitch changes never exceed);
 2. the termination at n_t: Lagrange read of u- at delay D, the loss one-pole, the dispersion
    allpass cascade, the reflection -g_f, written to u+(n_t, s);
 3. the bridge: u-(N, s) = -u+(N, s);
@@ -25,7 +25,7 @@ import math
 
 from numba import njit
 
-from ..config import JIT
+from ..config import JIT, JIT_INLINE
 from .collision import REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
 from .pluck import _blow, _envelope, _msd
@@ -33,7 +33,7 @@ from .pluck import _blow, _envelope, _msd
 # ist: integer state
 I_NT, I_PB = 0, 1
 # fst: float state; pickups' previous displacement from F_PICKUP on
-F_LOSS, F_GLIDE, F_D, F_PICKUP = 0, 1, 2, 3
+F_LOSS, F_GLIDE, F_D, F_GSTEP, F_PICKUP = 0, 1, 2, 3, 4
 # cfg: the current termination and string constants
 C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE = range(10)
 HISTORY = 64  # samples of the u- history at the termination that the reach bound covers
@@ -74,35 +74,33 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             ratio = pb_f[ib]
         period = fs / (fbase * ratio * fst[F_GLIDE])
         d = period - 2.0 * (N - n_t) - tau
-        while d < 1.0 and n_t < N - 1:
+        walk = 0
+        if d < 1.0 and n_t < N - 1:
             n_t += 1
             d += 2.0
-        while d >= 3.0 and n_t > 0:
+            walk = 1
+        elif d >= 3.0 and n_t > 0:
             n_t -= 1
             d -= 2.0
+            walk = -1
         if d < 1.0:
             d = 1.0
         if d > dcap:
             d = dcap
         fst[F_D] = d
-        # 2. the termination at n_t
-        j0 = int(d) - 1
-        x = d - j0
-        h0 = -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0
-        h1 = x * (x - 2.0) * (x - 3.0) / 2.0
-        h2 = -x * (x - 1.0) * (x - 3.0) / 2.0
-        h3 = x * (x - 1.0) * (x - 2.0) / 6.0
-        base = s + n_t - j0
-        y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
-             + h3 * Mb[(base - 3) & mask])
-        y = loss_g * (1.0 + loss_a) * y - loss_a * fst[F_LOSS]
-        fst[F_LOSS] = y
-        for k in range(disp_m):
-            v = disp_a * y + dsx[k] - disp_a * dsy[k]
-            dsx[k] = y
-            dsy[k] = v
-            y = v
-        R[(s - n_t) & mask] = refl * y
+        # 2. the termination at n_t.  A step towards the bridge leaves the loop two samples
+        # shorter on the grid and D two longer: the sample the termination would write now is
+        # the one it wrote a step ago (now one point further on), and its input the one it read
+        # then, so it does nothing this step.  A step towards the nut writes two samples, the
+        # old place's and the new one's, from two consecutive inputs.
+        if walk == 0:
+            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, d, loss_g, loss_a, disp_a,
+                                             disp_m, refl, fst, dsx, dsy)
+        elif walk == -1:
+            R[(s - n_t - 1) & mask] = _terminate(Mb, mask, s + n_t - 1, d, loss_g, loss_a,
+                                                 disp_a, disp_m, refl, fst, dsx, dsy)
+            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, d, loss_g, loss_a, disp_a,
+                                             disp_m, refl, fst, dsx, dsy)
         # 3. the bridge
         Mb[(s + N) & mask] = -R[(s - N) & mask]
         # 4. junctions
@@ -143,10 +141,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                     continue
                 col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
                                        fs)
-        # 6. tension modulation
-        if glide_k > 0.0 and s % GLIDE_EVERY == 0:
-            rise = glide_k * _slope_sum(R, Mb, mask, s, n_t, N)
-            fst[F_GLIDE] = math.sqrt(1.0 + rise)
+        # 6. tension modulation, its pitch ratio ramped over the GLIDE_EVERY samples to the next
+        if glide_k > 0.0:
+            if s % GLIDE_EVERY == 0:
+                rise = glide_k * _slope_sum(R, Mb, mask, s, n_t, N)
+                fst[F_GSTEP] = (math.sqrt(1.0 + rise) - fst[F_GLIDE]) / GLIDE_EVERY
+            fst[F_GLIDE] += fst[F_GSTEP]
         # 7. pickups
         acc = 0.0
         for p in range(npk):
@@ -167,6 +167,30 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         if not math.isfinite(fst[F_PICKUP + p]):
             finite = False
     return finite
+
+
+@njit(**JIT_INLINE)
+def _terminate(Mb, mask, at, d, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx, dsy):
+    """The termination's output: Lagrange read of the u- history at delay d before index ``at``
+    (taps on at - j0 .. at - j0 - 3, j0 = floor(d) - 1, fraction in [1, 2)), the loss one-pole,
+    the dispersion allpasses, the reflection."""
+    j0 = int(d) - 1
+    x = d - j0
+    h0 = -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0
+    h1 = x * (x - 2.0) * (x - 3.0) / 2.0
+    h2 = -x * (x - 1.0) * (x - 3.0) / 2.0
+    h3 = x * (x - 1.0) * (x - 2.0) / 6.0
+    base = at - j0
+    y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
+         + h3 * Mb[(base - 3) & mask])
+    y = loss_g * (1.0 + loss_a) * y - loss_a * fst[F_LOSS]
+    fst[F_LOSS] = y
+    for k in range(disp_m):
+        v = disp_a * y + dsx[k] - disp_a * dsy[k]
+        dsx[k] = y
+        dsy[k] = v
+        y = v
+    return refl * y
 
 
 @njit(**JIT)

@@ -36,7 +36,6 @@ transients of pressing and lifting a finger.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np

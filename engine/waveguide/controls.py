@@ -11,12 +11,12 @@ Every event type of the scene maps to the model:
   termination moves to the crown (``fingering``); the stopping fret is the seated finger's nearest
   the bridge.  ``fret``/``tap``/``slide`` lift the finger already on the string, ``hammer_on``
   keeps it (two fingers), ``fret: 0`` and ``release`` lift.  A lighter finger touches without
-  stopping: the light fingering junction (the finger's mass, contact stiffness and damping at the
-  finger; a dead note).  ``tap`` and ``hammer_on`` strike: the string is released onto the crown
-  from its position (its displacement relative to the new rest line is kept).  A ``slide`` moves
-  the finger from ``from_fret`` to ``to_fret`` at constant speed; the string is stopped by the
-  first crown ahead of the finger, so the pitch steps through the frets it crosses (a glissando,
-  as on the finite-difference model's string).
+  stopping: the light fingering junction (the finger pad's damping, ``DEAD_DAMPING``, spread
+  over ``FINGER_PAD_M``; a dead note).  ``tap`` and ``hammer_on`` strike: the string is released
+  onto the crown from its position (its displacement relative to the new rest line is kept).
+  A ``slide`` moves the finger from ``from_fret`` to ``to_fret`` at constant speed; the string
+  is stopped by the first crown ahead of the finger, so the pitch steps through the frets it
+  crosses (a glissando, as on the finite-difference model's string).
 * ``pull_off``: the finger on ``fret`` lifts, with a pluck of ``force`` at the finger (style
   ``finger``); the lower finger, or the nut, stops the string.
 * ``harmonic``: the harmonics junction, a light touch: the plucking junction with no mass or
@@ -48,6 +48,13 @@ HARMONIC_DAMPING = 2.0  # x sqrt(T mu), as engine.controls
 PALM_DAMPING = 0.8
 PALM_WIDTH_M = 0.02
 DAMP_DAMPING = 4.0
+# a finger resting on the string without stopping it: its pad's damping, spread over the pad.  The
+# finger's mass sits behind the soft pad and barely moves with the string at audio frequencies;
+# a rigid mass (or a damper far above the string's impedance) would reflect the waves and leave a
+# stopped, ringing note instead of a dead one.  R in total, x sqrt(T mu): near the value that
+# absorbs most of a passing wave (R = 2 sqrt(T mu) at one point)
+DEAD_DAMPING = 3.0
+FINGER_PAD_M = 0.015
 VIBRATO_POINTS_PER_CYCLE = 32
 NEVER = np.iinfo(np.int64).max // 4
 
@@ -101,7 +108,9 @@ class Timeline:
                 for q in range(1, preset.frets + 1):  # the step the finger passes each crown
                     xq = float(preset.fret_x_m(q))
                     if min(x0, x1) < xq < max(x0, x1) and me > ms:
-                        points.add(ms + int(round((xq - x0) / (x1 - x0) * (me - ms))))
+                        at = ms + (xq - x0) / (x1 - x0) * (me - ms)
+                        points.update((int(math.floor(at)), int(math.floor(at)) + 1))
+                points.add(me)
         out: list[tuple[int, int | None, bool]] = []
         for step in sorted(p for p in points if p < NEVER):
             best, strike = None, False
@@ -187,11 +196,10 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             if kind == "slide":
                 tl.fingers[-1].fret = fret
             if not ok:  # a finger touching without stopping: the light fingering junction
-                fg = preset.finger
                 x = finger_x_m(preset, fret)
                 tl.fingers[-1].slot = len(tl.slots)
-                tl.slots.append(Slot(on, rel, 0, x, fg.mass_kg, fg.stiffness, fg.damping_n_s_m,
-                                     0.0, 0.0, "split"))
+                tl.slots.append(Slot(on, rel, 0, x, 0.0, 0.0, DEAD_DAMPING * impedance, 0.0,
+                                     FINGER_PAD_M, "bell"))
         elif kind == "pull_off":
             held = [f for f in tl.fingers if f.fret == e.fret and f.on <= on < f.rel]
             if held:

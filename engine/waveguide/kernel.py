@@ -2,10 +2,11 @@
 
 Per sample, in this order (all at time step s; a point's values at s depend only on step s - 1):
 
-1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch ratio
-   of the breakpoints (bends, vibrato) and of the tension-modulation glide, P = fs / f; the termination's fractional delay
-   D = P - 2 (N - n_t) - tau, and the termination walks one grid step when D leaves [1, 3)
-   (``string``; at most one step a sample, which the slow pitch changes never exceed);
+1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch
+   ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide, P = fs / f;
+   the termination's fractional delay D = P - 2 (N - n_t) - tau, and the termination walks one
+   grid step when D leaves [1, 3) (``string``; at most one step a sample, which the slow pitch
+   changes never exceed);
 2. the termination at n_t: Lagrange read of u- at delay D, the loss one-pole, the dispersion
    allpass cascade, the reflection -g_f, written to u+(n_t, s);
 3. the bridge: u-(N, s) = -u+(N, s);
@@ -117,11 +118,11 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 im = (s + n) & mask
                 uin = R[ip] + Mb[im]
                 st = jst[j, k]
-                if t == 0:
+                if t == 0:  # a junction starts with no history (it acts on what arrives)
                     st[0] = 0.0
                     st[1] = 0.0
-                    st[2] = uin
-                    st[3] = uin
+                    st[2] = 0.0
+                    st[3] = 0.0
                 h = _msd(uin, st, env * js_mp[j, k], env * js_rho[j, k], env * js_kappa[j, k])
                 R[ip] += 0.5 * h
                 Mb[im] += 0.5 * h

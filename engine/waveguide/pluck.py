@@ -4,53 +4,67 @@ The finger (mass M, stiffness K, damping R, force F0) moves with a string segmen
 
     (M + mu X) u_tt = -R u_t - K u + F(t) + F0(t)                                    (1)
 
-discretised with centred differences on the waveguide's grid (X = c T) this is
+E&E discretise (1) with centred differences on the waveguide's grid (X = c T), eq. (3), and turn
+it into a junction that adds a perturbation h to the displacement arriving at n_p, half on each
+rail (the balanced injection, eq. (12)): u_out+- = u_in+- + h / 2, i.e. the scattering matrix
 
-    c1 u(n_p, m+1) - c0 u(n_p, m) + c_-1 u(n_p, m-1) = u(n_p+1, m) + u(n_p-1, m) + X F0(m) / K0   (3)
-    c1 = 1 + M' + rho,  c0 = 2 M' - kappa,  c_-1 = 1 + M' - rho,
-    M' = M / (mu X),  rho = R / (2 sqrt(mu K0)),  kappa = K X / K0.                  (4), (5)
+    S = 1/2 [[H + 1, H - 1], [H - 1, H + 1]],   h = (H(z) - 1) u_in,                   (21)
 
-The junction adds a perturbation h to the displacement arriving at n_p, half on each rail (the
-balanced injection, eq. (12)): u_out+- = u_in+- + h / 2, and with u_in = u_in+ + u_in- eq. (3)
-becomes the recursion that the kernel runs (``_msd``):
+whose eigenvectors are [1, 1] (eigenvalue H: the waves' common part, which the finger moves) and
+[1, -1] (eigenvalue 1: the velocity integral w, which it leaves alone, eq. (15)).  Substituting
+the waveguide into (3) gives them H = 1/A(z),
 
     c1 h(m+1) - c0 h(m) + (c_-1 - 1) h(m-1)
         = (1 - c1) u_in(m+1) + c0 u_in(m) + (1 - c_-1) u_in(m-1) + X F0(m) / K0       (16)
+    A(z) = M' (1 - z^-1)^2 + rho (1 - z^-2) + kappa z^-1 + 1,                          (18)
+    M' = M / (mu X),  rho = R / (2 sqrt(mu K0)),  kappa = K X / K0.                    (4), (5)
 
-i.e. the scattering matrix S = 1/2 [[1/A + 1, 1/A - 1], [1/A - 1, 1/A + 1]] of eq. (21) with
-A(z) = M' (1 - z^-1)^2 + rho (1 - z^-2) + kappa z^-1 + 1 (eq. (18)).  With M = K = R = F0 = 0,
-A = 1, h = 0: S is the identity and the junction costs nothing; a slot is only visited while its
-event acts.
+Measured on this waveguide, (16) gets two things wrong, both at low frequencies: its damper has
+A(1) = 1, so a palm or a harmonic touch that should take tens of dB/s off the fundamental took
+almost nothing (partials 3-5 damped, the fundamental not at all); and its force term turns a force
+into a displacement proportional to it (an E4 string plucked with 2 N came out 3.5 times weaker
+than the finite-difference string).  (3) and the waveguide are the same scheme only for states the
+two rails can represent, which a point perturbation is not.  This model keeps E&E's junction (the
+balanced perturbation, S of (21)) and takes H from the finger's continuous point impedance: a point
+of mass M, stiffness K and damping R on a string of wave impedance Z = sqrt(T mu) on each side,
+met by waves v_in+-, moves at v = (v_in+ + v_in-) / (1 + Gamma(s)), Gamma = (M s + R + K / s) / (2 Z):
 
-Passivity.  S has the eigenvectors [1, 1] (eigenvalue 1/A) and [1, -1] (eigenvalue 1), which
-are orthogonal, so at each frequency the junction is contractive in the waves' energy (the sum
-over both rails of mu X (du/dt)^2, d'Alembert's kinetic plus potential energy) iff
-|A(e^jw)| >= 1.  With s = sin^2(w / 2),
+    H(s) = (1 - Gamma(s)) / (1 + Gamma(s))
 
-    |A|^2 = (1 + kappa - (2 + 4 M') s)^2 + 4 (1 + 2 rho)^2 s (1 - s),
+for velocity waves and so for displacement waves, their time integrals (S is linear), discretised
+by the bilinear transform s = 2 fs (1 - z^-1) / (1 + z^-1).  With m' = M fs / Z, rho = R / (2 Z),
+k' = K / (4 fs Z), Gamma(z) = N(z) / D(z),
 
-and |A|^2 - 1 is a quadratic in s that is >= 0 on [0, 1] when its linear coefficient and its
-value at s = 1 are: (1 + 2 rho)^2 >= (1 + kappa)(1 + 2 M') and kappa <= 4 M' (the finger's
-oscillator resolved at the sample rate, K T^2 <= 4 M).  A mass without damping fails the first
-(|1/A| ~ 1 + M' w^2 > 1 at low frequencies: the paper's eq. (23) warning), which the paper accepts
-for a pluck because it lasts milliseconds.  Here every junction is made passive at every value
-of its envelope e in [0, 1] (all three parameters scale with e): kappa <= 4 M' and
-rho >= max((kappa + 2 M') / 4, sqrt(kappa M' / 2)) are sufficient, and ``passive`` raises rho to
-that bound where a contact's own damping is less (a heavy finger resting on the string is then
-the heavily damped contact it is in life; in the limit it is the collision matrix S_c of eq. (29),
-norm 1).  The force is not part of (16) here: the scene's force is a force on the string, whose
-effect is a velocity (a point force F moves an ideal string at F / (2 Z)), and the balanced
-displacement injection of (16) would turn it into a displacement proportional to F.  It enters as
-the paper's velocity blow (eq. (38), ``_blow``) instead, a plateau of height F T / (2 Z) per
-sample, which is the finite-difference model's excitation on the same string.
+    N = (m' + rho + k') + 2 (k' - m') z^-1 + (m' - rho + k') z^-2,   D = 1 - z^-2,
+    h = -2 N / (D + N) u_in                                           (``_msd``, a biquad).
+
+A damper alone gives h = -2 rho / (1 + rho) u_in: a dashpot transmits 1 / (1 + rho) of a wave at
+every frequency, as it should.  With M = K = R = 0, h = 0: S is the identity, and a slot costs
+nothing outside its event (the kernel visits it only while it acts).
+
+Passivity.  The two eigenvectors of S are orthogonal, so S is contractive in the waves' energy (the
+sum over both rails of mu X (du/dt)^2, d'Alembert's kinetic plus potential energy) iff
+|H(e^jw)| <= 1, i.e. Re Gamma(e^jw) >= 0.  Gamma(s) is positive real for M, R, K >= 0 (a passive
+mechanical impedance) and the bilinear transform maps positive-real functions to discrete
+positive-real ones, so every junction here is passive for all non-negative parameters at any
+sample rate (unlike (16): the paper's eq. (23) warns that |1/A| can exceed 1 and relies on the
+pluck's short duration).  The parameters ramp with the pulse's envelope and the filter's state is
+carried between steps, which is not energy-neutral in general; the junction acts for a finite time
+and leaves the identity behind (the paper's BIBO argument, eqs. (24)-(25)), and the soak test
+checks that no scene grows.
+
+The force.  A point force F moves an ideal string at F / (2 Z): a velocity.  It enters as the
+paper's velocity blow (eq. (38), ``_blow``): a plateau of height F T / (2 Z) per sample spreading
+from the point, the finite-difference model's excitation on the same string.  (The whole force
+drives the string, the finite-difference model's convention; the finger's impedance acts on the
+waves that pass it during the pulse.)
 
 Force shapes and phases.  F0(t) is the scene's pluck pulse, the finite-difference model's f_e(t):
 F0 = F sin^2(pi t / (2 Delta)) for 0 <= t <= Delta, then released at once (the detach phase);
 ``style`` sets Delta and the sign (``engine.controls.PLUCK_STYLES``: pick 0.3 ms, finger 1 ms,
 slap 0.5 ms towards the fretboard, pop 2 ms away from it).  M(t), K(t) and R(t) follow the same
 envelope (the contact builds up with the force and ends at release), scaled by ``STYLES``: a
-fingertip is a heavier, softer, lossier contact than a plectrum (``passive`` then sets the
-damping each needs).  The contact is spread over the
+fingertip is a heavier, softer, lossier contact than a plectrum.  The contact is spread over the
 string with a tapering window (the paper's "tapered plucking zone for thick strings"): a bell
 (Hann) window ``width_m`` wide for a finger, a triangle for a pick, over as many grid points as it
 covers (X is 2.4 mm on the E2 string and 9.7 mm on E4 at 44.1 kHz), at most ``MAX_POINTS``.
@@ -59,6 +73,7 @@ The same junction with other parameters is the light fingering junction of E&E s
 finger resting on the string without stopping it: a dead note), the harmonics junction (a light
 touch) and the palm mute (``controls``).
 """
+
 
 from __future__ import annotations
 
@@ -122,25 +137,14 @@ def window(kind: str, width_m: float, x_m: float, grid_x: float, n_of) -> list[t
     return sorted(merged.items())
 
 
-def passive(mp: float, rho: float, kappa: float) -> tuple[float, float, float]:
-    """(M', rho, kappa) with kappa clipped to 4 M' and rho raised to the bound above, so that the
-    junction is passive at every envelope value."""
-    kappa = min(kappa, 4.0 * mp)
-    rho = max(rho, 0.25 * (kappa + 2.0 * mp), math.sqrt(0.5 * kappa * mp))
-    return mp, rho, kappa
-
-
 @njit(**JIT_INLINE)
-def _msd(uin, st, mp, rho, kappa):
-    """One step of eq. (16) at one point, without its force term (the force is a velocity blow,
-    ``_blow``): the perturbation h(m+1) from the arriving displacement ``uin`` = u_in(m+1), the
-    point's state st = [h(m), h(m-1), u_in(m), u_in(m-1)] (updated) and the dimensionless M',
-    rho, kappa."""
-    c1 = 1.0 + mp + rho
-    c0 = 2.0 * mp - kappa
-    cm1 = 1.0 + mp - rho
-    h = (c0 * st[0] - (cm1 - 1.0) * st[1] + (1.0 - c1) * uin + c0 * st[2]
-         + (1.0 - cm1) * st[3]) / c1
+def _msd(uin, st, mp, rho, kp):
+    """One step of the junction's biquad h = -2 N / (D + N) u_in at one point: ``uin`` = u_in(m),
+    the point's state st = [h(m-1), h(m-2), u_in(m-1), u_in(m-2)] (updated) and m', rho, k'."""
+    a0 = mp + rho + kp
+    a1 = 2.0 * (kp - mp)
+    a2 = mp - rho + kp
+    h = (-2.0 * (a0 * uin + a1 * st[2] + a2 * st[3]) - a1 * st[0] - (a2 - 1.0) * st[1]) / (1.0 + a0)
     st[1] = st[0]
     st[0] = h
     st[3] = st[2]

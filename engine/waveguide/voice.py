@@ -27,7 +27,7 @@ from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
 from .fingering import FRET_REFLECTION, rest_height, stopped_frequency
-from .pluck import MAX_POINTS, passive, window
+from .pluck import MAX_POINTS, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
@@ -102,12 +102,12 @@ class WaveguideVoice:
             self.js_np[j] = len(pts)
             if s.force != 0.0:  # a blow at i moves the points i - 1 and i: centre it on x
                 pts = [(i + 1, w) for i, w in pts]
-            for k, (i, w) in enumerate(pts):
-                mp, rho, kappa = passive(w * s.mass / (mu * X), w * s.damping / (2.0 * z),
-                                         w * s.stiffness * X / k0)
+            for k, (i, w) in enumerate(pts):  # m', rho, k' of ``pluck._msd``
                 self.js_idx[j, k] = i
                 self.js_f[j, k] = w * s.force
-                self.js_mp[j, k], self.js_rho[j, k], self.js_kappa[j, k] = mp, rho, kappa
+                self.js_mp[j, k] = w * s.mass * self.rate / z
+                self.js_rho[j, k] = w * s.damping / (2.0 * z)
+                self.js_kappa[j, k] = w * s.stiffness / (4.0 * self.rate * z)
         # pickups
         self.pk_n = np.zeros(len(self.pickups), np.int64)
         self.pk_w = np.zeros(len(self.pickups))

@@ -30,9 +30,9 @@ def test_open_strings_within_one_cent(presets, name):
 @pytest.mark.parametrize("name", PRESET_NAMES)
 def test_fretted_notes_frets_1_to_12_within_3_cents(presets, name):
     """A finger pressing behind frets 1-12 on every string (3 N, or the preset's press where the
-    string needs more to rest on the fret), plucked: 12-TET within +-3 cents (the default, ideal intonation: the stopped loop is tuned to the fret's pitch, so this
-    checks the loop, its termination filters, the fret collisions next to the stop and the
-    glide)."""
+    string needs more to rest on the fret), plucked: 12-TET within +-3 cents.  The default
+    intonation is ideal (the stopped loop is tuned to the fret's pitch), so this checks the
+    loop, its termination filters, the fret collisions next to the stop and the glide."""
     p = presets[name]
     errors = {}
     for s in range(1, p.n_strings + 1):

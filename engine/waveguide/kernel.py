@@ -43,7 +43,8 @@ HISTORY = 64  # samples of the u- history at the termination that the reach boun
 @njit(**JIT)
 def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
               pb_step, pb_f,
-              js_on, js_off, js_len, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst, x_k0,
+              js_on, js_off, js_len, js_rel, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst,
+              x_k0,
               col_n, col_ref, col_cr, col_prev, col_live, seg_p, seg_m,
               pk_n, pk_w, pk_g):
     mask = R.shape[0] - 1
@@ -106,10 +107,16 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         Mb[(s + N) & mask] = -R[(s - N) & mask]
         # 4. junctions
         for j in range(nslot):
-            if s < js_on[j] or s >= js_off[j]:
+            if s < js_on[j] or s >= js_off[j] + js_rel[j]:
                 continue
             t = s - js_on[j]
-            env = _envelope(t, js_len[j])
+            if s < js_off[j]:
+                env = _envelope(t, js_len[j])
+                force = env if js_len[j] > 0 else 0.0
+            else:  # the contact lets go over js_rel steps (no jump of the displacement)
+                r = math.cos(0.5 * math.pi * (s - js_off[j]) / js_rel[j])
+                env = r * r
+                force = 0.0
             for k in range(js_np[j]):
                 n = js_idx[j, k]
                 if n <= n_t or n >= N:
@@ -118,22 +125,24 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 im = (s + n) & mask
                 uin = R[ip] + Mb[im]
                 st = jst[j, k]
-                if t == 0:  # a junction starts with no history (it acts on what arrives)
+                if t == 0:  # the junction acts on the motion from its onset on
                     st[0] = 0.0
                     st[1] = 0.0
                     st[2] = 0.0
                     st[3] = 0.0
-                h = _msd(uin, st, env * js_mp[j, k], env * js_rho[j, k], env * js_kappa[j, k])
+                    st[4] = uin
+                h = _msd(uin - st[4], st, env * js_mp[j, k], env * js_rho[j, k],
+                         env * js_kappa[j, k])
                 R[ip] += 0.5 * h
                 Mb[im] += 0.5 * h
-                f = env * js_f[j, k]
+                f = force * js_f[j, k]
                 if f != 0.0:
                     _blow(R, Mb, mask, s, n, N, 0.5 * x_k0 * f)
         # 5. collisions
         if ncol > 0:
             if i % REACH_EVERY == 0:
                 _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live,
-                       seg_p, seg_m, js_on, js_off, js_idx, js_np)
+                       seg_p, seg_m, js_on, js_off, js_rel, js_idx, js_np)
             for c in range(ncol):
                 if col_live[c] == 0:
                     continue
@@ -196,7 +205,7 @@ def _terminate(Mb, mask, at, d, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx, 
 
 @njit(**JIT)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg_p, seg_m,
-           js_on, js_off, js_idx, js_np):
+           js_on, js_off, js_rel, js_idx, js_np):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest."""
     B = REACH_EVERY
@@ -240,7 +249,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg
         live = (bp + bm) * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
         if not live:
             for j in range(js_on.shape[0]):
-                if js_on[j] < s + B and js_off[j] > s:
+                if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
                     for q in range(js_np[j]):
                         if abs(js_idx[j, q] - n) <= B:
                             live = True

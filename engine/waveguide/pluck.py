@@ -63,8 +63,14 @@ Force shapes and phases.  F0(t) is the scene's pluck pulse, the finite-differenc
 F0 = F sin^2(pi t / (2 Delta)) for 0 <= t <= Delta, then released at once (the detach phase);
 ``style`` sets Delta and the sign (``engine.controls.PLUCK_STYLES``: pick 0.3 ms, finger 1 ms,
 slap 0.5 ms towards the fretboard, pop 2 ms away from it).  M(t), K(t) and R(t) follow the same
-envelope (the contact builds up with the force and ends at release), scaled by ``STYLES``: a
-fingertip is a heavier, softer, lossier contact than a plectrum.  The contact is spread over the
+envelope (the contact builds up with the force) and then let go over the pulse's length (an
+abrupt end would drop the junction's perturbation h at once: a displacement step, i.e. a click;
+steady contacts, the palm and the touches, let go over 2 ms the same way), scaled by ``STYLES``: a
+fingertip is a heavier, lossier contact than a plectrum.  The spring K of (1) is kept at zero in
+every style: it holds a static displacement against the player's force, and the scene's force is
+already the force on the string; with a spring to the finger's rest the pulse and the spring
+fight, and the spring snaps the string back at release (a 15 m/s click on a 1 N pluck of E4,
+four times the pluck's own peak).  The junction still takes one.  The contact is spread over the
 string with a tapering window (the paper's "tapered plucking zone for thick strings"): a bell
 (Hann) window ``width_m`` wide for a finger, a triangle for a pick, over as many grid points as it
 covers (X is 2.4 mm on the E2 string and 9.7 mm on E4 at 44.1 kHz), at most ``MAX_POINTS``.
@@ -99,14 +105,14 @@ class Contact:
 
 
 STYLES = {
-    # fingertip flesh: a little mass and damping, soft; ~1 cm of string in contact
-    "finger": Contact(5e-5, 2.0e3, 0.05, 0.010, "bell"),
-    # plectrum: light and stiff, a narrow edge
-    "pick": Contact(1e-5, 2.0e4, 0.01, 0.002, "triangle"),
-    # knuckle or thumb side: heavier
-    "slap": Contact(1e-4, 5.0e3, 0.05, 0.012, "bell"),
+    # fingertip flesh: a little mass and damping; ~1 cm of string in contact
+    "finger": Contact(2e-5, 0.0, 0.05, 0.010, "bell"),
+    # plectrum: light, a narrow edge
+    "pick": Contact(5e-6, 0.0, 0.01, 0.002, "triangle"),
+    # knuckle or thumb side: heavier and lossier
+    "slap": Contact(5e-5, 0.0, 0.1, 0.012, "bell"),
     # a finger hooked under the string
-    "pop": Contact(5e-5, 5.0e3, 0.05, 0.008, "bell"),
+    "pop": Contact(2e-5, 0.0, 0.05, 0.008, "bell"),
 }
 
 
@@ -139,8 +145,11 @@ def window(kind: str, width_m: float, x_m: float, grid_x: float, n_of) -> list[t
 
 @njit(**JIT_INLINE)
 def _msd(uin, st, mp, rho, kp):
-    """One step of the junction's biquad h = -2 N / (D + N) u_in at one point: ``uin`` = u_in(m),
-    the point's state st = [h(m-1), h(m-2), u_in(m-1), u_in(m-2)] (updated) and m', rho, k'."""
+    """One step of the junction's biquad h = -2 N / (D + N) u_in at one point: ``uin`` = u_in(m)
+    less its value at the junction's onset (st[4]: a junction acts on the motion from its onset,
+    the time integral of the velocity waves it scatters, so it does not move a displaced string
+    when it appears), the state st = [h(m-1), h(m-2), u_in(m-1), u_in(m-2), onset] (updated) and
+    m', rho, k'."""
     a0 = mp + rho + kp
     a1 = 2.0 * (kp - mp)
     a2 = mp - rho + kp

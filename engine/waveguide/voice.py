@@ -31,6 +31,7 @@ from .pluck import MAX_POINTS, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
+RELEASE_S = 0.002  # a contact (palm, harmonic touch, light finger) lets go over 2 ms
 
 
 @dataclass
@@ -78,13 +79,16 @@ class WaveguideVoice:
         self.js_on = np.array([s.on for s in tl.slots], np.int64)
         self.js_off = np.array([s.off for s in tl.slots], np.int64)
         self.js_len = np.array([s.length for s in tl.slots], np.int64)
+        # every contact lets go over its pulse's length, at least RELEASE_S
+        self.js_rel = np.array([max(s.length, int(round(RELEASE_S * self.rate)), 1)
+                                for s in tl.slots], np.int64)
         self.js_idx = np.zeros((ns, MAX_POINTS), np.int64)
         self.js_np = np.zeros(ns, np.int64)
         self.js_f = np.zeros((ns, MAX_POINTS))
         self.js_mp = np.zeros((ns, MAX_POINTS))
         self.js_rho = np.zeros((ns, MAX_POINTS))
         self.js_kappa = np.zeros((ns, MAX_POINTS))
-        self.jst = np.zeros((ns, MAX_POINTS, 4))
+        self.jst = np.zeros((ns, MAX_POINTS, 5))
         mu = self.phys.mu
         X = self.x_step
         c = X * self.rate
@@ -268,7 +272,8 @@ class WaveguideVoice:
             ok = K.run_block(self.R, self.Mb, self.ist, self.fst, self.dsx, self.dsy, self.step, m,
                              out[done:done + m], self.cfg, self.disp_m, self.n,
                              self.pb_step, self.pb_f,
-                             self.js_on, self.js_off, self.js_len, self.js_idx, self.js_np,
+                             self.js_on, self.js_off, self.js_len, self.js_rel, self.js_idx,
+                             self.js_np,
                              self.js_f, self.js_mp, self.js_rho, self.js_kappa, self.jst,
                              self.x_k0, self.col_n, self.col_ref, self.col_cr, self.col_prev,
                              self.col_live, self.seg_p, self.seg_m, self.pk_n, self.pk_w,
@@ -284,7 +289,7 @@ class WaveguideVoice:
     def _maybe_stop(self, out: np.ndarray) -> None:
         if any(f.rel < NEVER and f.rel >= self.step for f in self.timeline.fingers):
             return
-        if np.any((self.js_off > self.step) & (self.js_off < NEVER)):
+        if np.any((self.js_off + self.js_rel > self.step) & (self.js_off < NEVER)):
             return
         if len(self.pb_step) and self.pb_step[-1] >= self.step:
             return

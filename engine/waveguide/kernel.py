@@ -29,7 +29,7 @@ from numba import njit
 from ..config import JIT, JIT_INLINE
 from .collision import REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
-from .pluck import _blow, _envelope, _msd
+from .pluck import LEAK_HZ, _blow, _envelope, _msd
 
 # ist: integer state
 I_NT, I_PB = 0, 1
@@ -58,6 +58,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     glide_k = cfg[C_GLIDE_K]
     dcap = cfg[C_DCAP]
     fbase = cfg[C_FBASE]
+    leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
+    tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
     ncol = col_n.shape[0]
     npk = pk_n.shape[0]
@@ -107,15 +109,18 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         Mb[(s + N) & mask] = -R[(s - N) & mask]
         # 4. junctions
         for j in range(nslot):
-            if s < js_on[j] or s >= js_off[j] + js_rel[j]:
+            if s < js_on[j] or s >= js_off[j] + js_rel[j] + tail:
                 continue
             t = s - js_on[j]
             if s < js_off[j]:
                 env = _envelope(t, js_len[j])
                 force = env if js_len[j] > 0 else 0.0
-            else:  # the contact lets go over js_rel steps (no jump of the displacement)
+            elif s < js_off[j] + js_rel[j]:  # the contact lets go over js_rel steps
                 r = math.cos(0.5 * math.pi * (s - js_off[j]) / js_rel[j])
                 env = r * r
+                force = 0.0
+            else:  # gone; what it put on the string leaks away (``pluck._msd``)
+                env = 0.0
                 force = 0.0
             for k in range(js_np[j]):
                 n = js_idx[j, k]
@@ -126,13 +131,11 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 uin = R[ip] + Mb[im]
                 st = jst[j, k]
                 if t == 0:  # the junction acts on the motion from its onset on
-                    st[0] = 0.0
-                    st[1] = 0.0
-                    st[2] = 0.0
-                    st[3] = 0.0
-                    st[4] = uin
-                h = _msd(uin - st[4], st, env * js_mp[j, k], env * js_rho[j, k],
-                         env * js_kappa[j, k])
+                    for q in range(5):
+                        st[q] = 0.0
+                    st[5] = uin
+                h = _msd(uin, st, env * js_mp[j, k], env * js_rho[j, k], env * js_kappa[j, k],
+                         leak)
                 R[ip] += 0.5 * h
                 Mb[im] += 0.5 * h
                 f = force * js_f[j, k]
@@ -142,7 +145,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         if ncol > 0:
             if i % REACH_EVERY == 0:
                 _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live,
-                       seg_p, seg_m, js_on, js_off, js_rel, js_idx, js_np)
+                       seg_p, seg_m, js_on, js_off, js_rel, js_idx, js_np, tail)
             for c in range(ncol):
                 if col_live[c] == 0:
                     continue
@@ -205,7 +208,7 @@ def _terminate(Mb, mask, at, d, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx, 
 
 @njit(**JIT)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg_p, seg_m,
-           js_on, js_off, js_rel, js_idx, js_np):
+           js_on, js_off, js_rel, js_idx, js_np, tail):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest."""
     B = REACH_EVERY
@@ -249,7 +252,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg
         live = (bp + bm) * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
         if not live:
             for j in range(js_on.shape[0]):
-                if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
+                if js_on[j] < s + B and js_off[j] + js_rel[j] + tail > s:
                     for q in range(js_np[j]):
                         if abs(js_idx[j, q] - n) <= B:
                             live = True

@@ -36,7 +36,16 @@ by the bilinear transform s = 2 fs (1 - z^-1) / (1 + z^-1).  With m' = M fs / Z,
 k' = K / (4 fs Z), Gamma(z) = N(z) / D(z),
 
     N = (m' + rho + k') + 2 (k' - m') z^-1 + (m' - rho + k') z^-2,   D = 1 - z^-2,
-    h = -2 N / (D + N) u_in                                           (``_msd``, a biquad).
+    h = -2 N / (D + N) u_in                                           (a biquad)
+
+run on the increments of u_in and summed with a leak (``_msd``, ``LEAK_HZ``): at DC the junction
+is the identity (a point cannot hold a static displacement on a string between fixed ends, and a
+damper does not resist one), above a few tens of hertz it is the biquad.  For a damper,
+H = 1 - g HP(z) with g = 2 rho / (1 + rho) and HP = (1 - z^-1) / (1 - leak z^-1), whose
+Re HP = (1 + leak) / 2 |HP|^2, so |H| <= 1 iff g <= 1 + leak: ``max_damping`` caps rho there.
+With a mass the leak costs a little passivity below LEAK_HZ (|H| up to 1.03 with m' up to
+``MAX_MASS_RATIO``, where contacts are capped: a contact as heavy as ten grid steps of string
+already stops the point), for the milliseconds of a pluck only.
 
 A damper alone gives h = -2 rho / (1 + rho) u_in: a dashpot transmits 1 / (1 + rho) of a wave at
 every frequency, as it should.  With M = K = R = 0, h = 0: S is the identity, and a slot costs
@@ -91,6 +100,8 @@ from numba import njit
 from ..config import JIT_INLINE
 
 MAX_POINTS = 5
+MAX_MASS_RATIO = 10.0  # m' cap
+LEAK_HZ = 20.0  # the junction's sum of increments forgets with this corner frequency
 
 
 @dataclass(frozen=True)
@@ -143,21 +154,40 @@ def window(kind: str, width_m: float, x_m: float, grid_x: float, n_of) -> list[t
     return sorted(merged.items())
 
 
+def max_damping(rate: float) -> float:
+    """The largest rho a damper may have and stay passive with the leak: g = 2 rho / (1 + rho)
+    <= 1 + leak (``LEAK_HZ``), just below (1 + leak) / (1 - leak) (about 700 at 44.1 kHz: far
+    above any contact, where the point is all but clamped)."""
+    leak = math.exp(-2.0 * math.pi * LEAK_HZ / rate)
+    return 0.999 * (1.0 + leak) / (1.0 - leak)
+
+
 @njit(**JIT_INLINE)
-def _msd(uin, st, mp, rho, kp):
-    """One step of the junction's biquad h = -2 N / (D + N) u_in at one point: ``uin`` = u_in(m)
-    less its value at the junction's onset (st[4]: a junction acts on the motion from its onset,
-    the time integral of the velocity waves it scatters, so it does not move a displaced string
-    when it appears), the state st = [h(m-1), h(m-2), u_in(m-1), u_in(m-2), onset] (updated) and
-    m', rho, k'."""
-    a0 = mp + rho + kp
-    a1 = 2.0 * (kp - mp)
-    a2 = mp - rho + kp
-    h = (-2.0 * (a0 * uin + a1 * st[2] + a2 * st[3]) - a1 * st[0] - (a2 - 1.0) * st[1]) / (1.0 + a0)
-    st[1] = st[0]
+def _msd(uin, st, mp, rho, kp, leak):
+    """One step of the junction at one point; returns h.  The biquad g = -2 N / (D + N) runs on
+    the increments of the arriving displacement ``uin`` and h is their leaky sum,
+    h(m) = leak h(m-1) + g(m): the junction scatters the motion (the velocity waves, integrated)
+    and never holds a static displacement, which a string between fixed ends cannot keep and a
+    damper does not resist (acting on the displacement itself, a steady damper pinned the point
+    to where it was and the string's energy crept up).  State st = [h(m-1), g(m-1), g(m-2),
+    du(m-1), du(m-2), u_in(m-1)] (updated); m', rho, k' as above."""
+    du = uin - st[5]
+    st[5] = uin
+    if mp == 0.0 and kp == 0.0:  # a damper: g = -2 rho / (1 + rho) du (the biquad would carry
+        # the same through a pole-zero pair on the unit circle, z = +-1)
+        g = -2.0 * rho / (1.0 + rho) * du
+    else:
+        a0 = mp + rho + kp
+        a1 = 2.0 * (kp - mp)
+        a2 = mp - rho + kp
+        g = (-2.0 * (a0 * du + a1 * st[3] + a2 * st[4]) - a1 * st[1] - (a2 - 1.0) * st[2]) / (
+            1.0 + a0)
+    st[2] = st[1]
+    st[1] = g
+    st[4] = st[3]
+    st[3] = du
+    h = leak * st[0] + g
     st[0] = h
-    st[3] = st[2]
-    st[2] = uin
     return h
 
 

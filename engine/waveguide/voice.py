@@ -27,7 +27,7 @@ from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
 from .fingering import FRET_REFLECTION, rest_height, stopped_frequency
-from .pluck import MAX_POINTS, window
+from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
@@ -88,7 +88,7 @@ class WaveguideVoice:
         self.js_mp = np.zeros((ns, MAX_POINTS))
         self.js_rho = np.zeros((ns, MAX_POINTS))
         self.js_kappa = np.zeros((ns, MAX_POINTS))
-        self.jst = np.zeros((ns, MAX_POINTS, 5))
+        self.jst = np.zeros((ns, MAX_POINTS, 6))
         mu = self.phys.mu
         X = self.x_step
         c = X * self.rate
@@ -109,8 +109,8 @@ class WaveguideVoice:
             for k, (i, w) in enumerate(pts):  # m', rho, k' of ``pluck._msd``
                 self.js_idx[j, k] = i
                 self.js_f[j, k] = w * s.force
-                self.js_mp[j, k] = w * s.mass * self.rate / z
-                self.js_rho[j, k] = w * s.damping / (2.0 * z)
+                self.js_mp[j, k] = min(w * s.mass * self.rate / z, MAX_MASS_RATIO)
+                self.js_rho[j, k] = min(w * s.damping / (2.0 * z), max_damping(self.rate))
                 self.js_kappa[j, k] = w * s.stiffness / (4.0 * self.rate * z)
         # pickups
         self.pk_n = np.zeros(len(self.pickups), np.int64)
@@ -289,7 +289,8 @@ class WaveguideVoice:
     def _maybe_stop(self, out: np.ndarray) -> None:
         if any(f.rel < NEVER and f.rel >= self.step for f in self.timeline.fingers):
             return
-        if np.any((self.js_off + self.js_rel > self.step) & (self.js_off < NEVER)):
+        tail = 8.0 * self.rate / (2.0 * math.pi * LEAK_HZ)
+        if np.any((self.js_off + self.js_rel + tail > self.step) & (self.js_off < NEVER)):
             return
         if len(self.pb_step) and self.pb_step[-1] >= self.step:
             return

@@ -1,13 +1,24 @@
 """Numerical safety of the waveguide: no growth once the forces stop, no NaN at the extremes.
 
-Every junction is passive by construction (``engine.waveguide.pluck``: the bilinear image of a
-positive-real point impedance; ``collision``: it only moves a point towards its rest line;
-``string``: termination filters with |H| <= 1; ``fingering``).  The energy measured here is the
-rails' (``WaveguideVoice.energy``: mu X (du/dt)^2 of both travelling waves over the sounding grid).
-It leaves out what is in transit inside a termination's filters (a few samples of the loop), so it
-is compared over windows, not sample by sample: once a string's last event has passed, the largest
-energy in any later window may not exceed the largest in the first window after it.
+Every part is passive by construction: the junctions (``engine.waveguide.pluck``: the bilinear image
+of a positive-real point impedance, |H| <= 1; a damper stays so with the junction's DC leak, a
+pluck's mass loses a little of it below 20 Hz for the pulse's milliseconds), the collisions
+(``collision``: they only move a point towards its rest line), the terminations (``string``:
+Lagrange taps for D in [1, 2), a one-pole loss with g <= 1, unit-modulus allpasses) and the stops
+(``fingering``). The filters are checked here by their frequency responses, and whole scenes by the
+rails' energy (``WaveguideVoice.energy``: mu X (du/dt)^2 of both travelling waves over the sounding
+grid). That energy leaves out what is in transit inside a termination's filters (a few samples of
+the loop) and beats between partials, so it is averaged over windows: once a string's last event and
+its contacts' release have passed, no window's mean may exceed the one before by more than
+``GROWTH`` (the largest seen on 40 passive random scenes was 1.4e-4). The tension modulation
+(``glide``) trades energy with the string's stretch, which the rails' energy leaves out (on a light
+C#1 string override plucked at 20 N it moved the windowed energy by +91 % at a millionth of its
+peak), so the window-to-window check runs without it and, with it, the energy may not rise above its
+first window. The same check flags a loop that gains 0.02 % per period
+(``test_the_check_sees_a_small_gain``).
 """
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -16,15 +27,20 @@ from pydantic import ValidationError
 import engine
 from benchmarks.stability import NumpyDraw, random_scene
 from engine.waveguide import WaveguideOptions, prepare
+from engine.waveguide import voice as wg_voice
+from engine.waveguide.pluck import LEAK_HZ, MAX_MASS_RATIO, _msd, max_damping
+from engine.waveguide.string import design_loop, lagrange3, physical
 
-BLOCK = 256
-GROWTH = 1e-9  # relative: only rounding may add
+BLOCK = 64
+GROWTH = 1e-3
 
 
-def _soak(sc: dict, window_s: float = 0.05) -> tuple[bool, float]:
-    """(finite, worst relative growth) of a scene on the waveguide."""
+def _soak(sc: dict, window_s: float = 0.05, glide: bool = False) -> tuple[bool, float, float]:
+    """(finite, worst growth of the windowed mean energy from one window to the next, largest
+    window mean over the first one, less 1) of a scene on the waveguide, after each string's
+    last event."""
     scene = engine.parse_scene({**sc, "model": "waveguide"})
-    inst = prepare(scene, WaveguideOptions(skip_decayed=False))
+    inst = prepare(scene, WaveguideOptions(skip_decayed=False, glide=glide))
     rate = scene.sample_rate
     win = max(int(window_s * rate / BLOCK), 1)
     history = {v.index: [] for v in inst.voices}
@@ -32,15 +48,18 @@ def _soak(sc: dict, window_s: float = 0.05) -> tuple[bool, float]:
     for block in inst.blocks(BLOCK):
         finite &= bool(np.isfinite(block).all())
         for v in inst.voices:
-            if v.step > v.timeline.last_step + v.p0 + 8:
+            if v.step > v.timeline.last_step + 2 * v.p0 + int(0.003 * rate):
                 history[v.index].append(v.energy())
-    worst = 0.0
+    worst = above = 0.0
     for h in history.values():
-        if len(h) > win:
-            first = max(h[:win])
-            if first > 0.0:
-                worst = max(worst, max(h[win:]) / first - 1.0)
-    return finite, worst
+        h = np.asarray(h)
+        means = [h[i:i + win].mean() for i in range(0, len(h) - win + 1, win)]
+        for a, b in zip(means, means[1:], strict=False):
+            if a > 0.0:
+                worst = max(worst, b / a - 1.0)
+        if len(means) > 1 and means[0] > 0.0:
+            above = max(above, max(means[1:]) / means[0] - 1.0)
+    return finite, worst, above
 
 
 def _scenes(seed: int, count: int, **kw):
@@ -58,21 +77,88 @@ def _scenes(seed: int, count: int, **kw):
 
 def test_random_scenes_never_grow():
     """60 random valid scenes (every preset, overrides, rates 22.05-96 kHz, up to 12 events of
-    every kind, forces up to the limits), 0.3-1.5 s."""
-    worst = []
+    every kind, forces up to the limits), 0.3-1.5 s: with the tension modulation off (it trades
+    energy with the string's stretch, which the rails' energy does not count) the energy never
+    grows; with it on it stays below where it started."""
+    worst = above = 0.0
     for sc in _scenes(1, 60, max_duration=1.5, min_duration=0.3, max_events=12):
-        finite, growth = _soak(sc)
-        assert finite, sc
-        worst.append(growth)
-    assert max(worst) <= GROWTH, max(worst)
+        finite, growth, _ = _soak(sc)
+        ok, _, rise = _soak(sc, glide=True)
+        assert finite and ok, sc
+        worst, above = max(worst, growth), max(above, rise)
+    assert worst <= GROWTH, worst
+    assert above <= GROWTH, above
 
 
-@pytest.mark.slow
 def test_long_random_scenes_never_grow():
-    """Four 20 s scenes: a long soak."""
-    for sc in _scenes(2, 4, max_duration=20.0, min_duration=20.0, max_events=4):
-        finite, growth = _soak(sc, window_s=0.2)
-        assert finite and growth <= GROWTH, (sc, growth)
+    """Ten 4 s scenes with up to 4 events: a long soak, the same checks."""
+    for sc in _scenes(3, 10, max_duration=4.0, min_duration=4.0, max_events=4):
+        finite, growth, _ = _soak(sc, window_s=0.2)
+        ok, _, rise = _soak(sc, window_s=0.2, glide=True)
+        assert finite and ok and growth <= GROWTH and rise <= GROWTH, (sc, growth, rise)
+
+
+def test_the_check_sees_a_small_gain(monkeypatch):
+    """A loop that gains 0.02 % per period (loss filter g = 1.0002) fails the check above."""
+    real = wg_voice.design_loop
+    monkeypatch.setattr(wg_voice, "design_loop", lambda *a, **k: dataclasses.replace(
+        real(*a, **k), loss_g=1.0002, loss_a=0.0))
+    sc = {"duration": 3.0, "events": [{"type": "pluck", "time": 0.0, "string": 1}],
+          "output": {"body": "none"}}
+    assert _soak(sc, window_s=0.2)[1] > 10 * GROWTH
+
+
+def test_termination_filters_are_passive():
+    """|H| <= 1 at every frequency: the Lagrange taps for every delay the kernel uses, and the
+    loss filter of every open and stopped loop (frets 0-24) of every preset at 22.05-96 kHz."""
+    w = np.linspace(0.0, np.pi, 2001)
+    z = np.exp(-1j * w)
+    for d in np.linspace(1.0, 2.0, 101):
+        taps = lagrange3(d)
+        h = sum(t * z**k for k, t in enumerate(taps))
+        assert np.max(np.abs(h)) <= 1.0 + 1e-12, d
+    for name, p in engine.PRESETS.items():
+        for s in range(1, p.n_strings + 1):
+            phys = physical(p, s)
+            for rate in (22050.0, 44100.0, 96000.0):
+                for q in range(0, 25):
+                    x = p.scale_length_m * (1 - 2 ** (-q / 12))
+                    loop = design_loop(p.strings[s - 1], phys, rate,
+                                       phys.f0 * 2 ** (q / 12), phys.length_m - x,
+                                       dispersion=False)
+                    h = loop.loss_g * (1 + loop.loss_a) / (1 + loop.loss_a * z)
+                    assert np.max(np.abs(h)) <= 1.0 + 1e-12, (name, s, rate, q)
+
+
+def _junction_gain(mp, rho, kp, rate=44100.0):
+    """max over frequency of |H| = |1 + h / u_in| of the kernel's own junction (impulse response)."""
+    st = np.zeros(6)
+    n = 1 << 14
+    x = np.zeros(n)
+    x[0] = 1.0
+    leak = np.exp(-2 * np.pi * LEAK_HZ / rate)
+    h = np.array([_msd(x[i], st, mp, rho, kp, leak) for i in range(n)])
+    return float(np.max(np.abs(1.0 + np.fft.rfft(h))))
+
+
+def test_dampers_are_passive():
+    """Palm, harmonic touch, light finger, damp: |H| <= 1 at every frequency for dampers over six
+    decades up to the cap ``max_damping`` (``pluck``)."""
+    rng = np.random.default_rng(0)
+    for rate in (22050.0, 96000.0):
+        for rho in [*10.0 ** rng.uniform(-3, 3, 100), max_damping(rate)]:
+            rho = min(rho, max_damping(rate))
+            assert _junction_gain(0.0, rho, 0.0, rate) <= 1.0 + 1e-9, (rate, rho)
+
+
+def test_pluck_contacts_gain_little():
+    """A pluck's contact (mass and damper) is passive but for the leak below ``LEAK_HZ``: |H|
+    within 3 % for masses up to the cap ``MAX_MASS_RATIO``, over the few milliseconds of a pulse
+    (the paper's argument for its own, non-passive, pluck junction)."""
+    rng = np.random.default_rng(1)
+    for _ in range(100):
+        mp, rho = 10.0 ** rng.uniform(-3, np.log10(MAX_MASS_RATIO)), 10.0 ** rng.uniform(-3, 1)
+        assert _junction_gain(mp, rho, 0.0) <= 1.03, (mp, rho)
 
 
 EXTREMES = [
@@ -121,5 +207,6 @@ EXTREMES = [
 @pytest.mark.parametrize("sc", EXTREMES)
 def test_no_nan_at_the_extremes(sc):
     sc = {**sc, "output": {"body": "none", "normalize": False}}
-    finite, growth = _soak(sc)
-    assert finite and growth <= GROWTH, growth
+    finite, growth, _ = _soak(sc)
+    ok, _, rise = _soak(sc, glide=True)
+    assert finite and ok and growth <= GROWTH and rise <= GROWTH, (growth, rise)

@@ -20,11 +20,12 @@ import argparse
 import numpy as np
 
 import engine
-from benchmarks.scenes import SR, scene, tap
 from engine.analysis import cents, partials, spectrum_peak
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
 from engine.presets import PRESETS
 from engine.scene import Scene
+from engine.testing.measure import board_depth
+from engine.testing.scenes import SR
 
 ENERGY_SCENES = {
     "fret + 8 N pluck + tap (every nonlinearity)": [
@@ -89,21 +90,6 @@ def glide(quality: str) -> None:
             late = spectrum_peak(a[int(0.5 * SR):int(0.6 * SR)], SR, f0, 0.05)
             row.append(float(cents(early, late)))
         print(f"{s:6d} | " + " | ".join(f"{c:+7.2f}" for c in row))
-
-
-def board_depth(velocity: float, oversample: int, rule: str = "joint",
-                force: float = 10.0, fret: int = 12) -> tuple[float, float]:
-    """A tap at ``fret`` of string 1, stepped one internal step at a time: the deepest any node
-    goes below the fretboard (m) and the static depth of the whole force on one grid cell (m)."""
-    sc = Scene.model_validate(scene([tap(1, fret, force=force, velocity=velocity)], 0.015))
-    eng = prepare(sc, RenderOptions(oversample=oversample, gamma_rule=rule))
-    v = eng.voices[0]
-    c = v.coefs
-    deepest = 0.0
-    for _ in range(round(sc.duration * SR) * oversample):
-        v.run(1)
-        deepest = max(deepest, float(np.max(v.geom.board - v.state.u[2:c.n + 1])))
-    return deepest, (force / (c.board_k * c.h)) ** (1.0 / c.board_alpha)
 
 
 def board_sink() -> None:

@@ -33,9 +33,10 @@ from multiprocessing import Pool
 import numpy as np
 
 from benchmarks.intonation import FRETS, REFERENCE, SR, print_table, tables
-from engine.guitar import QUALITY, Quality, oversample_for
 from engine.intonation import fret_shift, fret_shifts, held_note
+from engine.options import QUALITY, Quality
 from engine.presets import Preset, get_preset
+from engine.voice import oversample_for
 
 
 def predicted(preset: Preset, quality: Quality) -> tuple[np.ndarray, np.ndarray]:

@@ -23,13 +23,14 @@ from multiprocessing import Pool
 import numpy as np
 
 import engine
-from engine.analysis import cents, spectrum_peak
-from engine.guitar import QUALITY, Quality, RenderOptions
+from engine.analysis import cents, decay_db_per_s, spectrum_peak
 from engine.intonation import REFERENCE_H_M
+from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import get_preset
+from engine.testing.scenes import SR, pluck, scene
+from engine.testing.scenes import fret as fret_at
 
 FRETS = tuple(range(1, 13))
-SR = 44100
 # the fine reference grid (engine.intonation calibrates against the same spacing), uncalibrated
 REFERENCE = Quality(max_h_m=REFERENCE_H_M, max_oversample=16)
 
@@ -42,32 +43,13 @@ def fretted_note(args) -> tuple[int, int, float, float]:
     if zero_setback:
         n = get_preset(preset_name).n_strings
         guitar["strings"] = [{"string": s, "saddle_setback_m": 0.0} for s in range(1, n + 1)]
-    scene = {
-        "duration": 1.2,
-        "sample_rate": SR,
-        "guitar": guitar,
-        "output": {"body": "none"},
-        "events": [
-            {"type": "fret", "time": 0.0, "string": string, "fret": fret},  # preset's force
-            {"type": "pluck", "time": 0.05, "string": string, "force": 1.0, "position": 0.8},
-        ],
-    }
-    audio = engine.render(scene, options=RenderOptions(quality=quality))
+    events = [fret_at(string, fret, force=None),  # the engine's default force
+              pluck(string, 0.05, force=1.0, position=0.8)]
+    sc = scene(events, 1.2, guitar=guitar)
+    audio = engine.render(sc, options=RenderOptions(quality=quality))
     target = get_preset(preset_name).strings[string - 1].frequency_hz * 2 ** (fret / 12)
     f = spectrum_peak(audio[int(0.2 * SR) :], SR, target, 0.08)
-    return string, fret, float(cents(f, target)), decay_db_per_s(audio, f)
-
-
-def decay_db_per_s(audio: np.ndarray, f: float, start: float = 0.2, stop: float = 1.15) -> float:
-    """Slope (dB/s) of a line fitted to the level of the component at f Hz in 0.1 s Hann windows
-    every 0.05 s from ``start`` to ``stop`` seconds."""
-    n = int(0.1 * SR)
-    window = np.hanning(n)
-    tone = np.exp(-2j * np.pi * f * np.arange(n) / SR)
-    times = np.arange(start, stop - 0.1 + 1e-9, 0.05)
-    level = [20.0 * np.log10(abs(np.sum(audio[int(t * SR):int(t * SR) + n] * window * tone)))
-             for t in times]
-    return float(np.polyfit(times, level, 1)[0])
+    return string, fret, float(cents(f, target)), decay_db_per_s(audio, SR, f)
 
 
 def tables(preset_name: str, quality: Quality, zero_setback: bool,

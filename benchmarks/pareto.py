@@ -17,7 +17,7 @@ errors each against an exact or converged reference:
     from the scheme's own dispersion relation (exact for the linear scheme), worst over strings;
     and partials 1-10 and the fundamental measured on rendered audio (0.2 N pluck);
   * fretted pitch, all six strings, frets 1-12 (the ``benchmarks.intonation`` scene), cents, and
-    the same notes' decay (dB/s of the fundamental, ``benchmarks.intonation.decay_db_per_s``)
+    the same notes' decay (dB/s of the fundamental, ``engine.analysis.decay_db_per_s``)
     against the converged x8 render;
   * sink: how far a string goes below a fret tip and below the fretboard (um), sampled at every
     output sample, in pressed notes (3 N at frets 5 and 12), slams (10 N taps at 5 m/s) and a
@@ -52,11 +52,15 @@ import engine.guitar
 import engine.kernels
 import engine.string
 from benchmarks.accuracy import ENERGY_SCENES
-from benchmarks.intonation import FRETS, decay_db_per_s
-from engine.analysis import cents, partials, spectrum_peak
-from engine.guitar import FRET_PENALTY, QUALITY, Quality, RenderOptions, prepare
+from benchmarks.intonation import FRETS
+from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
+from engine.guitar import prepare
+from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import get_preset
 from engine.scene import Scene
+from engine.string import FRET_PENALTY
+from engine.testing import scenes as shared
+from engine.testing.scenes import fret, pluck, tap
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = pathlib.Path(__file__).parent / "out"
@@ -131,37 +135,29 @@ BY_NAME = {c.name: c for c in [*CONFIGS, REFERENCE]}
 # scenes
 
 
+# The shared builders (engine.testing.scenes), with this study's values passed wherever they differ
+# from the builders' defaults: plucks of 2 N, fingers with the engine's default force (None), taps of
+# 3 N at 1.5 m/s; every scene names the preset and leaves the output at the fixed gain.
+
+
 def scene(events: list, duration: float, guitar: dict | None = None) -> dict:
-    return {"duration": duration, "sample_rate": SR, "guitar": {"preset": PRESET, **(guitar or {})},
-            "output": {"body": "none", "normalize": False}, "events": events}
-
-
-def pluck(s, t=0.0, force=2.0, position=0.8):
-    return {"type": "pluck", "time": t, "string": s, "force": force, "position": position}
-
-
-def fret(s, q, t=0.0, force=None):
-    """A finger behind fret q; the preset's pressing force unless ``force`` is given."""
-    ev = {"type": "fret", "time": t, "string": s, "fret": q}
-    return ev if force is None else {**ev, "force": force}
-
-
-def tap(s, q, t=0.0, force=3.0, velocity=1.5):
-    return {"type": "tap", "time": t, "string": s, "fret": q, "force": force, "velocity": velocity}
+    return shared.scene(events, duration, guitar={"preset": PRESET, **(guitar or {})},
+                        output={"body": "none", "normalize": False})
 
 
 LOW_ACTION = {"action_nut_m": 1e-4, "action_12th_m": 5e-4}
 F_BARRE = {6: 1, 5: 3, 4: 3, 3: 2, 2: 1, 1: 1}
-SIX_STRING = scene([fret(s, q) for s, q in F_BARRE.items()]
-                   + [pluck(7 - i, 0.05 + 0.02 * i) for i in range(1, 7)], 1.0)
+SIX_STRING = scene([fret(s, q, force=None) for s, q in F_BARRE.items()]
+                   + [pluck(7 - i, 0.05 + 0.02 * i, force=2.0) for i in range(1, 7)], 1.0)
 SPECTRAL = {
     "hard pluck": scene([pluck(6, force=10.0, position=0.9)], 0.5),
-    "fretted note": scene([fret(2, 5), pluck(2, 0.05)], 0.5),
-    "tap": scene([tap(3, 7)], 0.5),
-    "fret buzz": scene([fret(5, 2), pluck(5, 0.02, force=12.0, position=0.85)], 0.5, LOW_ACTION),
+    "fretted note": scene([fret(2, 5, force=None), pluck(2, 0.05, force=2.0)], 0.5),
+    "tap": scene([tap(3, 7, force=3.0, velocity=1.5)], 0.5),
+    "fret buzz": scene([fret(5, 2, force=None), pluck(5, 0.02, force=12.0, position=0.85)], 0.5,
+                       LOW_ACTION),
 }
 SINK = {
-    **{f"pressed s{s} f{q}": scene([fret(s, q), pluck(s, 0.05)], 0.2)
+    **{f"pressed s{s} f{q}": scene([fret(s, q, force=None), pluck(s, 0.05, force=2.0)], 0.2)
        for s in STRINGS for q in (5, 12)},
     **{f"slam s{s}": scene([tap(s, 5, force=10.0, velocity=5.0)], 0.1) for s in (1, 3, 6)},
     "fret buzz": SPECTRAL["fret buzz"],
@@ -171,7 +167,7 @@ ENERGY = scene(ENERGY_SCENES["fret + 8 N pluck + tap (every nonlinearity)"], 0.5
 
 def per_string_scene(s: int) -> dict:
     """benchmarks.speed's full-model scene: a finger at fret 5 and an 8 N pluck."""
-    return scene([fret(s, 5), pluck(s, 0.05, force=8.0)], 1.0)
+    return scene([fret(s, 5, force=None), pluck(s, 0.05, force=8.0)], 1.0)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -193,10 +189,10 @@ def job_fretted(name: str, s: int, q: int):
     """The benchmarks.intonation scene: finger pressed behind fret q, pluck; pitch from 0.2 s and
     the fundamental's decay."""
     cfg = BY_NAME[name]
-    audio, _ = render(cfg, scene([fret(s, q), pluck(s, 0.05, force=1.0)], 1.2))
+    audio, _ = render(cfg, scene([fret(s, q, force=None), pluck(s, 0.05, force=1.0)], 1.2))
     target = get_preset(PRESET).strings[s - 1].frequency_hz * 2 ** (q / 12)
     f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
-    return ("fretted", name, (s, q)), (float(cents(f, target)), decay_db_per_s(audio, f))
+    return ("fretted", name, (s, q)), (float(cents(f, target)), decay_db_per_s(audio, SR, f))
 
 
 def job_open(name: str, s: int):
@@ -430,7 +426,7 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
                        f"{r['p10']:.3f} / {r['p10_measured']:.3f}", f"{r['p20']:.3f}",
                        f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}",
                        f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", f"{r['energy']:.1e}"])
-    out += ["### Quality levels (the scene's `quality`; `engine.guitar.QUALITY`)",
+    out += ["### Quality levels (the scene's `quality`; `engine.options.QUALITY`)",
             md_table(["level", "Quality", "x per string (fingered)", "ms/s six strings",
                       "ms/s per string", "open f0 (c)", "partials 1-10 exact / measured (c)",
                       "partials 1-20 (c)", "fretted vs 12-TET (c)", "fretted vs x8 (c)",
@@ -613,7 +609,7 @@ def main() -> None:
         for k in SPECTRAL:
             if ("audio", n, k) not in res:
                 continue
-            x, _ = res["audio", n, k]  # every factor lines up in time (guitar.Decimator)
+            x, _ = res["audio", n, k]  # every factor lines up in time (output.Decimator)
             ref, _ = res["audio", REFERENCE.name, k]
             res["spectral", n, k] = spectral_error_db(x, ref)
     ref_check = {k: res["spectral", FINE, k] for k in SPECTRAL}

@@ -49,13 +49,10 @@ RUNS = [
     ("soak", soak.main, ["--minutes", "3"]),
 ]
 # outputs copied verbatim into docs/accuracy.md (marker name -> section title)
+# (fret_modes and seating print full grids to benchmarks/out/; docs/accuracy.md keeps their worst
+# cases in a short table)
 DOCS = {
     "skips": "Skips: speed-up and largest output difference",
-    "fret_modes_steel": "Fretted notes on a coarse grid: the held string's modes",
-    "fret_modes_steel_standard": "Fretted notes on a coarse grid: steel at quality 'standard'",
-    "fret_modes_nylon": "Fretted notes on a coarse grid: nylon at quality 'standard'",
-    "seating_steel": "Pressing force: when a fretted note holds",
-    "seating_nylon": "Pressing force: nylon",
 }
 
 

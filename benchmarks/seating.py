@@ -27,52 +27,15 @@ from multiprocessing import Pool
 import numpy as np
 
 from engine.controls import events_on
-from engine.guitar import QUALITY, RenderOptions, prepare, string_model
 from engine.intonation import SEAT_MARGIN, press_force, seating_force
+from engine.options import QUALITY, RenderOptions
 from engine.presets import get_preset
-from engine.scene import Scene
+from engine.testing.measure import holds, seating_scene
+from engine.voice import string_model
 
 SR = 44100
 PLUCKS_N = (1.0, 4.0)
 RESOLUTION_N = 0.02
-HOLD_SHARE = 0.95
-CHECK_FRAMES = 64
-
-
-def _scene(preset_name: str, string: int, fret: int, force: float | None, pluck: float,
-           extra: tuple = (), duration: float = 1.0) -> Scene:
-    finger = {"type": "fret", "time": 0.0, "string": string, "fret": fret}
-    if force is not None:
-        finger["force"] = force
-    return Scene.model_validate({
-        "duration": duration, "sample_rate": SR, "guitar": {"preset": preset_name},
-        "output": {"body": "none", "channels": 1, "normalize": False},
-        "events": [finger, {"type": "pluck", "time": 0.05, "string": string, "force": pluck},
-                   *extra]})
-
-
-def resting_share(preset_name: str, quality: str, string: int, fret: int, force: float | None,
-                  pluck: float, extra: tuple = (), start: float = 0.2,
-                  duration: float = 1.0) -> float:
-    """Share of the checks from ``start`` to ``duration`` seconds at which the string rests on
-    ``fret`` (its rigid constraint active), the finger pressing with ``force`` (None: the
-    default, ``intonation.press_force``), a pluck of ``pluck`` N at 0.05 s and the ``extra``
-    events (a bend, say)."""
-    scene = _scene(preset_name, string, fret, force, pluck, extra, duration)
-    eng = prepare(scene, RenderOptions(quality=QUALITY[quality], skip_decayed=False))
-    voice = eng.voices[0]
-    checks = []
-    done = 0
-    for block in eng.blocks(CHECK_FRAMES):
-        done += len(block)
-        if done >= start * SR:
-            checks.append(bool(voice.state.fret_active[fret - 1]))
-    return float(np.mean(checks))
-
-
-def holds(preset_name: str, quality: str, string: int, fret: int, force: float,
-          pluck: float) -> bool:
-    return resting_share(preset_name, quality, string, fret, force, pluck) >= HOLD_SHARE
 
 
 def threshold(args) -> tuple[int, int, float, float, list[float]]:
@@ -80,7 +43,7 @@ def threshold(args) -> tuple[int, int, float, float, list[float]]:
     the note holds already at the bottom of the bracket, inf if not at its top)."""
     preset_name, quality, string, fret = args
     preset = get_preset(preset_name)
-    scene = _scene(preset_name, string, fret, None, PLUCKS_N[0])
+    scene = seating_scene(preset_name, string, fret, None, PLUCKS_N[0])
     # the grid ``prepare`` builds for the rendered notes
     _, model, _ = string_model(preset, string, events_on(scene, preset.n_strings, string), SR,
                                QUALITY[quality], RenderOptions())

@@ -27,9 +27,11 @@ import time
 import numpy as np
 
 from benchmarks.speed import chord_events, fretted_events, strum_events
-from engine.analysis import cents, spectrum_peak
-from engine.guitar import FIXED_GAIN, RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
+from engine.output import FIXED_GAIN
 from engine.scene import Scene
+from engine.testing.measure import held_share, kc_skip_pitch_shift, quiet_share
 
 
 def render(scene: dict, **opts) -> tuple[np.ndarray, float]:
@@ -85,24 +87,6 @@ CASES = [
 ]
 
 
-def kc_skip_pitch_shift(string: int, force: float = 2.0, seconds: float = 2.0,
-                        tolerance: float | None = None) -> tuple[float, bool]:
-    """Cents between the fundamental of one open-string pluck rendered with the Kirchhoff-Carrier
-    skip (``tolerance``; None: the quality's) and without it, measured over 0.5 s to the end, and
-    whether the two renders differ at all (``tests/engine/test_skips.py`` asserts on this)."""
-    sc = Scene.model_validate({"duration": seconds, "events": [
-        {"type": "pluck", "time": 0.0, "string": string, "force": force}]})
-    outs = []
-    for tol in (tolerance, 0.0):
-        eng = prepare(sc, RenderOptions(kc_tolerance=tol))
-        outs.append(np.concatenate(list(eng.blocks())))
-    sr = sc.sample_rate
-    f0 = eng.voices[0].model.spec.frequency_hz
-    late = slice(int(0.5 * sr), None)
-    shift = float(cents(spectrum_peak(outs[0][late], sr, f0), spectrum_peak(outs[1][late], sr, f0)))
-    return shift, not np.array_equal(outs[0], outs[1])
-
-
 def kc_table() -> None:
     print("\nKirchhoff-Carrier skip, quality 'standard' (tolerance 1e-4 T: bound 0.087 cents): "
           "pitch of the fundamental over 0.5-2 s, skip on minus skip off (cents)")
@@ -128,17 +112,6 @@ def main() -> None:
     held_table()
 
 
-def quiet_share(force: float, seconds: float) -> dict[int, float]:
-    """Share of each string's steps that took the quiet run (``kernels._quiet_run``) in an open
-    strum of ``force`` N, quality 'standard' (``tests/engine/test_skips.py`` asserts on this)."""
-    sc = {"duration": seconds, "events": [
-        {"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force} for i in range(6)]}
-    eng = prepare(Scene.model_validate(sc), RenderOptions(skip_decayed=False))
-    for _ in eng.blocks():
-        pass
-    return {v.index: int(v.state.run_steps[0]) / v.step for v in eng.voices}
-
-
 def quiet_table(seconds: float = 2.0) -> None:
     print(f"\nquiet steps: share of each string's steps in an open strum, {seconds:g} s, quality "
           "'standard'")
@@ -146,20 +119,6 @@ def quiet_table(seconds: float = 2.0) -> None:
     share = {force: quiet_share(force, seconds) for force in (2.0, 8.0)}
     for s in range(1, 7):
         print(f"{s:>6d} | {share[2.0][s]:9.4f} | {share[8.0][s]:9.4f}")
-
-
-def held_share(scene: dict) -> dict[int, float]:
-    """Share of each string's steps that took the held run (``kernels._held_run``)."""
-    eng = prepare(Scene.model_validate(scene), RenderOptions(skip_decayed=False))
-    for _ in eng.blocks():
-        pass
-    return {v.index: int(v.state.run_steps[1]) / v.step for v in eng.voices}
-
-
-def held_steps(eng) -> tuple[int, int]:
-    """(steps the held run took, all steps) over the strings of a rendered engine."""
-    return (sum(int(v.state.run_steps[1]) for v in eng.voices),
-            sum(v.step for v in eng.voices))
 
 
 def held_table() -> None:

@@ -15,9 +15,9 @@ column in every step (which table 3's "KC in every step" rows price).
 
 Timings are the best of ``--repeat`` runs of the simulation alone (scene preparation excluded; CPU
 time of the rendering thread), on one core (the engine is single-threaded; the service runs one
-render per worker process).  Where the machine gives hardware counters (``benchmarks.counters``),
+render per worker process).  Where the machine gives hardware counters (``tools.counters``),
 the tables also print the fewest CPU cycles and instructions of those runs: times move between
-sessions on "the same" machine (``benchmarks.counters``), and instructions do not move unless the
+sessions on "the same" machine (``tools.counters``), and instructions do not move unless the
 code or the scene does.
 """
 
@@ -29,10 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from benchmarks.counters import Counters
-from engine.guitar import QUALITY, Engine, RenderOptions, prepare
+from engine.guitar import Guitar, prepare
+from engine.options import QUALITY, RenderOptions
 from engine.scene import Scene
 from engine.string import kc_skip_level
+from tools.counters import Counters
 
 
 @dataclass
@@ -43,7 +44,7 @@ class Timing:
     seconds: float
     cycles: float | None
     instructions: float | None
-    engine: Engine | None
+    engine: Guitar | None
 
 
 def _fewest(a: float | None, b: int | None) -> float | None:

@@ -65,3 +65,16 @@ def pitch_track(x: np.ndarray, sr: float, f_guess: float, window_s: float = 0.06
     starts = np.arange(0, len(x) - w, hop)
     f = np.array([spectrum_peak(x[s : s + w], sr, f_guess, rel_width) for s in starts])
     return (starts + w / 2) / sr, f
+
+
+def decay_db_per_s(x: np.ndarray, sr: float, f: float, start: float = 0.2,
+                   stop: float = 1.15) -> float:
+    """Slope (dB/s) of a line fitted to the level of the component at f Hz in 0.1 s Hann windows
+    every 0.05 s from ``start`` to ``stop`` seconds (negative: it decays)."""
+    n = int(0.1 * sr)
+    window = np.hanning(n)
+    tone = np.exp(-2j * np.pi * f * np.arange(n) / sr)
+    times = np.arange(start, stop - 0.1 + 1e-9, 0.05)
+    level = [20.0 * np.log10(abs(np.sum(x[int(t * sr):int(t * sr) + n] * window * tone)))
+             for t in times]
+    return float(np.polyfit(times, level, 1)[0])

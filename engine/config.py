@@ -50,7 +50,7 @@ JIT_NO_NRT = {**JIT, "_nrt": False}
 # without fastmath: the quiet and held runs repeat the general path's arithmetic in loops of
 # their own, and with re-association or contraction allowed LLVM rounded each copy its own way
 # (with these flags, 2 of 204 random scenes with held steps came out bit-identical with held
-# steps on and off; without them, all: ``benchmarks/held_soak.py``).  Everything the loops
+# steps on and off; without them, all: ``tools/held_soak.py``).  Everything the loops
 # inline is compiled with the loop's flags; the one hot loop that needs fastmath to vectorise,
 # the linear pass with its float sums, is a kernel of its own (``kernels._pass_kc``) that all
 # three call.  Quiet and held steps are thus bit-identical to the general path by construction.

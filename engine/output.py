@@ -1,4 +1,5 @@
-"""The output chain after the strings: pickup mix, stereo panning and the body response.
+"""The output chain after the strings: decimation to the output rate, pickup mix, stereo panning,
+the body response and the output scale.
 
 Body.  The DAFx24 model leaves body coupling out (its sec. 7 suggests measured responses).  A
 built-in body here is a *modal* model of a guitar body seen from the bridge: a direct path plus a
@@ -20,7 +21,14 @@ import numpy as np
 from numba import njit
 from scipy import signal
 
+from . import kernels
 from .config import JIT
+
+# Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.  A 2 N
+# strum of the six open strings peaks near 0.26 and an 8 N one near 0.8 (benchmarks/skips.py prints
+# the peaks); louder scenes clip in PCM, which is what a fixed gain means.
+FIXED_GAIN = 0.03
+PEAK_DBFS = -1.0  # ``normalize: true`` scales the peak here
 
 # (frequency Hz, Q, gain) per mode; gains relative to the direct path of 1
 BODIES: dict[str, tuple[tuple[float, float, float], ...]] = {
@@ -116,3 +124,54 @@ def convolve_ir(audio: np.ndarray, ir: np.ndarray) -> np.ndarray:
         return signal.fftconvolve(audio, ir)[: len(audio)]
     return np.stack([signal.fftconvolve(audio[:, c], ir)[: len(audio)]
                      for c in range(audio.shape[1])], axis=1)
+
+
+def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = False) -> np.ndarray:
+    """Pickup velocity (m/s) -> samples: peak at ``PEAK_DBFS``, or the fixed gain ``FIXED_GAIN``.
+    ``in_place``: scale ``velocity`` itself (a long render holds one copy of its output)."""
+    out = velocity if in_place else None
+    if not normalize:
+        return np.multiply(velocity, FIXED_GAIN, out=out)
+    peak = float(np.max(np.abs(velocity))) if velocity.size else 0.0
+    if peak == 0.0:
+        return velocity if in_place else velocity.copy()
+    return np.multiply(velocity, 10.0 ** (PEAK_DBFS / 20.0) / peak, out=out)
+
+
+class Decimator:
+    """Linear-phase FIR low-pass (scipy's firwin, Kaiser window) + downsampling by an integer
+    factor, with the input history kept across blocks.  Each output sample is one dot product in a
+    fixed order (``kernels.fir_decimate``), so any block size gives bit-identical samples.
+
+    The filter's delay is removed exactly, so strings at different factors line up in time: the
+    kernel's output at step n is the velocity (u^(n+1) - u^n) / k, i.e. at time (n + 1/2) k, so
+    output sample m of a string at the output rate is the velocity at (m + 1/2) / rate, and at
+    factor f the same time is internal step m f + (f - 1) / 2.  A linear-phase FIR of ``ntaps``
+    taps delays by (ntaps - 1) / 2 internal steps: 24 f + 1 taps for odd f, 24 f + 2 for even f
+    (half a step more), so that the string run ``lead`` = (ntaps - 1) / 2 + (f - 1) / 2 steps
+    ahead (an integer) gives output m centred on exactly that time.  The first output is taken
+    at input index ``lead``; the string simply runs ``lead`` steps past the last frame.
+    """
+
+    def __init__(self, factor: int, rate_out: float):
+        self.factor = factor
+        self.pos = 0  # inputs consumed so far
+        self.lead = 0
+        if factor > 1:
+            ntaps = 24 * factor + (1 if factor % 2 else 2)
+            self.lead = (ntaps - 1 + factor - 1) // 2
+            self.taps = signal.firwin(ntaps, 0.45 * rate_out, fs=rate_out * factor,
+                                      window=("kaiser", 9.0))[::-1].copy()
+            self.history = np.zeros(ntaps - 1)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """The output samples whose input (index lead + m factor) is in this block."""
+        if self.factor == 1:
+            return x
+        buf = np.concatenate((self.history, x))
+        ahead = self.lead - self.pos
+        start = ahead if ahead >= 0 else ahead % self.factor
+        y = kernels.fir_decimate(buf, self.taps, start, self.factor, len(x))
+        self.pos += len(x)
+        self.history = buf[len(x):]
+        return y

@@ -13,14 +13,16 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from scipy import optimize
 
 from .kernels import Coefs, Geo, interp
-from .presets import Preset, StringSpec
+from .presets import Preset, StringSpec, get_preset
 
 # 60 dB of amplitude: exp(-sigma T60) = 1e-3, so sigma = 3 ln(10) / T60.  (Bilbao 2009 writes
 # 6 ln(10) / T60; measured on rendered audio that halves the decay time: tests/engine/test_string.py)
@@ -145,17 +147,6 @@ PINNED_PARTIAL = 10
 PARTIAL_LIMIT = 0.4  # x the sample rate: the highest frequency the compensation pins a partial at
 
 
-def stiffness_tension_n(spec: StringSpec, length: float) -> float:
-    """pi^2 E I / L^2: the part of the stiff string's f_1^2 (4 L^2 rho A) that stiffness supplies;
-    the tension is 4 L^2 rho A f0^2 minus this, so a string is playable only below that."""
-    return math.pi**2 * spec.bending_stiffness_nm2 / length**2
-
-
-def pitch_tension_n(spec: StringSpec, length: float) -> float:
-    """4 L^2 rho A f0^2: the tension an ideal (flexible) string needs for its pitch."""
-    return 4.0 * length**2 * spec.linear_density_kg_m * spec.frequency_hz**2
-
-
 def pinned_partial(model: StringModel, sample_rate: float) -> int:
     """The partial the dispersion compensation pins: ``PINNED_PARTIAL``, or the highest below it
     that the grid carries (mode < N) whose frequency f_n is at most ``PARTIAL_LIMIT`` x the rate
@@ -196,7 +187,7 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     Raises ValueError for a string whose stiffness alone exceeds its pitch (no positive tension
     tunes it; ``engine.scene`` rejects such overrides) or that cannot get ``MIN_NODES`` intervals.
     """
-    if stiffness_tension_n(spec, length) >= pitch_tension_n(spec, length):
+    if spec.stiffness_tension_n(length) >= spec.pitch_tension_n(length):
         raise ValueError(f"string {spec.note}: its bending stiffness alone exceeds its pitch "
                          "(pi^2 E I / L^2 >= 4 L^2 rho A f0^2): no positive tension tunes it")
     if compensate:
@@ -260,18 +251,13 @@ def _mode_error(mode, target, args, ei, tension, x):
 
 
 def _secant(err, x0: float) -> float:
-    """Root of err near x0 (err is smooth and monotonic here)."""
-    x1 = x0 * 1.01
-    e0, e1 = err(x0), err(x1)
-    for _ in range(60):
-        if e1 == e0:
-            break
-        x2 = x1 - e1 * (x1 - x0) / (e1 - e0)
-        x0, e0 = x1, e1
-        x1, e1 = x2, err(x2)
-        if abs(e1) < 1e-13 * max(abs(x1), 1.0) * 1e3:
-            break
-    return x1
+    """Root of err near x0 by the secant method (err is smooth and monotonic here).  Where err is
+    flat to machine precision before the step tolerance is met, scipy stops with a warning: that
+    is the root to the last few ulps, and it is taken (``_tune`` checks that it is physical)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return optimize.newton(err, x0, x1=x0 * 1.01, tol=1e-12 * abs(x0), maxiter=60,
+                               disp=False)
 
 
 def coefficients(model: StringModel, preset: Preset, fret_mode: int,
@@ -379,16 +365,15 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
-             margin: float = math.inf, fretboard: bool = True, quiet: bool = True,
-             fret_shifts: dict[int, float] | None = None, held: bool = True) -> Geo:
+             margin: float = math.inf, fretboard: bool = True,
+             fret_shifts: dict[int, float] | None = None) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
     ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  Without
     ``fretboard`` the board is out of reach everywhere, so that no node counts as below it (the
-    kernel forms no board column then, and quiet steps do not stop for it).  ``quiet`` False
-    sends every step through the kernel's general path, ``held`` False the steps of a held note
-    (``kernels._held_run``).  ``fret_shifts`` (fret -> metres, ``engine.intonation.fret_shifts``)
-    moves those frets' interpolants along the string; their heights stay those at x_q."""
+    kernel forms no board column then, and quiet steps do not stop for it).  ``fret_shifts``
+    (fret -> metres, ``engine.intonation.fret_shifts``) moves those frets' interpolants along the
+    string; their heights stay those at x_q."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q)
@@ -412,5 +397,15 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
                 near[node - 1] = max(near[node - 1], m0[i] + margin)
     pk = [interp(x * model.length_m, h, n) for x in pickups]
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
-               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]),
-               quiet, quiet and held)
+               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]))
+
+
+def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:
+    """Tension (N) that tunes string ``string`` (1 = highest) of a preset to its nominal pitch on
+    the grid of ``sample_rate`` Hz: the scheme's own dispersion relation is solved for it
+    (``tune``), so it depends slightly on the rate.  The engine tunes each string of a scene this
+    way at its internal (oversampled) rate."""
+    p = get_preset(preset) if isinstance(preset, str) else preset
+    if not 1 <= string <= p.n_strings:
+        raise ValueError(f"string {string} outside 1..{p.n_strings} for {p.name}")
+    return tune(p.strings[string - 1], p.string_length_m(string), float(sample_rate)).tension_n

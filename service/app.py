@@ -12,10 +12,7 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
-from fastapi.concurrency import run_in_threadpool
 from fastapi.staticfiles import StaticFiles
-
-import engine
 
 from . import errors
 from .config import Settings
@@ -31,10 +28,6 @@ harmonic, mute and strum), get audio back. The scene schema is the engine's own
 (see `GET /limits`), a pool of render worker processes and streaming."""
 
 
-WARMUP_SCENE = {"duration": 0.1, "events": [
-    {"type": "fret", "time": 0.0, "string": 1, "fret": 5, "force": 3.0}]}
-
-
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     setup_logging(settings.log_level)
@@ -43,10 +36,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[dict]:
         pool = WorkerPool(settings)
         await pool.start()  # workers warm up in the background; /health tells when they are
-        if settings.warmup:
-            # the render routes work out X-Render-Warnings here, in this process: load the
-            # engine's compiled interpolant now rather than in the first request's time
-            await run_in_threadpool(engine.scene_warnings, engine.parse_scene(WARMUP_SCENE))
         try:
             yield {"pool": pool, "settings": settings}
         finally:

@@ -10,6 +10,8 @@ import os
 from pydantic import Field, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from engine.scene import MAX_DURATION_S, MAX_EVENTS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+
 
 def _default_workers() -> int:
     # The CPUs this process may run on (a container's cpuset), not every CPU of the host.
@@ -29,8 +31,8 @@ class Settings(BaseSettings):
     queue_timeout_s: float = Field(30.0, gt=0.0,
                                    description="longest wait for a free worker before 503")
     retry_after_s: int = Field(2, ge=1, description="Retry-After sent with a 503")
-    warmup: bool = Field(True, description="render a tiny scene in each worker at start-up, and "
-                                           "work out one scene's warnings in the API process")
+    warmup: bool = Field(True, description="render tiny scenes in each worker at start-up "
+                                           "(engine.warmup: every kernel compiled or loaded)")
     mp_context: str = Field("spawn", pattern="^(spawn|forkserver)$",
                             description="multiprocessing start method of the workers")
 
@@ -40,10 +42,10 @@ class Settings(BaseSettings):
 
     # Request limits (tighter than, or equal to, the engine's schema limits)
     max_body_bytes: int = Field(256 * 1024, ge=1024)
-    max_duration_s: float = Field(30.0, gt=0.0, le=120.0)
-    max_events: int = Field(500, ge=1, le=2000)
-    min_sample_rate: int = Field(22050, ge=22050)
-    max_sample_rate: int = Field(96000, le=96000)
+    max_duration_s: float = Field(30.0, gt=0.0, le=MAX_DURATION_S)
+    max_events: int = Field(500, ge=1, le=MAX_EVENTS)
+    min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
+    max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 
     # Streaming
     stream_block_frames: int = Field(4096, ge=256, le=1 << 20,

@@ -72,6 +72,7 @@ class RenderOutput:
     render_seconds: float
     frames: int
     energy_error: float | None
+    warnings: list[str]
 
 
 @dataclass
@@ -349,7 +350,8 @@ class WorkerPool:
         msg = await job.messages.get()
         self._raise_for(msg, time_limit_s)
         meta = msg[3]
-        return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"])
+        return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"],
+                            meta["warnings"])
 
     async def stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
         """Start a streamed render; returns once the first block exists (or fails before)."""
@@ -394,6 +396,8 @@ class RenderStream:
         self._closed = False
         self.render_seconds = first[3] if first[0] == "block" else first[2]["render_seconds"]
         self.first_block_seconds = self.render_seconds
+        # the engine's warnings come with the first block (or the end of a stream of none)
+        self.warnings: list[str] = first[4] if first[0] == "block" else first[2]["warnings"]
 
     async def chunks(self) -> AsyncIterator[bytes]:
         msg = self._first

@@ -7,11 +7,15 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                        | ("cancel", job_id) | None (stop)
     worker -> parent   ("ready", pid, warmup_seconds)
                        ("done", job_id, file_bytes, meta)             render finished
-                       ("block", job_id, pcm_bytes, seconds_so_far)   one streamed block
+                       ("block", job_id, pcm_bytes, seconds_so_far, warnings)
+                                                                      one streamed block
                        ("end", job_id, meta) | ("cancelled", job_id)  stream finished / stopped
                        ("error", job_id, kind, message)               kind: non_finite|invalid|internal
 
-Everything sent is plain data (bytes, floats, dicts) so the parent never unpickles engine objects.
+Everything sent is plain data (bytes, floats, lists, dicts) so the parent never unpickles engine
+objects.  ``warnings`` (``engine.RenderResult.warnings``: what may not sound as the player means it)
+are worked out here, with the render, inside its time limit: in ``meta`` of ``done`` and ``end``,
+and with the first streamed block (an empty list with the later ones).
 """
 
 from __future__ import annotations
@@ -82,16 +86,17 @@ def _check_finite(x: np.ndarray) -> None:
 
 def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any]) -> None:
     t0 = time.perf_counter()
-    result = engine.render(payload["scene"], diagnostics=payload["diagnostics"])
+    result = engine.render_result(payload["scene"])
     seconds = time.perf_counter() - t0
-    samples = result.audio if payload["diagnostics"] else result
+    samples = result.audio
     _check_finite(samples)
     data = audio.encode(samples, payload["sample_rate"], payload["format"], payload["subtype"],
                         payload["channels"])
     meta = {
         "render_seconds": seconds,
         "frames": int(audio.as_frames(samples, payload["channels"]).shape[0]),
-        "energy_error": float(result.energy_error) if payload["diagnostics"] else None,
+        "energy_error": result.energy_error,
+        "warnings": result.warnings,
     }
     conn.send(("done", job_id, data, meta))
 
@@ -111,19 +116,25 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
     t0 = time.perf_counter()
     frames, subtype, channels = payload["frames"], payload["subtype"], payload["channels"]
     sent = 0
-    for block in engine.blocks(payload["scene"], block_frames=block_frames):
+    blocks = engine.blocks(payload["scene"], block_frames=block_frames)
+    warnings = blocks.warnings  # sent with the first block, before the response's headers
+    for block in blocks:
         block = audio.as_frames(block, channels)
         _check_finite(block)
         # The header announced ``frames``: never send more than that.
         block = block[: frames - sent]
         if len(block):
-            conn.send(("block", job_id, audio.pcm_bytes(block, subtype), time.perf_counter() - t0))
+            conn.send(("block", job_id, audio.pcm_bytes(block, subtype), time.perf_counter() - t0,
+                       warnings))
             sent += len(block)
+            warnings = []
         if _cancel_requested(conn, job_id):
             conn.send(("cancelled", job_id))
             return
     if sent < frames:
         # Keep the file valid if the blocks ever fall short of engine.frame_count (the header's).
         silence = audio.as_frames(np.zeros((frames - sent) * channels), channels)
-        conn.send(("block", job_id, audio.pcm_bytes(silence, subtype), time.perf_counter() - t0))
-    conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent}))
+        conn.send(("block", job_id, audio.pcm_bytes(silence, subtype), time.perf_counter() - t0,
+                   warnings))
+    conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent,
+                               "warnings": warnings}))

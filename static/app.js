@@ -56,6 +56,11 @@ const EVENTS = {
     fields: ["time", "strings", "direction", "spread", "force", "position", "style"],
     start: { direction: "down", spread: 0.03, force: 2, position: 0.8, style: "finger" },
   },
+  damp: {
+    fields: ["time", "string"],
+    start: { string: 1 },
+    empty: { string: "all" },
+  },
 };
 
 // How each parameter is edited: a number (`int`: whole) or one of `choices`; `empty` is the

@@ -76,6 +76,7 @@ from .data import (  # noqa: F401
     Coefs,
     Controls,
     Geo,
+    Policy,
     State,
     Work,
     _type_key,

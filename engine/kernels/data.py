@@ -75,6 +75,12 @@ class Geo(NamedTuple):
     out_p: np.ndarray  # per pickup: interpolant
     out_w0: np.ndarray
     out_w1: np.ndarray
+
+
+class Policy(NamedTuple):
+    """Which specialised loops a render may take (``RenderOptions``); the samples are the same
+    either way (``tests/engine/test_skips.py``, ``tests/engine/test_held.py``)."""
+
     # False: every step takes the general path (``RenderOptions.skip_contacts=False``)
     quiet: bool = True
     # False: the steps of a held note take the general path too (``RenderOptions.held_steps``)

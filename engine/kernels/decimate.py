@@ -1,5 +1,5 @@
-"""The decimator of an oversampled string (``engine.guitar.Decimator``): an FIR filter evaluated at the
-output rate only, its sums in a fixed order, so that any block size gives bit-identical samples.
+"""The decimator of an oversampled string (``engine.output.Decimator``): an FIR filter evaluated at
+the output rate only, its sums in a fixed order, so that any block size gives bit-identical samples.
 """
 
 from __future__ import annotations

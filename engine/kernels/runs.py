@@ -1,6 +1,6 @@
 """Steps that do the general path's arithmetic without its bookkeeping: quiet steps, in which nothing
 but the string's own forces acts, and the held steps of a fretted note, in which the forces that
-act do not change (docs/engine.md, items 1 and 6).  Each run checks, in every step, every decision
+act do not change (docs/engine.md, "Skips").  Each run checks, in every step, every decision
 the general path would take, and returns at the first step on which one differs; compiled as the
 general path is and calling the same linear pass, it gives its samples to the last bit
 (``tests/engine/test_held.py``, ``tests/engine/test_skips.py``).
@@ -177,7 +177,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
     The step is then the general path's arithmetic on the same helpers, in the same order, and
     both loops are compiled without fastmath and call the same linear pass (``config.JIT_STEP``),
-    so the samples are identical (``tests/engine/test_held.py``, ``benchmarks/held_soak.py``).
+    so the samples are identical (``tests/engine/test_held.py``, ``tools/held_soak.py``).
     It saves the general path's bookkeeping: the columns are laid out once per run, and the
     entries of the Gram matrix that do not involve the dense Kirchhoff-Carrier column, which depend
     only on the fixed interpolants, are worked out once (by ``_gram`` itself, so they are the same

@@ -43,13 +43,14 @@ from .system import _assemble, _gram, _ray_blocked, _scatter, _solve, _step_to_z
 
 
 @njit(**JIT)
-def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
+def step_block(c, geo, ctl, st, pol, step0, nsteps, out, diag, e_h, e_q, e_p):
     """Advance one string by ``nsteps`` steps from global step ``step0``.
 
     Fills ``out[pickup, step]`` (string velocity at each pickup, m/s) and, when ``diag``, the
     energy series e_h = H^(n+1/2), e_q = k Q^n and e_p = k P^n, where P also carries the energy a
     finger brings or takes away when it is put down or removed and the work of a changing tension.
-    Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit.
+    Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit;
+    ``pol`` (``Policy``) says whether quiet and held steps may take their own loops.
     Allocates the block's scratch (``Work``) and hands over to ``_advance``, which is compiled
     without reference counting and so may not allocate (config.JIT_NO_NRT).
     """
@@ -69,11 +70,11 @@ def step_block(c, geo, ctl, st, step0, nsteps, out, diag, e_h, e_q, e_p):
         fp=np.zeros(nslot, np.int64), fw0=np.zeros(nslot), fw1=np.zeros(nslot),
         fchi=np.zeros(nslot), fbeta=np.zeros(nslot), fcol=np.full(nslot, -1, np.int64),
         rd=np.empty(ncap), ra=np.empty((ncap, ncap)))
-    return _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p)
+    return _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p)
 
 
 @njit(**JIT_STEP)
-def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
+def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     """``step_block``'s loop (the general path, which hands quiet and held steps to their runs),
     on the scratch ``w`` that step_block allocated; returns the status."""
     U0, U1, UF, Q = st.u, st.u1, st.uf, st.q
@@ -115,15 +116,15 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     # Quiet steps (nothing but the string's own forces act, ``_quiet_until``, and no contact
     # happens, ``_quiet_run`` checks each step) run in ``_quiet_run``: the linear update, the
     # Kirchhoff-Carrier column, the pickups, the same operations as the general path, so the
-    # samples are identical (``Geo.quiet`` False, from ``skip_contacts=False``, never takes it;
+    # samples are identical (``Policy.quiet`` False, from ``skip_contacts=False``, never takes it;
     # test_skips.py compares).  With diagnostics every step takes the general path.
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
     quiet_end = -1  # steps before this may be quiet (what acts on the string allows it)
     stale = not diag  # quiet_end is recomputed, after a general step, only if no contact acted
     s_last = st.s_last[0]  # S of the previous step's u^n
-    free = geo.quiet and st.s_last[1] != 0.0  # no contact acted in the last step (a guess)
-    held = geo.held and st.s_last[2] != 0.0  # the next step may be held (``_held_run``)
+    free = pol.quiet and st.s_last[1] != 0.0  # no contact acted in the last step (a guess)
+    held = pol.held and st.s_last[2] != 0.0  # the next step may be held (``_held_run``)
     it = 0
     while it < nsteps:
         step = step0 + it
@@ -407,10 +408,10 @@ def _advance(c, geo, ctl, st, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                                 cs, cbt, ccon, psi, f_psi, fbeta, fchi, c.fg_r / (2.0 * k), nc):
                 break
         # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
-        free = geo.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
+        free = pol.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
         # a finger in contact held the string, alone or with rigid frets: the next step may be held
         nk = 1 if c.kc > 0.0 else 0
-        held = (geo.held and joint and c.fret_mode != 2 and status == OK
+        held = (pol.held and joint and c.fret_mode != 2 and status == OK
                 and nbase == nk + 1 and kind[nk] == FINGER and ccon[nk])
         # ---- apply the multipliers: z^(n+1) = z_free + Lambda sum_c v_c x_c ----------------------
         xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, UF)

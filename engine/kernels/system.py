@@ -28,8 +28,8 @@ def _solve(A, r, n):
     systems are arrowheads: the Kirchhoff-Carrier column (or the one column that is not narrow)
     couples to every other, and the narrow columns of a finger and of frets away from it share no
     node.  These are solved by eliminating the narrow columns into the first row
-    (``_solve_arrow``): a handful of operations and no pivot search, where partial pivoting
-    spent about a fifth of a held note's step (``docs/engine.md``).  Any other system goes to
+    (``_solve_arrow``): a handful of operations and no pivot search (docs/engine.md names the
+    speed-up it measured).  Any other system goes to
     Gaussian elimination with partial pivoting (``_solve_n``).  Sizes 2 to 4 are literal, so
     LLVM unrolls the loops; the four-column arrowhead is a held fretted note's system:
     Kirchhoff-Carrier, the finger, and the two frets the pressed string rests on."""

@@ -7,12 +7,10 @@ to the worker pool, turn the result into a response.  Status codes for failures:
 from __future__ import annotations
 
 import json
-import logging
 from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Request, Response
-from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import StreamingResponse
 from starlette.requests import ClientDisconnect
 from starlette.types import Receive, Scope, Send
@@ -24,7 +22,6 @@ from ..examples import scene_examples, stream_examples
 from ..validation import StrictJSONRoute, check_limits, check_streamable
 
 router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
-log = logging.getLogger(__name__)
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
     413: {"description": "request body too large"},
@@ -47,16 +44,11 @@ def _realtime_factor(audio_s: float, render_s: float) -> str:
 MAX_HEADER_WARNINGS = 10  # a scene of 500 light taps would otherwise send a 90 kB header
 
 
-async def _warnings(scene: engine.Scene) -> dict[str, str]:
+def _warnings(warnings: list[str]) -> dict[str, str]:
     """``X-Render-Warnings``: a JSON array of what the scene asks for that may not sound as meant
-    (``engine.scene_warnings``: a finger pressing too lightly to seat its string), when there is
-    any; the first ``MAX_HEADER_WARNINGS`` and a count of the rest.  Worked out from the scene
-    alone, off the event loop (a small solve per fretted string), before the render starts."""
-    try:
-        warnings = await run_in_threadpool(engine.scene_warnings, scene)
-    except Exception:  # advice only: a failure here must not cost the render
-        log.exception("scene_warnings failed; the response goes without X-Render-Warnings")
-        return {}
+    (``engine.RenderResult.warnings``: a finger pressing too lightly to seat its string), when
+    there is any; the first ``MAX_HEADER_WARNINGS`` and a count of the rest.  The worker works
+    them out with the render, inside its time limit."""
     if len(warnings) > MAX_HEADER_WARNINGS:
         more = len(warnings) - MAX_HEADER_WARNINGS
         warnings = [*warnings[:MAX_HEADER_WARNINGS], f"and {more} more warnings like these"]
@@ -83,7 +75,6 @@ async def render(
     """Render a scene to a WAV, FLAC or Ogg Vorbis file."""
     settings, pool = request.state.settings, request.state.pool
     check_limits(scene, settings)
-    warnings = await _warnings(scene)
     out = await pool.render(
         {
             "scene": scene.model_dump(mode="json"),
@@ -101,7 +92,7 @@ async def render(
         "X-Render-Seconds": _seconds(out.render_seconds),
         "X-Realtime-Factor": _realtime_factor(audio_s, out.render_seconds),
         "Content-Disposition": f'inline; filename="guitar.{scene.output.format}"',
-        **warnings,
+        **_warnings(out.warnings),
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)  # e.g. 6.24e-15
@@ -148,7 +139,6 @@ async def render_stream(
     settings, pool = request.state.settings, request.state.pool
     check_limits(scene, settings)
     check_streamable(scene)
-    warnings = await _warnings(scene)
     rate, subtype, channels = scene.sample_rate, scene.output.subtype, scene.output.channels
     frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
@@ -163,7 +153,7 @@ async def render_stream(
         "Content-Length": str(audio.wav_size(frames, subtype, channels)),
         "X-Render-Seconds": _seconds(stream.first_block_seconds),
         "Content-Disposition": 'inline; filename="guitar.wav"',
-        **warnings,
+        **_warnings(stream.warnings),
     }
 
     async def body() -> AsyncIterator[bytes]:

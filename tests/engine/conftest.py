@@ -1,6 +1,5 @@
 import pytest
 
-from benchmarks.scenes import SR, fret, pluck, scene, tap  # noqa: F401  (the tests' builders)
 from engine.presets import get_preset
 
 

@@ -4,13 +4,14 @@ import numpy as np
 import pytest
 
 import engine
-from benchmarks import articulations as art
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
+from engine.testing import articulations as art
+from engine.testing.scenes import pluck, scene
 
-from .conftest import pluck, scene
-
-# Each target is measured by benchmarks.articulations, which prints the same figures as a table.
+# Each target is measured by engine.testing.articulations; benchmarks/articulations.py prints the
+# same figures as a table.
 LIMIT_CENTS = 10.0
 LIMIT_BALANCE = 1e-11  # every articulation keeps the energy balance
 

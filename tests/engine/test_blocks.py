@@ -6,8 +6,7 @@ import pytest
 import engine
 from engine.guitar import prepare
 from engine.scene import Scene
-
-from .conftest import fret, pluck, scene, tap
+from engine.testing.scenes import fret, pluck, scene, tap
 
 SCENE = scene([fret(2, 5), pluck(2, time=0.01, force=8.0), tap(3, 7, time=0.05),
                pluck(6, time=0.02, force=4.0), fret(2, 0, time=0.12)], duration=0.2)

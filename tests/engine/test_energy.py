@@ -4,12 +4,12 @@ import numpy as np
 import pytest
 
 import engine
-from benchmarks.stability import LIMITS, check
-from engine.guitar import QUALITY, Quality, RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import QUALITY, Quality, RenderOptions
 from engine.scene import Scene
 from engine.string import FRET_PENALTY
-
-from .conftest import fret, pluck, scene, tap
+from engine.testing.scenes import fret, pluck, scene, tap
+from engine.testing.stability import LIMITS, check
 
 TOL = 1e-11
 
@@ -50,7 +50,7 @@ def test_stored_energy_never_grows_without_forcing():
     """After the pluck ends, H^(n+1/2) is non-increasing (Q >= 0, no supplied power)."""
     sc = Scene.model_validate(scene([pluck(6, force=8.0, duration=0.001)], duration=0.5,
                                     diagnostics=True))
-    eng = prepare(sc)
+    eng = prepare(sc, RenderOptions(energy_series=True))
     list(eng.blocks())
     v = eng.voices[0]
     h = np.concatenate(v.energy_h)
@@ -63,7 +63,7 @@ def test_stored_energy_never_grows_without_forcing():
 def test_energy_rises_by_exactly_the_work_of_the_pluck(string):
     """The pluck's discrete work k P^n sums to the stored plus dissipated energy."""
     sc = Scene.model_validate(scene([pluck(string, force=2.0)], duration=0.05, diagnostics=True))
-    eng = prepare(sc)
+    eng = prepare(sc, RenderOptions(energy_series=True))
     list(eng.blocks())
     v = eng.voices[0]
     h, q, p = (np.concatenate(x) for x in (v.energy_h, v.energy_q, v.energy_p))
@@ -105,7 +105,7 @@ def test_balance_holds_when_the_rigid_frets_are_crowded():
 
 
 def test_crowded_frets_never_pull():
-    """No step dissipates negative energy (the soak's own check, ``benchmarks.stability``): a
+    """No step dissipates negative energy (the soak's own check, ``engine.testing.stability``): a
     rigid fret's reaction only pushes.  With the sign rule the active set cycled until its cap and
     the last solve left a fret pulling (k Q^n = -7.5e-3 of the stored energy in one step); Lawson
     and Hanson's step lengths settle it."""

@@ -4,8 +4,7 @@ import pytest
 
 import engine
 from engine.analysis import cents, spectrum_peak
-
-from .conftest import SR, fret, pluck, scene, tap
+from engine.testing.scenes import SR, fret, pluck, scene, tap
 
 FRETS = range(1, 13)
 

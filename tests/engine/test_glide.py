@@ -4,8 +4,7 @@ import pytest
 
 import engine
 from engine.analysis import cents, spectrum_peak
-
-from .conftest import SR, pluck, scene
+from engine.testing.scenes import SR, pluck, scene
 
 
 def _glide(steel, string, force):
@@ -30,7 +29,7 @@ def test_soft_pluck_does_not_glide(steel, string):
 
 def test_glide_vanishes_without_kirchhoff_carrier(steel):
     """The glide is the tension modulation's (frets and fretboard off: no buzz either)."""
-    from engine.guitar import RenderOptions
+    from engine.options import RenderOptions
 
     off = RenderOptions(kirchhoff_carrier=False, frets=False, fretboard=False)
     audio = engine.render(scene([pluck(6, force=8.0)], duration=0.7), options=off)

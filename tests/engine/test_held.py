@@ -2,18 +2,18 @@
 
 A held step is the general path's step for a finger pressing the string onto its frets, in a loop
 of its own.  Both loops are compiled without fastmath and call the same compiled linear pass
-(``engine.config.JIT_STEP``), so the two must agree bit for bit (``benchmarks/held_soak.py`` runs
+(``engine.config.JIT_STEP``), so the two must agree bit for bit (``tools/held_soak.py`` runs
 the stability soak's random scenes both ways).
 """
 
 import numpy as np
 import pytest
 
-from benchmarks.skips import held_steps
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
-
-from .conftest import fret, pluck, scene, tap
+from engine.testing.measure import held_steps
+from engine.testing.scenes import fret, pluck, scene, tap
 
 
 def _ev(kind, time, string, **kw):

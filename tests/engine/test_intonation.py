@@ -9,11 +9,8 @@ import numpy as np
 import pytest
 
 import engine
-from benchmarks.intonation import decay_db_per_s
-from benchmarks.seating import holds, resting_share
-from engine.analysis import cents, spectrum_peak
+from engine.analysis import cents, decay_db_per_s, spectrum_peak
 from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
-from engine.guitar import QUALITY, RenderOptions, string_model
 from engine.intonation import (
     SEAT_MARGIN,
     TOLERANCE_CENTS,
@@ -23,10 +20,12 @@ from engine.intonation import (
     reference_model,
     seating_force,
 )
+from engine.options import QUALITY, RenderOptions
 from engine.scene import Fret, Scene
 from engine.string import geometry, tune
-
-from .conftest import SR, fret, pluck, scene
+from engine.testing.measure import holds, resting_share
+from engine.testing.scenes import SR, fret, pluck, scene
+from engine.voice import string_model
 
 
 def _string(preset, s, rate=SR):
@@ -47,7 +46,7 @@ def _note(s, q, steel, **opts):
     audio = engine.render(sc, options=RenderOptions(**opts))
     target = steel.strings[s - 1].frequency_hz * 2 ** (q / 12)
     f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
-    return float(cents(f, target)), decay_db_per_s(audio, f)
+    return float(cents(f, target)), decay_db_per_s(audio, SR, f)
 
 
 def _pitch(s, q, steel, **opts):
@@ -145,8 +144,8 @@ def test_the_shifts_are_the_same_in_every_process(steel):
 
 
 def _holds(s, q, force, pluck_n=1.0):
-    """benchmarks.seating's criterion: after the pluck the string rests on fret q (its rigid
-    constraint active) at no fewer than 95 % of the checks."""
+    """benchmarks/seating.py's criterion (``engine.testing.measure.holds``): after the pluck the
+    string rests on fret q (its rigid constraint active) at no fewer than 95 % of the checks."""
     return holds("steel-acoustic", "standard", s, q, force, pluck_n)
 
 
@@ -169,6 +168,7 @@ def test_a_finger_with_no_force_of_its_own_holds_the_high_frets(steel):
     assert press_force(m, steel, 19) == pytest.approx(SEAT_MARGIN * seating_force(m, steel, 19))
     assert press_force(m, steel, 5) == steel.finger.press_force_n
     assert not _holds(3, 19, steel.finger.press_force_n)
+    assert _holds(3, 19, None)  # the default force seats the string on its fret
     no_force = {"type": "fret", "time": 0.0, "string": 3, "fret": 19}
     sc = scene([no_force, pluck(3, time=0.05, force=1.0)], duration=1.0)
     audio = engine.render(sc)

@@ -10,9 +10,9 @@ import pytest
 from scipy import signal
 
 import engine
-from engine.guitar import Decimator, RenderOptions
-
-from .conftest import SR, pluck, scene
+from engine.options import RenderOptions
+from engine.output import Decimator
+from engine.testing.scenes import SR, pluck, scene
 
 
 def _pulse(t):

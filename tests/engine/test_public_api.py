@@ -3,16 +3,18 @@
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import engine
-from engine.guitar import RenderOptions, prepare
+from engine import guitar as guitar_module
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
-
-from .conftest import fret, pluck
+from engine.testing.scenes import fret, pluck
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -122,11 +124,17 @@ def test_warmup_leaves_nothing_to_compile():
     assert after == before
 
 
-def test_warmup_returns_its_time():
-    assert engine.warmup() >= 0.0
-    assert all(isinstance(s, dict) for s in engine.WARMUP_SCENES)
+def test_warmup_returns_its_time_and_its_scenes_sound():
+    """warmup() returns the seconds it spent (not a constant: positive, and no more than the wall
+    time around the call), and each of its scenes renders audible, finite audio, so that the
+    paths it compiles are the paths a real scene takes."""
+    t0 = time.perf_counter()
+    took = engine.warmup()
+    elapsed = time.perf_counter() - t0
+    assert 0.0 < took <= elapsed
     for sc in engine.WARMUP_SCENES:
-        assert np.isfinite(engine.render(sc, diagnostics=False)).all()
+        audio = engine.render(sc, diagnostics=False)
+        assert np.isfinite(audio).all() and np.max(np.abs(audio)) > 1e-6
 
 
 API_EXAMPLE = {  # the scene of ../shared/API.md
@@ -176,3 +184,25 @@ def test_a_press_that_holds_the_string_at_rest_but_not_bent_is_warned_about():
     warned = engine.scene_warnings(bent)
     assert len(warned) == 1 and warned[0].startswith("string 3: the fret at 0 s presses 3 N")
     assert prepare(bent).warnings() == warned  # the voice keeps the bent tension
+
+
+def test_render_result_carries_the_warnings_without_diagnostics_and_survives_their_failure(
+        monkeypatch, caplog):
+    """The service's workers take the warnings from ``render_result`` (no energy terms computed:
+    ``energy_error`` is None).  Warnings are advice: if working them out fails, the audio still
+    comes, without them, and the failure is logged."""
+    light_tap = {"duration": 0.2, "events": [
+        {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 0.9}]}
+    result = engine.render_result(light_tap)
+    assert result.energy_error is None
+    assert result.warnings == engine.scene_warnings(engine.parse_scene(light_tap))
+    assert len(result.warnings) == 1
+    assert engine.blocks(light_tap).warnings == result.warnings
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(guitar_module, "finger_warnings", broken)
+    failed = engine.render_result(light_tap)
+    assert failed.warnings == [] and np.array_equal(failed.audio, result.audio)
+    assert "warnings failed" in caplog.text

@@ -5,11 +5,11 @@ import time
 import numpy as np
 import pytest
 
-from benchmarks.skips import held_steps, kc_skip_pitch_shift, quiet_share
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
-
-from .conftest import fret, pluck, scene
+from engine.testing.measure import held_steps, kc_skip_pitch_shift, quiet_share
+from engine.testing.scenes import fret, pluck, scene
 
 
 # The exact comparisons below take every skip of contact work on one side (quiet steps, the
@@ -159,7 +159,8 @@ def test_quiet_steps_are_exact_in_a_strum_with_articulations():
 def test_kirchhoff_carrier_skip_moves_the_pitch_less_than_its_tolerance(string):
     """Quiet steps leave Kirchhoff-Carrier out while its tension rise is below 1e-4 T (the
     ``standard`` level): the pitch it then adds, about 866 x 1e-4 = 0.087 cents, is the bound.
-    Measured on a 2 N pluck (``benchmarks.skips.kc_skip_pitch_shift``, which prints the table)."""
+    Measured on a 2 N pluck (``engine.testing.measure.kc_skip_pitch_shift``; ``benchmarks/skips.py``
+    prints the table)."""
     shift, acted = kc_skip_pitch_shift(string, 2.0)
     assert acted  # the skip changed the render, so the bound below was tested
     assert abs(shift) < 866 * 1e-4

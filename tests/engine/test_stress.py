@@ -1,9 +1,9 @@
 """Stability stress test (issue #4): random valid scenes, stored energy bounded by the work done,
 and the auxiliary variables of the DAFx24 paper's sec. 4.7.
 
-The checks live in ``benchmarks/stability.py``, shared with the long soak ``benchmarks/soak.py``
-(minutes, 60-second scenes, thousands of cases; its summary is in docs/accuracy.md).  This file is
-the short CI run.
+The checks (``engine.testing.stability``) and the random scenes (``engine.testing.random_scenes``)
+are shared with the long soak ``benchmarks/soak.py`` (minutes, 60-second scenes, thousands of
+cases; its summary is in docs/accuracy.md).  This file is the short CI run.
 
 The reproducers at the end are the engine defects the stress test and the soak found
 (docs/accuracy.md, "Defects found"), kept as regression tests now that they are fixed.  The random
@@ -16,47 +16,26 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, assume, given, settings
-from hypothesis import strategies as st
 from pydantic import ValidationError
 
 import engine
-from benchmarks.accuracy import board_depth
-from benchmarks.stability import LIMITS, QUIET_S, PsiProbe, check, random_scene, violations
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N, MAX_TAP_VELOCITY_M_S, Scene
-
-from .conftest import fret, pluck, scene, tap
-
-
-class HypothesisDraw:
-    """benchmarks.stability's draw interface over hypothesis (so failures shrink)."""
-
-    def __init__(self, data):
-        self.data = data
-
-    def integer(self, lo: int, hi: int) -> int:
-        return self.data.draw(st.integers(lo, hi))
-
-    def real(self, lo: float, hi: float) -> float:
-        return self.data.draw(st.floats(lo, hi, allow_nan=False, allow_infinity=False))
-
-    def choice(self, seq):
-        return self.data.draw(st.sampled_from(seq))
-
-    def chance(self, p: float) -> bool:
-        return self.data.draw(st.floats(0.0, 1.0)) < p
+from engine.testing.measure import board_depth
+from engine.testing.random_scenes import scenes
+from engine.testing.scenes import fret, pluck, scene, tap
+from engine.testing.stability import LIMITS, QUIET_S, PsiProbe, check, violations
 
 
 # derandomize: CI must be reproducible; the soak (benchmarks/soak.py) explores new cases
 @settings(max_examples=100, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-@given(data=st.data())
-def test_random_valid_scenes_are_stable(data):
+@given(sc=scenes(max_duration=0.15, max_events=12, qualities=("draft", "draft", "standard")))
+def test_random_valid_scenes_are_stable(sc):
     """Any preset, any event type, extremes of every range, any sample rate: finite output, the
     energy balance, stored energy never above the initial energy plus the work done on the
     strings, and no step that creates energy."""
-    sc = random_scene(HypothesisDraw(data), max_duration=0.15, max_events=12,
-                      qualities=("draft", "draft", "standard"))
     try:
         Scene.model_validate(sc)
     except ValidationError:
@@ -82,7 +61,8 @@ def test_every_sample_rate_at_the_top_of_the_force_ranges(rate):
 
 
 def _psi_trace(sc: dict):
-    eng = prepare(Scene.model_validate({**sc, "diagnostics": True}))
+    eng = prepare(Scene.model_validate({**sc, "diagnostics": True}),
+                  RenderOptions(energy_series=True))
     probe = PsiProbe(eng.voices)
     for _ in eng.blocks(16):
         probe()

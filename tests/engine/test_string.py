@@ -11,8 +11,7 @@ from engine.guitar import prepare
 from engine.presets import PRESETS
 from engine.scene import Scene
 from engine.string import h_min, tune
-
-from .conftest import SR, pluck, scene
+from engine.testing.scenes import SR, pluck, scene
 
 CASES = [(p, s) for p in sorted(PRESETS) for s in range(1, PRESETS[p].n_strings + 1)]
 

@@ -72,7 +72,8 @@ SCENE_CASES: dict[str, tuple[dict[str, Any], str, list[str]]] = {
     "unknown wav subtype": (with_("output.subtype", "PCM_8"), "output.subtype", ["PCM_16"]),
     "normalize not a boolean": (with_("output.normalize", "maybe"), "output.normalize",
                                 ["boolean"]),
-    "tuning of the wrong length": (with_("guitar.tuning", ["E2"]), "guitar.tuning", ["6 notes"]),
+    "tuning of too many strings": (with_("guitar.tuning", ["E2"] * 13), "guitar.tuning",
+                                   ["at most 12"]),
     "not a note name": (with_("guitar.tuning", ["H9"] * 6), "guitar.tuning", ["H9"]),
     "quality unknown": (with_("quality", "ultra"), "quality", ["draft"]),
 }

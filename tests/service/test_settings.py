@@ -3,21 +3,61 @@
 from __future__ import annotations
 
 import os
+import re
+from pathlib import Path
 
 import pytest
 from pydantic import ValidationError
 
+from engine.scene import MAX_DURATION_S, MAX_EVENTS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 from service.config import Settings
 
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "service.md"
 
-def test_defaults(monkeypatch: pytest.MonkeyPatch) -> None:
+
+def _documented_defaults() -> dict[str, str]:
+    """``GUITAR_*`` -> default, from docs/service.md's settings table."""
+    out = {}
+    for line in DOCS.read_text().splitlines():
+        m = re.match(r"\| (`GUITAR_\w+`(?: / `GUITAR_\w+`)?) \| ([^|]+) \|", line)
+        if m:
+            names = re.findall(r"GUITAR_(\w+)", m.group(1))
+            for name, default in zip(names, m.group(2).split(" / "), strict=True):
+                out[name.lower()] = default.strip()
+    return out
+
+
+def test_the_documented_defaults_are_the_codes(monkeypatch: pytest.MonkeyPatch) -> None:
     for key in [k for k in os.environ if k.startswith("GUITAR_")]:
         monkeypatch.delenv(key)
     s = Settings()
+    documented = _documented_defaults()
+    assert set(documented) == set(Settings.model_fields), "a setting is missing from the docs"
+    assert documented.pop("workers") == "CPUs this process may use"
     assert s.workers == len(os.sched_getaffinity(0))
-    assert s.max_duration_s == 30.0 and s.max_events == 500 and s.max_body_bytes == 262144
-    assert (s.min_sample_rate, s.max_sample_rate) == (22050, 96000)
-    assert s.time_limit_s(2.0) == pytest.approx(10.0 + 5.0 * 2.0)
+    for name, text in documented.items():
+        value = getattr(s, name)
+        if isinstance(value, bool):
+            assert text == str(value).lower(), name
+        elif isinstance(value, int | float):
+            assert float(text) == value, name
+        else:
+            assert text == value, name
+
+
+@pytest.mark.parametrize("name,limit", [("max_duration_s", MAX_DURATION_S),
+                                        ("max_events", MAX_EVENTS),
+                                        ("max_sample_rate", SAMPLE_RATE_MAX)])
+def test_a_server_limit_may_reach_the_engines_but_not_pass_it(name: str, limit: float) -> None:
+    assert getattr(Settings(**{name: limit}), name) == limit
+    with pytest.raises(ValidationError):
+        Settings(**{name: limit + 1})
+
+
+def test_no_sample_rate_below_the_engines() -> None:
+    assert Settings(min_sample_rate=SAMPLE_RATE_MIN).min_sample_rate == SAMPLE_RATE_MIN
+    with pytest.raises(ValidationError):
+        Settings(min_sample_rate=SAMPLE_RATE_MIN - 1)
 
 
 def test_environment_overrides(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -4,16 +4,16 @@ apart."""
 import numpy as np
 
 from engine import kernels
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
-
-from ..conftest import fret, pluck, scene
+from engine.testing.scenes import fret, pluck, scene
 
 
 def _voice_args(v, nsteps=400):
     out = np.zeros((len(v.pickup_gains), nsteps))
     e = np.empty(0)
-    return (v.coefs, v.geom, v.ctl.arrays, v.state, v.step, nsteps, out, False, e, e, e)
+    return (v.coefs, v.geom, v.ctl.arrays, v.state, v.policy, v.step, nsteps, out, False, e, e, e)
 
 
 def test_type_key_tells_apart_what_typeof_tells_apart():

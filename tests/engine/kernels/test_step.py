@@ -7,7 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from ..conftest import fret, pluck, scene
+from engine.testing.scenes import fret, pluck, scene
 
 # A pluck at 0.98 L on a string of N = 9 (a D6 string on a bass scale at 22.05 kHz; the soak's
 # case 1769 found this string) lies in the last grid interval: its right-hand node is the fixed

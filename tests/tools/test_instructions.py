@@ -1,4 +1,4 @@
-"""benchmarks/instructions.py: callgrind counts the stretches between the child's markers."""
+"""tools/instructions.py: callgrind counts the stretches between the child's markers."""
 
 import os
 import shutil
@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from benchmarks.instructions import callgrind_marked
+from tools.instructions import callgrind_marked
 
 # a child that does nothing, then a loop, then the same loop twice over, between its markers
 CHILD = """

@@ -1,11 +1,11 @@
 """Instructions per second of audio, counted by valgrind: the engine's cost in a measure that does
 not move with the machine.
 
-    python -m benchmarks.instructions [--quality standard] [--seconds 1]
+    python -m tools.instructions [--quality standard] [--seconds 1]
 
 Times move between sessions by more than most changes are worth, and with the vector width of the
 machine a session gets (docs/measurements.md, "Speed"); hardware counters
-(``benchmarks.counters``) are missing on most of these machines.  This script counts the
+(``tools.counters``) are missing on most of these machines.  This script counts the
 instructions of the same renders as ``benchmarks.speed``'s per-string table (the fretted full
 model against the linear string at the same factor x, and an open string's 2 N pluck with every
 nonlinearity against the linear string), plus its open strum and fretted chord, with
@@ -36,7 +36,8 @@ import tempfile
 from pathlib import Path
 
 from benchmarks.speed import LINEAR, chord_events, fretted_events, pluck_events, strum_events
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,7 +49,8 @@ CPU_FEATURES = ("+64bit,+avx,+avx2,+bmi,+bmi2,+cmov,+cx16,+f16c,+fma,+lzcnt,+mmx
 # The child: prepare and warm every configuration, then render each with a dump marker after it.
 CHILD = r"""
 import json, os, sys
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 configs = json.loads(sys.argv[1])
 def engine_of(c, duration):

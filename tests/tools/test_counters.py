@@ -1,8 +1,8 @@
-"""benchmarks/counters.py: the hardware counters the speed tables print next to the time."""
+"""tools/counters.py: the hardware counters the speed tables print next to the time."""
 
 import pytest
 
-from benchmarks.counters import Counters, available
+from tools.counters import Counters, available
 
 pytestmark = pytest.mark.skipif(not available(), reason="this machine gives no hardware counters")
 

@@ -1,6 +1,6 @@
 """Where a string's time step spends its time, by kernel helper: a sampling profile.
 
-    python -m benchmarks.profile_step [--string 4] [--fret 5] [--no-kc] [--seconds 10]
+    python -m tools.profile_step [--string 4] [--fret 5] [--no-kc] [--seconds 10]
                                       [--event cpu-clock|cycles|instructions]
 
 Every helper the step loop calls is inlined into one of the loops that ``kernels.step_block`` runs
@@ -49,7 +49,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from engine.guitar import RenderOptions
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -61,7 +61,7 @@ RUNS = ("_advance", "_quiet_run", "_held_run", "_pass_kc", "_pass")
 # The child: compile, report where step_block's machine code lives, then render until killed.
 CHILD = r"""
 import json, sys
-from benchmarks.profile_step import RUNS, scene_and_options
+from tools.profile_step import RUNS, scene_and_options
 from engine import kernels
 from engine.guitar import prepare
 string, fret, kc, ready = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
@@ -99,7 +99,7 @@ while True:
 # the one inside ``_ray_blocked`` (``kernels.system``), which solves without the new fret.
 SIZES = r"""
 import collections, json, sys
-from benchmarks.profile_step import scene_and_options
+from tools.profile_step import scene_and_options
 from engine.kernels import runs, step, system
 from engine.guitar import prepare
 string, fret, kc = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"

@@ -1,6 +1,6 @@
 """Held steps against the general path on the stability soak's random scenes.
 
-    python -m benchmarks.held_soak [--seed 0] [--cases 300 | --cases 42,102,181]
+    python -m tools.held_soak [--seed 0] [--cases 300 | --cases 42,102,181]
 
 Each short case of ``benchmarks.soak`` (the same generator and numbering) is rendered with held
 steps (``kernels._held_run``) and without (``RenderOptions(held_steps=False)``); the table gives
@@ -13,7 +13,7 @@ contact one step earlier, from where the renders parted.  ``GUITAR_NUMBA_FASTMAT
 numba cache of its own, so that kernels compiled with the flags are not loaded instead) compiles
 the pass without fastmath too:
 
-    GUITAR_NUMBA_FASTMATH=0 NUMBA_CACHE_DIR=/tmp/nofm python -m benchmarks.held_soak --cases 42,102
+    GUITAR_NUMBA_FASTMATH=0 NUMBA_CACHE_DIR=/tmp/nofm python -m tools.held_soak --cases 42,102
 """
 
 from __future__ import annotations
@@ -24,11 +24,12 @@ import time
 import numpy as np
 from pydantic import ValidationError
 
-from benchmarks.skips import held_steps
 from benchmarks.soak import make_case
 from engine.config import FASTMATH
-from engine.guitar import RenderOptions, prepare
+from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
+from engine.testing.measure import held_steps
 
 
 def compare(seed: int, i: int) -> tuple[float, int, int, float] | None:

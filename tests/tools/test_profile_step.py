@@ -1,6 +1,6 @@
-"""benchmarks/profile_step.py: samples are counted by the compiled function whose code holds them."""
+"""tools/profile_step.py: samples are counted by the compiled function whose code holds them."""
 
-from benchmarks.profile_step import _by_function
+from tools.profile_step import _by_function
 
 
 def test_each_sample_goes_to_the_function_whose_code_holds_it():
@@ -19,7 +19,7 @@ def test_the_line_table_build_has_every_kernel_in_one_module(tmp_path):
     import subprocess
     import sys
 
-    from benchmarks.profile_step import ROOT, _helpers, _one_file_engine
+    from tools.profile_step import ROOT, _helpers, _one_file_engine
 
     src = _one_file_engine(str(tmp_path))
     probe = ("import json, engine.kernels as k; "

@@ -1,6 +1,6 @@
 """Two versions of the engine timed against each other, interleaved, on this machine.
 
-    python -m benchmarks.compare REV_A REV_B [--rounds 3] [--repeat 5] [--seconds 1]
+    python -m tools.compare REV_A REV_B [--rounds 3] [--repeat 5] [--seconds 1]
 
 Timings on this shared machine drift by more than most kernel changes are worth, between sessions
 and within one (``benchmarks.speed``'s notes), so one run of ``benchmarks.speed`` before a change
@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CHILD = r"""
 import json, sys
 from benchmarks.speed import best_time
-from engine.guitar import RenderOptions
+from engine import RenderOptions
 seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
 scenes = json.loads(sys.argv[3])
 out = {}

@@ -1,0 +1,67 @@
+"""What a scene asks for that may not sound as a player would mean it.
+
+Today: a finger pressing with less than ``intonation.SEAT_MARGIN`` times the force at which its
+string rests on the fret at all (``benchmarks/seating.py`` measured that such notes do not hold:
+the finger pushes the string down without stopping it, and the note sounds dead or buzzes).  The
+messages go back to the user with the audio (``X-Render-Warnings``, ``RenderResult.warnings``).
+"""
+
+from __future__ import annotations
+
+from .controls import FINGER_EVENTS, events_on, frets_pressed
+from .intonation import SEAT_MARGIN, seating_force
+from .options import QUALITY, RenderOptions
+from .presets import Preset
+from .scene import Scene, Slide
+from .string import StringModel
+from .voice import string_model
+
+
+def finger_warnings(preset: Preset, string: int, events: list, model: StringModel,
+                     tension_ratio: float) -> list[tuple[float, int, str]]:
+    """``scene_warnings`` for one string's ``events``, on its grid ``model`` at ``tension_ratio``
+    times its tuned tension: (time, string, message) of each finger pressing too lightly."""
+    out = []
+    for e in events:
+        if e.type not in FINGER_EVENTS or e.force is None:
+            continue
+        frets = frets_pressed(e)
+        if frets.start < 1:
+            continue  # fret 0 lifts the finger
+        rests = max(seating_force(model, preset, f, tension_ratio) for f in frets)
+        if e.force < SEAT_MARGIN * rests:
+            kind = e.type.replace("_", "-")
+            where = (f"frets {e.from_fret}-{e.to_fret}" if isinstance(e, Slide)
+                     else f"fret {e.fret}")
+            out.append((e.time, string, f"string {string}: the {kind} at {e.time:g} s presses "
+                                        f"{e.force:g} N; holding the string on {where} takes "
+                                        f"about {SEAT_MARGIN * rests:.1f} N (it rests on the "
+                                        f"fret from {rests:.2f} N when still): the note may "
+                                        "sound dead or buzz"))
+    return out
+
+
+def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[str]:
+    """What the scene asks for that may not sound as a player would mean it: a finger pressing
+    with less than ``SEAT_MARGIN`` times the force at which its string rests on the fret at all
+    (``intonation.seating_force``, on the string's grid as ``prepare`` builds it, at the highest
+    tension the scene's bends give the string; a slide: the largest over the frets it crosses).
+    Below that force rendered notes were found not to hold (``benchmarks/seating.py``): the finger
+    pushes the string down without stopping it, and the note sounds dead or buzzes.  Fingers with
+    no force of their own press hard enough (``intonation.press_force``).  In time order.  A
+    prepared scene has the same list without building the grids again: ``Guitar.warnings``.
+    With ``tracks``, each track's list in turn, each warning prefixed by its track."""
+    opts = options or RenderOptions()
+    q = opts.quality or QUALITY[scene.quality]
+    texts = []
+    for t, single in enumerate(scene.track_scenes()):
+        preset = single.preset()
+        out = []
+        for i in range(1, preset.n_strings + 1):
+            events = events_on(single, preset.n_strings, i)
+            if any(e.type in FINGER_EVENTS and e.force is not None for e in events):
+                _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q, opts)
+                out += finger_warnings(preset, i, events, model, ratio)
+        label = scene.track_label(t)
+        texts += [f"{label}: {text}" if label else text for _, _, text in sorted(out)]
+    return texts

@@ -1,0 +1,108 @@
+"""The engine's front door: a scene in, audio out.
+
+``render`` validates the scene (``engine.scene``), prepares its tracks (``engine.mix.prepare``: a
+guitar per track, ``engine.guitar.prepare``: a voice per string that needs simulating) and writes
+the mix's blocks into the output array; ``blocks`` yields them as they are computed, at the fixed
+gain a stream needs, and holds nothing but the current block (a song of any length streams in
+bounded memory).  Every front end (Python, the HTTP
+service's workers, a command line) goes through these two functions.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .mix import Mix, prepare
+from .options import RenderOptions
+from .output import FIXED_GAIN, convolve_ir, to_output_scale
+from .scene import Scene, parse_scene
+
+log = logging.getLogger("engine")
+
+
+@dataclass
+class RenderResult:
+    audio: np.ndarray  # float64, (frames,) or (frames, 2), scaled as the scene's output asks
+    # largest relative energy-balance deviation over the strings (sec. 6.1); None when the render
+    # ran without diagnostics (the energy terms were not computed)
+    energy_error: float | None
+    sample_rate: int
+    seconds: float  # wall time of the simulation
+    oversample: dict[int, int]  # string -> internal oversampling factor (largest over tracks)
+    warnings: list[str] = field(default_factory=list)  # ``engine.playability.scene_warnings``
+
+
+def render(scene: Scene | dict, diagnostics: bool | None = None,
+           options: RenderOptions | None = None, impulse_response: np.ndarray | None = None):
+    """Render a scene. Returns the audio array, shape (frames,) for mono or (frames, 2) for
+    stereo, or a ``RenderResult`` when diagnostics are asked for (by the argument or by the
+    scene's ``diagnostics`` field when the argument is omitted).
+
+    ``impulse_response``: a body or room response (samples at the scene's rate) convolved with the
+    output instead of the built-in body (scipy FFT convolution).
+    """
+    sc = parse_scene(scene)
+    diag = sc.diagnostics if diagnostics is None else diagnostics
+    if diag != sc.diagnostics:
+        sc = sc.model_copy(update={"diagnostics": diag})
+    result = render_result(sc, options, impulse_response)
+    return result if diag else result.audio
+
+
+def render_result(scene: Scene | dict, options: RenderOptions | None = None,
+                  impulse_response: np.ndarray | None = None) -> RenderResult:
+    """Render a scene and return the audio with what is known of the render: its warnings, wall
+    time and oversampling, and the energy balance when the scene asks for diagnostics."""
+    sc = parse_scene(scene)
+    t0 = time.perf_counter()
+    if impulse_response is not None:
+        sc = sc.model_copy(update={"output": sc.output.model_copy(update={"body": "none"})})
+    mix = prepare(sc, options)
+    # the blocks are written into the output as they come: no more than the output is held
+    vel = np.zeros((mix.frames, 2) if sc.output.channels == 2 else mix.frames)
+    for blk in mix.blocks():
+        vel[mix.frame - len(blk):mix.frame] = blk
+    if impulse_response is not None:
+        vel = convolve_ir(vel, impulse_response)
+    seconds = time.perf_counter() - t0
+    audio = to_output_scale(vel, sc.output.normalize, in_place=True)
+    return RenderResult(audio, mix.energy_error() if sc.diagnostics else None, sc.sample_rate,
+                        seconds, mix.oversample(), advice(mix))
+
+
+def advice(mix: Mix) -> list[str]:
+    """``mix.warnings()``, which are advice: if working them out fails, the audio still comes,
+    without them (the failure is logged)."""
+    try:
+        return mix.warnings()
+    except Exception:
+        log.exception("working out the scene's warnings failed; the render goes without them")
+        return []
+
+
+class Blocks:
+    """The scene's audio block by block at the fixed gain (what a stream can send: it cannot know
+    the peak in advance); concatenated, equal to ``render`` with ``normalize: false``.
+    ``warnings`` are known once the tracks are prepared, before the first block."""
+
+    def __init__(self, scene: Scene | dict, block_frames: int = 4096,
+                 options: RenderOptions | None = None):
+        mix = prepare(parse_scene(scene), options)
+        self.warnings: list[str] = advice(mix)
+        self._blocks = mix.blocks(block_frames)
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> np.ndarray:
+        return next(self._blocks) * FIXED_GAIN
+
+
+def blocks(scene: Scene | dict, block_frames: int = 4096,
+           options: RenderOptions | None = None) -> Blocks:
+    """An iterable of the scene's audio blocks at the fixed gain (``Blocks``)."""
+    return Blocks(scene, block_frames, options)

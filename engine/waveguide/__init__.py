@@ -20,8 +20,8 @@ Modules, one per object, each opening with the equations it implements:
 * ``kernel``     the numba sample loop;
 * ``voice``      one string's state across blocks and the changes of its stop.
 
-Output: the string velocity at the pickup positions (m/s) summed over strings, at the scene's
-sample rate (no oversampling: a waveguide at X = c T is exact for the ideal string), so
+Output: the string velocity at the pickup positions (m/s) summed over strings (panned and through
+the body response as the finite-difference guitar does), at the scene's sample rate (no oversampling: a waveguide at X = c T is exact for the ideal string), so
 ``engine.FIXED_GAIN`` and the body response apply unchanged.  One difference of timing: the
 finite-difference output sample m is the velocity at (m + 1/2) / rate, this one's at
 (m - 1/2) / rate (a backward difference), one sample apart.
@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..output import Body, default_pan, pan_gains
 from ..presets import Preset
 from ..scene import Scene
 from .controls import timeline
@@ -47,7 +48,7 @@ from .fingering import INTONATION
 from .string import physical
 from .voice import WaveguideVoice
 
-__all__ = ["WaveguideOptions", "WaveguideInstrument", "prepare"]
+__all__ = ["WaveguideOptions", "WaveguideInstrument", "options_from", "prepare", "render"]
 
 
 @dataclass
@@ -66,24 +67,42 @@ class WaveguideOptions:
 
 @dataclass
 class WaveguideInstrument:
+    """A scene's guitar prepared for the waveguide: the same face as ``engine.guitar.Guitar``
+    (``blocks``, ``render_frames``, ``voices``, ``energy_error``, ``warnings``), so that the
+    mixer (``engine.mix``) treats both models alike."""
+
     scene: Scene
     preset: Preset
     voices: list[WaveguideVoice]
     frames: int
     options: WaveguideOptions
+    channels: int = 1
+    pans: dict = field(default_factory=dict)
+    body: Body | None = None
     frame: int = 0
     _warnings: list[str] = field(default_factory=list)
 
     def blocks(self, block_frames: int | None = None):
-        """Yield the pickup velocity (m/s, mono) block by block at the scene's rate."""
+        """Yield the pickup velocity (m/s) block by block at the scene's rate, each string panned
+        (stereo) and through the body as ``engine.guitar.Guitar`` does; with ``body`` None and one
+        channel, the strings' plain sum."""
         bf = block_frames or self.options.block_frames
         while self.frame < self.frames:
             m = min(bf, self.frames - self.frame)
-            mix = np.zeros(m)
-            for v in self.voices:
-                mix += v.run(m)
-            self.frame += m
-            yield mix
+            yield self.render_frames(m)
+
+    def render_frames(self, m: int) -> np.ndarray:
+        mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
+        for v in self.voices:
+            y = v.run(m)
+            if self.channels == 2:
+                gl, gr = self.pans[v.index]
+                mix[:, 0] += gl * y
+                mix[:, 1] += gr * y
+            else:
+                mix += y
+        self.frame += m
+        return self.body(mix) if self.body is not None else mix
 
     def energy_error(self) -> float:
         """0.0: the waveguide has no discrete energy balance to report.  Its terminations hold
@@ -149,13 +168,28 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
                                      opts.dispersion, opts.collisions, opts.glide,
                                      opts.skip_decayed, opts.decay_velocity))
     frames = int(round(scene.duration * scene.sample_rate))
-    inst = WaveguideInstrument(scene, preset, voices, frames, opts)
+    pan = out.pan or default_pan(preset.n_strings)
+    body_name = out.body or preset.body
+    body = Body(body_name, rate, out.channels) if body_name != "none" else None
+    inst = WaveguideInstrument(scene, preset, voices, frames, opts, out.channels,
+                               {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
     inst._warnings = [w for _, w in sorted(warnings)]
     return inst
 
 
+def options_from(render_options) -> WaveguideOptions:
+    """The waveguide's options for an ``engine.RenderOptions`` (what the two models share)."""
+    if render_options is None:
+        return WaveguideOptions()
+    return WaveguideOptions(skip_silent=render_options.skip_silent,
+                            skip_decayed=render_options.skip_decayed,
+                            decay_velocity=render_options.decay_velocity,
+                            block_frames=render_options.block_frames)
+
+
 def render(scene: Scene, options: WaveguideOptions | None = None) -> np.ndarray:
-    """The whole scene's pickup velocity (m/s, mono): the blocks concatenated."""
+    """The whole scene's pickup velocity (m/s; through the body and panned as the scene's output
+    says): the blocks concatenated."""
     inst = prepare(scene, options)
     parts = list(inst.blocks())
     return np.concatenate(parts) if parts else np.zeros(0)

@@ -27,9 +27,9 @@ Every event type of the scene maps to the model:
 * ``bend``, ``vibrato``: the pitch ratio, piecewise linear in time (a bend rises to 2^(s/12)
   over ``duration``, holds until ``release``, returns over ``duration``; a vibrato is sampled 32
   times a cycle), applied to the loop's period (``string``).
-* ``damp`` (when the scene has it): a damper at the fretting hand's usual place (a finger laid on
-  the string a fifth of the way up the neck, R = ``DAMP_DAMPING`` sqrt(T mu)) and one at the
-  bridge, until the string's next event: the note dies in tens of milliseconds.
+* ``damp``: the finite-difference model's dampers (``engine.controls.DAMP_*``: any finger lifts,
+  and the relaxed hand's fingertips rest on the string from where the fretting finger was
+  towards the bridge) as harmonics junctions, until the string's next event.
 
 Any other event type raises ValueError naming it.
 """
@@ -41,13 +41,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..controls import PLUCK_STYLES, expand, finger_x_m
+from ..controls import (
+    DAMP_DAMPING,
+    DAMP_FINGERS,
+    DAMP_OPEN_FRET,
+    DAMP_SPACING_M,
+    PLUCK_STYLES,
+    expand,
+    finger_x_m,
+)
 from ..presets import Preset
 
 HARMONIC_DAMPING = 2.0  # x sqrt(T mu), as engine.controls
 PALM_DAMPING = 0.8
 PALM_WIDTH_M = 0.02
-DAMP_DAMPING = 4.0
 # a finger resting on the string without stopping it: its pad's damping, spread over the pad.  The
 # finger's mass sits behind the soft pad and barely moves with the string at audio frequencies;
 # a rigid mass (or a damper far above the string's impedance) would reflect the waves and leave a
@@ -256,10 +263,20 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
 
 def _damp(tl: Timeline, e, on: int, events: list, preset: Preset, length: float,
           impedance: float, step) -> None:
-    """A ``damp``: dampers on the string until its next event (after this one)."""
-    later = [step(x.time) for x in events if x.time > e.time]
+    """A ``damp``, as the finite-difference model has it (``engine.controls.DAMP_*``): every
+    finger on the string lifts (relaxes), and the relaxed hand's fingertips rest on it from where
+    the fretting finger was (fret ``DAMP_OPEN_FRET``'s place on an open string) towards the
+    bridge, ``DAMP_FINGERS`` dampers of R = ``DAMP_DAMPING`` sqrt(T mu) ``DAMP_SPACING_M`` apart,
+    until the string's next event."""
+    held = [f for f in tl.fingers if f.on <= on < f.rel]
+    fret = held[-1].fret if held else DAMP_OPEN_FRET
+    x = finger_x_m(preset, fret)
+    for f in held:
+        f.rel = on
+    later = [step(x_.time) for x_ in events if x_.time > e.time]
     off = min(later) if later else NEVER
-    for x in (0.2 * length, 0.95 * length):
-        tl.slots.append(Slot(on, off, 0, x, 0.0, 0.0, DAMP_DAMPING * impedance, 0.0, 0.0,
+    for k in range(DAMP_FINGERS):
+        xk = min(x + k * DAMP_SPACING_M, 0.9 * length)
+        tl.slots.append(Slot(on, off, 0, xk, 0.0, 0.0, DAMP_DAMPING * impedance, 0.0, 0.0,
                              "split"))
     tl.last_step = max(tl.last_step, on if off == NEVER else off)

@@ -51,6 +51,7 @@ class WaveguideVoice:
     decay_velocity: float = 1e-7
     step: int = 0
     stopped: bool = False
+    oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
 
     def __post_init__(self):

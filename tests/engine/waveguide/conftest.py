@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import engine
-from benchmarks.scenes import SR, fret, pluck, scene  # noqa: F401  (the tests' builders)
 from engine import waveguide
 from engine.analysis import cents, spectrum_peak
+from engine.testing.scenes import SR, fret, pluck, scene  # noqa: F401  (the tests' builders)
 
 
 def render(events: list, duration: float, options=None, **extra) -> np.ndarray:

@@ -133,3 +133,13 @@ EVERY_EVENT = [
 def test_every_event_type_maps():
     a = render(EVERY_EVENT, 0.2)
     assert np.isfinite(a).all() and np.abs(a).max() > 0
+
+
+def test_damp_stops_the_note_within_tens_of_milliseconds():
+    """``damp`` on an open and on a fretted string: 60 dB down within 50 ms."""
+    for evs in ([pluck(1, force=2.0), {"type": "damp", "time": 0.3, "string": 1}],
+                [fret(3, 5), pluck(3, force=2.0), {"type": "damp", "time": 0.3}]):
+        a = render(evs, 0.5)
+        before = level_db(a[int(0.28 * SR):int(0.29 * SR)])
+        after = level_db(a[int(0.35 * SR):int(0.36 * SR)])
+        assert after <= before - 60.0, (before, after)

@@ -25,7 +25,7 @@ import pytest
 from pydantic import ValidationError
 
 import engine
-from benchmarks.stability import NumpyDraw, random_scene
+from engine.testing.random_scenes import NumpyDraw, random_scene
 from engine.waveguide import WaveguideOptions, prepare
 from engine.waveguide import voice as wg_voice
 from engine.waveguide.pluck import LEAK_HZ, MAX_MASS_RATIO, _msd, max_damping

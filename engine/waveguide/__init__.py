@@ -21,8 +21,9 @@ Modules, one per object, each opening with the equations it implements:
 * ``voice``      one string's state across blocks and the changes of its stop.
 
 Output: the string velocity at the pickup positions (m/s) summed over strings (panned and through
-the body response as the finite-difference guitar does), at the scene's sample rate (no oversampling: a waveguide at X = c T is exact for the ideal string), so
-``engine.FIXED_GAIN`` and the body response apply unchanged.  One difference of timing: the
+the body response as the finite-difference guitar does), at the scene's sample rate (no
+oversampling: a waveguide at X = c T is exact for the ideal string), so ``engine.FIXED_GAIN``
+and the body response apply unchanged.  One difference of timing: the
 finite-difference output sample m is the velocity at (m + 1/2) / rate, this one's at
 (m - 1/2) / rate (a backward difference), one sample apart.
 
@@ -37,6 +38,7 @@ transients of pressing and lifting a finger.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -116,23 +118,24 @@ class WaveguideInstrument:
         return list(self._warnings)
 
 
+@lru_cache(maxsize=4096)
+def _seating_force(preset: Preset, string: int, rate: float, fret: int) -> float:
+    from ..intonation import seating_force
+    from ..string import tune
+
+    spec = preset.strings[string - 1]
+    return seating_force(tune(spec, preset.string_length_m(string), rate), preset, fret)
+
+
 def _seating(preset: Preset, string: int, rate: float):
     """seated(fret, force): does a finger pressing ``force`` N rest the string on ``fret``?  The
     pressed string's statics (``engine.intonation.seating_force``, on the finite-difference grid
-    of the scene's rate, so both models agree on which notes are dead)."""
-    cache: dict[int, float] = {}
+    of the scene's rate, so both models agree on which notes are dead; cached per process)."""
 
     def seated(fret: int, force: float | None) -> bool:
         if force is None or fret < 1:
             return True  # a finger with no force of its own presses hard enough
-        if fret not in cache:
-            from ..intonation import seating_force
-            from ..string import tune
-
-            spec = preset.strings[string - 1]
-            model = tune(spec, preset.string_length_m(string), rate)
-            cache[fret] = seating_force(model, preset, fret)
-        return force >= cache[fret]
+        return force >= _seating_force(preset, string, rate, fret)
 
     return seated
 

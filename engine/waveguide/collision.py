@@ -37,8 +37,16 @@ sum of a right-going wave now within B points to its left and a left-going one w
 its right (eq. (7)), so |u(n, m + j)| <= max |u+| over [n - B, n] + max |u-| over [n, n + B],
 taken over segments of B points; where that window reaches a termination the reflected waves are
 bounded by the rails' largest value times the termination's gain bound (the l1 norm of its
-impulse response).  Junctions that inject (a pluck, a finger, a damper) within B points of a
-candidate make it checked for the whole stretch.  Only the points whose bound reaches their
+impulse response).  That bound is loose near a fixed end, where the two waves are large and
+cancel, which is where a stopped string's next frets are.  So a second one bounds the displacement
+by the energy, which the passive string cannot gain: u(x) = integral of u_x from either end, so
+|u(x)|^2 <= x (L - x) / L * integral u_x^2 dx (Cauchy-Schwarz on both sides), and
+T / 2 * integral u_x^2 <= E = T * integral (u+_x^2 + u-_x^2) dx, the rails' energy, so
+|u(x)|^2 <= 2 x (L - x) / L * sum (du+-)^2 over the grid (x, L in grid steps from the
+termination), times ``ENERGY_SAFETY`` for the energy in transit inside the termination's filters.
+It holds while nothing drives the string: junctions that inject (a pluck, a finger, a damper,
+until their leak has gone) anywhere on it switch it off, and within B points of a candidate make
+the candidate checked for the whole stretch.  Only the points whose bound reaches their
 obstacle are tested, sample by sample; the rest cost nothing until the next bound.
 """
 
@@ -50,7 +58,7 @@ from ..config import JIT_INLINE
 
 FRET_RESTITUTION = 0.5
 BOARD_RESTITUTION = 0.05
-REACH_EVERY = 32  # samples between two bounds (B), and the segment length of the bound
+REACH_EVERY = 128  # samples between two bounds (B), and the segment length of the bound
 
 
 @njit(**JIT_INLINE)

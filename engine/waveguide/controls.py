@@ -12,8 +12,8 @@ Every event type of the scene maps to the model:
   the bridge.  ``fret``/``tap``/``slide`` lift the finger already on the string, ``hammer_on``
   keeps it (two fingers), ``fret: 0`` and ``release`` lift.  A lighter finger touches without
   stopping: the light fingering junction (the finger pad's damping, ``DEAD_DAMPING``, spread
-  over ``FINGER_PAD_M``; a dead note).  ``tap`` and ``hammer_on`` strike: the string is released
-  onto the crown from its position (its displacement relative to the new rest line is kept).
+  over ``FINGER_PAD_M``; a dead note).  ``tap`` and ``hammer_on`` strike: the string is carried
+  onto the crown at the finger's ``velocity`` (``voice``).
   A ``slide`` moves the finger from ``from_fret`` to ``to_fret`` at constant speed; the string
   is stopped by the first crown ahead of the finger, so the pitch steps through the frets it
   crosses (a glissando, as on the finite-difference model's string).
@@ -73,7 +73,7 @@ class Finger:
     rel: int
     seated: bool
     force: float
-    strike: bool  # a tap or hammer-on
+    strike: float  # a tap's or hammer-on's speed towards the fretboard (m/s); 0: pressed
     slide: tuple | None = None  # (start step, end step, x0, x1) of the finger's glide
     slot: int | None = None  # the light fingering junction of a finger that does not stop
 
@@ -104,7 +104,8 @@ class Timeline:
     last_step: int = 0
 
     def stops(self, preset: Preset) -> list[tuple[int, int | None, bool]]:
-        """(step, stopping fret or None, strike) at every change of the stopping fret."""
+        """(step, stopping fret or None, strike speed: m/s, 0 for none) at every change of the
+        stopping fret."""
         points = {0}
         for f in self.fingers:
             if not f.seated:
@@ -120,13 +121,13 @@ class Timeline:
                 points.add(me)
         out: list[tuple[int, int | None, bool]] = []
         for step in sorted(p for p in points if p < NEVER):
-            best, strike = None, False
+            best, strike = None, 0.0
             for f in self.fingers:
                 if not f.seated or not f.on <= step < f.rel:
                     continue
                 q = _stopping_fret(preset, f, step)
                 if q is not None and (best is None or q > best):
-                    best, strike = q, f.strike and f.on == step
+                    best, strike = q, f.strike if f.on == step else 0.0
             if not out or out[-1][1] != best:
                 out.append((step, best, strike))
         return out
@@ -199,7 +200,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
                 tl.last_step = max(tl.last_step, me)
             start = e.from_fret if kind == "slide" else fret
             tl.fingers.append(Finger(start, on, rel, ok, e.force if e.force is not None else 0.0,
-                                     kind in ("tap", "hammer_on"), slide))
+                                     e.velocity if kind in ("tap", "hammer_on") else 0.0, slide))
             if kind == "slide":
                 tl.fingers[-1].fret = fret
             if not ok:  # a finger touching without stopping: the light fingering junction

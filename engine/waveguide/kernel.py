@@ -3,7 +3,9 @@
 Per sample, in this order (all at time step s; a point's values at s depend only on step s - 1):
 
 1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch
-   ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide, P = fs / f;
+   ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide (``glide``,
+   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples and linear
+   between;
    the termination's fractional delay D = P - 2 (N - n_t) - tau, and the termination walks one
    grid step when D leaves [1, 3) (``string``; at most one step a sample, which the slow pitch
    changes never exceed);
@@ -13,8 +15,10 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes),
    and a pluck's force as a velocity blow (``pluck._blow``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
-6. every ``GLIDE_EVERY`` samples the elongation (``glide``);
-7. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``.
+6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``.
+
+Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
+kernel: numba's cache only watches this file, so after changing one of them, touch this file.
 
 Rails: u+(n, s) = R[(s - n) & mask], u-(n, s) = Mb[(s + n) & mask] (power-of-two ring buffers);
 the offsets s - n and s + n grow with s, so nothing is copied as the waves travel.
@@ -38,6 +42,7 @@ F_LOSS, F_GLIDE, F_D, F_GSTEP, F_PICKUP = 0, 1, 2, 3, 4
 # cfg: the current termination and string constants
 C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE = range(10)
 HISTORY = 64  # samples of the u- history at the termination that the reach bound covers
+ENERGY_SAFETY = 2.0  # the energy bound's allowance for what the termination's filters hold
 
 
 @njit(**JIT)
@@ -45,7 +50,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
               pb_step, pb_f,
               js_on, js_off, js_len, js_rel, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst,
               x_k0,
-              col_n, col_ref, col_cr, col_prev, col_live, seg_p, seg_m,
+              col_n, col_ref, col_cr, col_prev, col_live, col_list, seg_p, seg_m,
               pk_n, pk_w, pk_g):
     mask = R.shape[0] - 1
     fs = cfg[C_FS]
@@ -63,20 +68,33 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     nslot = js_on.shape[0]
     ncol = col_n.shape[0]
     npk = pk_n.shape[0]
-    npb = pb_step.shape[0]
     n_t = ist[I_NT]
     ib = ist[I_PB]
+    nlive = 0
+    period = 0.0
+    dper = 0.0
     for i in range(nsteps):
         s = step0 + i
-        # 1. the period and the termination's place
-        while ib + 1 < npb and pb_step[ib + 1] <= s:
-            ib += 1
-        if ib + 1 < npb and s >= pb_step[ib]:
-            a = (s - pb_step[ib]) / (pb_step[ib + 1] - pb_step[ib])
-            ratio = pb_f[ib] + a * (pb_f[ib + 1] - pb_f[ib])
+        # 1. the period, exact at the first step and every GLIDE_EVERY steps, linear in between
+        # (the bends' breakpoints and the glide move it over milliseconds: no division per
+        # sample), and the termination's place
+        phase = s % GLIDE_EVERY
+        if i == 0 or phase == 0:
+            if glide_k > 0.0 and phase == 0:
+                # between n_t + 1 and N - 1, whose values at s are final (the termination and
+                # the bridge write theirs below), and u(N) = 0
+                g_new = math.sqrt(1.0 + glide_k * _slope_sum(R, Mb, mask, s, n_t + 1, N - 1))
+            else:
+                g_new = fst[F_GLIDE]
+            ratio, ib = _ratio_at(s, pb_step, pb_f, ib)
+            if i == 0:
+                period = fs / (fbase * ratio * fst[F_GLIDE])
+            ahead = GLIDE_EVERY - phase
+            r_next, _ = _ratio_at(s + ahead, pb_step, pb_f, ib)
+            dper = (fs / (fbase * r_next * g_new) - period) / ahead
+            fst[F_GLIDE] = g_new
         else:
-            ratio = pb_f[ib]
-        period = fs / (fbase * ratio * fst[F_GLIDE])
+            period += dper
         d = period - 2.0 * (N - n_t) - tau
         walk = 0
         if d < 1.0 and n_t < N - 1:
@@ -144,23 +162,17 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         # 5. collisions
         if ncol > 0:
             if i % REACH_EVERY == 0:
-                _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live,
-                       seg_p, seg_m, js_on, js_off, js_rel, js_idx, js_np, tail)
-            for c in range(ncol):
-                if col_live[c] == 0:
-                    continue
+                nlive = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live,
+                               col_list, seg_p, seg_m, js_on, js_off, js_rel, js_idx, js_np,
+                               js_f, js_mp, js_kappa)
+            for q in range(nlive):
+                c = col_list[q]
                 n = col_n[c]
                 if n <= n_t or n >= N:
                     continue
                 col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
                                        fs)
-        # 6. tension modulation, its pitch ratio ramped over the GLIDE_EVERY samples to the next
-        if glide_k > 0.0:
-            if s % GLIDE_EVERY == 0:
-                rise = glide_k * _slope_sum(R, Mb, mask, s, n_t, N)
-                fst[F_GSTEP] = (math.sqrt(1.0 + rise) - fst[F_GLIDE]) / GLIDE_EVERY
-            fst[F_GLIDE] += fst[F_GSTEP]
-        # 7. pickups
+        # 6. pickups
         acc = 0.0
         for p in range(npk):
             n = pk_n[p]
@@ -180,6 +192,19 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         if not math.isfinite(fst[F_PICKUP + p]):
             finite = False
     return finite
+
+
+@njit(**JIT_INLINE)
+def _ratio_at(t, pb_step, pb_f, ib):
+    """The pitch ratio at step t (linear between breakpoints) and the breakpoint index, searched
+    forwards from ib."""
+    npb = pb_step.shape[0]
+    while ib + 1 < npb and pb_step[ib + 1] <= t:
+        ib += 1
+    if ib + 1 < npb and t >= pb_step[ib]:
+        a = (t - pb_step[ib]) / (pb_step[ib + 1] - pb_step[ib])
+        return pb_f[ib] + a * (pb_f[ib + 1] - pb_f[ib]), ib
+    return pb_f[ib], ib
 
 
 @njit(**JIT_INLINE)
@@ -207,10 +232,12 @@ def _terminate(Mb, mask, at, d, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx, 
 
 
 @njit(**JIT)
-def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg_p, seg_m,
-           js_on, js_off, js_rel, js_idx, js_np, tail):
+def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
+           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
-    (``collision``): col_live[c] = 1 for those, 0 for the rest."""
+    (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
+    in col_list; returns how many there are."""
+    nlive = 0
     B = REACH_EVERY
     nseg = seg_p.shape[0]
     for k in range(nseg):
@@ -218,6 +245,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg
         seg_m[k] = 0.0
     maxp = 0.0
     maxm = 0.0
+    slope = 0.0  # sum over the sounding grid of the rails' squared steps: E / T * X
     lo = n_t - HISTORY
     for n in range(lo, N + 1):
         a = abs(R[(s - n) & mask])
@@ -226,6 +254,9 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg
             maxm = b
         if n < n_t:
             continue  # the u- history that the termination still reads
+        dp = R[(s - n) & mask] - R[(s - n - 1) & mask]
+        dm = Mb[(s + n) & mask] - Mb[(s + n - 1) & mask]
+        slope += dp * dp + dm * dm
         k = n // B
         if a > seg_p[k]:
             seg_p[k] = a
@@ -233,6 +264,13 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg
             seg_m[k] = b
         if a > maxp:
             maxp = a
+    span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
+    forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B
+    for j in range(js_on.shape[0]):
+        if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
+            for q in range(js_np[j]):
+                if js_f[j, q] != 0.0 or js_mp[j, q] != 0.0 or js_kappa[j, q] != 0.0:
+                    forced = True
     for c in range(col_n.shape[0]):
         n = col_n[c]
         if n <= n_t or n >= N:
@@ -249,13 +287,23 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, seg
             bm = seg_m[k + 1]
         if n + B >= N:
             bm = max(bm, maxp)
-        live = (bp + bm) * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
+        bound = bp + bm
+        if not forced:  # the energy bound, tighter near the ends (``collision``)
+            d = n - n_t + 1.0
+            e2 = ENERGY_SAFETY * 2.0 * slope * d * (span - d) / span
+            if e2 < bound * bound:
+                bound = math.sqrt(e2)
+        live = bound * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
         if not live:
             for j in range(js_on.shape[0]):
-                if js_on[j] < s + B and js_off[j] + js_rel[j] + tail > s:
+                if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
                     for q in range(js_np[j]):
                         if abs(js_idx[j, q] - n) <= B:
                             live = True
         if live and col_live[c] == 0:
             col_prev[c] = R[(s - n) & mask] + Mb[(s + n) & mask]
         col_live[c] = 1 if live else 0
+        if live:
+            col_list[nlive] = c
+            nlive += 1
+    return nlive

@@ -59,6 +59,7 @@ from ..string import LN1000, loss_coefficients
 MAX_SECTIONS = 4  # dispersion allpass sections at most
 D_LOW, D_HIGH = 1.0, 3.0  # the fractional delay's range (samples)
 DISPERSION_PARTIALS = 10  # partials 2..10 fitted (those below 0.4 fs)
+SECTION_GAIN = 0.05  # cents^2 (summed over the partials) that an extra allpass section must save
 
 
 @dataclass(frozen=True)
@@ -169,7 +170,9 @@ def dispersion_filter(inharmonicity: float, period: float, room: float) -> tuple
 
         res = minimize_scalar(err, bounds=(-0.95, 0.0), method="bounded",
                               options={"xatol": 1e-5})
-        if res.fun < best[2] - 1e-9:
+        # more sections cost a multiply-add chain per sample each: take one more only where it
+        # brings the partials' squared error (cents^2, summed) down by more than SECTION_GAIN
+        if res.fun < best[2] - SECTION_GAIN:
             best = (float(res.x), sections, float(res.fun))
     if best[1] == 0:
         return 0.0, 0

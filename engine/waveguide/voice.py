@@ -12,7 +12,12 @@ At a change of the stopping fret (``controls.Timeline.stops``):
   relative to the rest line changes by rest_old - rest_new, added half to each rail (a balanced
   displacement with no velocity, E&E eq. (12)), so the absolute displacement is continuous;
 * when it moves towards the bridge, the cut-off part is simply no longer read; a striking finger
-  (``tap``, ``hammer_on``) also releases the string from the old rest line onto the new one.
+  (``tap``, ``hammer_on``) carries the string from the old rest line onto the new one.
+
+Either move takes the time the finger needs at its speed (a tap's ``velocity``,
+``LIFT_SPEED_M_S`` for a lift) to cover the depth of the fret's crown, at most ``RAMP_MAX_S``:
+done at once, the corner at the crown would leave at any speed (a 1.5 m/s tap had peaked at
+38 m/s at the pickup).
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..kernels import entry_point
 from ..presets import Preset
 from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
@@ -32,6 +38,8 @@ from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
 RELEASE_S = 0.002  # a contact (palm, harmonic touch, light finger) lets go over 2 ms
+LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
+RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
 
 
 @dataclass
@@ -53,6 +61,8 @@ class WaveguideVoice:
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
+    _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
+    ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
 
     def __post_init__(self):
         spec = self.preset.strings[self.index - 1]
@@ -173,6 +183,7 @@ class WaveguideVoice:
         self.col_ref = self.col_abs.copy()
         self.col_prev = np.zeros(len(self.col_n))
         self.col_live = np.zeros(len(self.col_n), np.int64)
+        self.col_list = np.zeros(len(self.col_n), np.int64)
 
     # -- configurations ---------------------------------------------------------------------------
     def loop(self, fret: int | None) -> Loop:
@@ -224,7 +235,7 @@ class WaveguideVoice:
         stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
         return np.array([rest_height(self.preset, self.phys.length_m, stop_x, v) for v in x])
 
-    def _change(self, fret: int | None, strike: bool) -> None:
+    def _change(self, fret: int | None, strike: float) -> None:
         old = self.stop_fret
         if fret == old:
             return
@@ -242,16 +253,38 @@ class WaveguideVoice:
                 self.R[(s - i) & mask] = 0.0
                 self.Mb[(s + i) & mask] = 0.0
         self.ist[K.I_NT] = nt
-        if release or strike:
+        if release:  # the filters' memory belongs to the loop that was cut
+            self.fst[K.F_LOSS] = 0.0
+            self.dsx[:] = 0.0
+            self.dsy[:] = 0.0
+        if release or strike > 0.0:
+            # the string moves from the old rest line to the new one at the finger's speed: the
+            # displacement from the rest line changes by rest_old - rest_new over that time, in
+            # equal steps with no velocity of their own (balanced, E&E eq. (12))
             idx = np.arange(nt + 1, self.n)
             x = self.x_of(idx)
-            delta = 0.5 * (self._rest(old, x) - self._rest(fret, x))
-            self.R[(s - idx) & mask] += delta
-            self.Mb[(s + idx) & mask] += delta
-            if release:  # the filters' memory belongs to the loop that was cut
-                self.fst[K.F_LOSS] = 0.0
-                self.dsx[:] = 0.0
-                self.dsy[:] = 0.0
+            delta = self._rest(old, x) - self._rest(fret, x)
+            speed = strike if strike > 0.0 else LIFT_SPEED_M_S
+            depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
+            steps = int(min(max(round(depth / speed * self.rate), 1), RAMP_MAX_S * self.rate))
+            jumps = []
+            for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
+                xp = self.x_of(np.array([n_p, n_p + 1]))
+                j = self._rest(old, xp) - self._rest(fret, xp)
+                jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
+            self.ramp = (idx, delta / steps, np.array(jumps) / steps, steps)
+
+    def _ramp_step(self) -> None:
+        """One step of the move onto the new rest line (``_change``).  The pickups read the
+        displacement from the rest line: their last reading moves with it, so that they see the
+        string's motion, not the change of frame."""
+        idx, d, jumps, left = self.ramp
+        mask = len(self.R) - 1
+        s = self.step
+        self.R[(s - idx) & mask] += 0.5 * d
+        self.Mb[(s + idx) & mask] += 0.5 * d
+        self.fst[K.F_PICKUP:] += jumps
+        self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
 
     # -- running ----------------------------------------------------------------------------------
     def run(self, nsteps: int) -> np.ndarray:
@@ -270,15 +303,18 @@ class WaveguideVoice:
             nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
                    else NEVER)
             m = int(min(nsteps - done, nxt - self.step))
-            ok = K.run_block(self.R, self.Mb, self.ist, self.fst, self.dsx, self.dsy, self.step, m,
-                             out[done:done + m], self.cfg, self.disp_m, self.n,
-                             self.pb_step, self.pb_f,
-                             self.js_on, self.js_off, self.js_len, self.js_rel, self.js_idx,
-                             self.js_np,
-                             self.js_f, self.js_mp, self.js_rho, self.js_kappa, self.jst,
-                             self.x_k0, self.col_n, self.col_ref, self.col_cr, self.col_prev,
-                             self.col_live, self.seg_p, self.seg_m, self.pk_n, self.pk_w,
-                             self.gains)
+            if self.ramp is not None:  # a finger carrying the string: one step at a time
+                self._ramp_step()
+                m = 1
+            args = (self.R, self.Mb, self.ist, self.fst, self.dsx, self.dsy, self.step, m,
+                    out[done:done + m], self.cfg, self.disp_m, self.n, self.pb_step, self.pb_f,
+                    self.js_on, self.js_off, self.js_len, self.js_rel, self.js_idx, self.js_np,
+                    self.js_f, self.js_mp, self.js_rho, self.js_kappa, self.jst, self.x_k0,
+                    self.col_n, self.col_ref, self.col_cr, self.col_prev, self.col_live,
+                    self.col_list, self.seg_p, self.seg_m, self.pk_n, self.pk_w, self.gains)
+            if self._run is None:  # the argument types are the same in every call
+                self._run = entry_point(K.run_block, args)
+            ok = self._run(*args)
             if not ok:
                 raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
             self.step += m

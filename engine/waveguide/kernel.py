@@ -66,6 +66,11 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
+    slot_lo = 1 << 62
+    slot_hi = -(1 << 62)
+    for j in range(nslot):
+        slot_lo = min(slot_lo, js_on[j])
+        slot_hi = max(slot_hi, js_off[j] + js_rel[j] + tail)
     ncol = col_n.shape[0]
     npk = pk_n.shape[0]
     n_t = ist[I_NT]
@@ -73,6 +78,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     nlive = 0
     period = 0.0
     dper = 0.0
+    d_taps = -1.0
+    j0, h0, h1, h2, h3 = _taps(1.5)
     for i in range(nsteps):
         s = step0 + i
         # 1. the period, exact at the first step and every GLIDE_EVERY steps, linear in between
@@ -92,6 +99,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             ahead = GLIDE_EVERY - phase
             r_next, _ = _ratio_at(s + ahead, pb_step, pb_f, ib)
             dper = (fs / (fbase * r_next * g_new) - period) / ahead
+            if abs(dper) * ahead < 1e-5:  # under 1e-5 samples a stretch: hold the taps
+                dper = 0.0
             fst[F_GLIDE] = g_new
         else:
             period += dper
@@ -109,24 +118,27 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             d = 1.0
         if d > dcap:
             d = dcap
-        fst[F_D] = d
+        if d != d_taps:
+            j0, h0, h1, h2, h3 = _taps(d)
+            d_taps = d
         # 2. the termination at n_t.  A step towards the bridge leaves the loop two samples
         # shorter on the grid and D two longer: the sample the termination would write now is
         # the one it wrote a step ago (now one point further on), and its input the one it read
         # then, so it does nothing this step.  A step towards the nut writes two samples, the
         # old place's and the new one's, from two consecutive inputs.
         if walk == 0:
-            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, d, loss_g, loss_a, disp_a,
-                                             disp_m, refl, fst, dsx, dsy)
+            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_g,
+                                             loss_a, disp_a, disp_m, refl, fst, dsx, dsy)
         elif walk == -1:
-            R[(s - n_t - 1) & mask] = _terminate(Mb, mask, s + n_t - 1, d, loss_g, loss_a,
-                                                 disp_a, disp_m, refl, fst, dsx, dsy)
-            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, d, loss_g, loss_a, disp_a,
-                                             disp_m, refl, fst, dsx, dsy)
+            R[(s - n_t - 1) & mask] = _terminate(Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3,
+                                                 loss_g, loss_a, disp_a, disp_m, refl, fst, dsx,
+                                                 dsy)
+            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_g,
+                                             loss_a, disp_a, disp_m, refl, fst, dsx, dsy)
         # 3. the bridge
         Mb[(s + N) & mask] = -R[(s - N) & mask]
-        # 4. junctions
-        for j in range(nslot):
+        # 4. junctions (none before the first onset or after the last one is gone)
+        for j in range(nslot if slot_lo <= s < slot_hi else 0):
             if s < js_on[j] or s >= js_off[j] + js_rel[j] + tail:
                 continue
             t = s - js_on[j]
@@ -187,6 +199,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         out[i] = acc
     ist[I_NT] = n_t
     ist[I_PB] = ib
+    fst[F_D] = d_taps
     finite = True
     for p in range(npk):
         if not math.isfinite(fst[F_PICKUP + p]):
@@ -208,16 +221,20 @@ def _ratio_at(t, pb_step, pb_f, ib):
 
 
 @njit(**JIT_INLINE)
-def _terminate(Mb, mask, at, d, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx, dsy):
-    """The termination's output: Lagrange read of the u- history at delay d before index ``at``
-    (taps on at - j0 .. at - j0 - 3, j0 = floor(d) - 1, fraction in [1, 2)), the loss one-pole,
-    the dispersion allpasses, the reflection."""
+def _taps(d):
+    """Third-order Lagrange taps for a delay d >= 1 read as j0 + x, j0 = floor(d) - 1, x in
+    [1, 2): (j0, h0, h1, h2, h3), the taps on samples j0 .. j0 + 3 back."""
     j0 = int(d) - 1
     x = d - j0
-    h0 = -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0
-    h1 = x * (x - 2.0) * (x - 3.0) / 2.0
-    h2 = -x * (x - 1.0) * (x - 3.0) / 2.0
-    h3 = x * (x - 1.0) * (x - 2.0) / 6.0
+    return (j0, -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0, x * (x - 2.0) * (x - 3.0) / 2.0,
+            -x * (x - 1.0) * (x - 3.0) / 2.0, x * (x - 1.0) * (x - 2.0) / 6.0)
+
+
+@njit(**JIT_INLINE)
+def _terminate(Mb, mask, at, j0, h0, h1, h2, h3, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx,
+               dsy):
+    """The termination's output: Lagrange read of the u- history before index ``at`` (taps
+    ``_taps``), the loss one-pole, the dispersion allpasses, the reflection."""
     base = at - j0
     y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
          + h3 * Mb[(base - 3) & mask])

@@ -9,8 +9,8 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq
 IS_ROOT = [ "$$(id -u)" = 0 ]
 
-.PHONY: install venv-support serve test test-data lint browser docker-check docker-tools bench \
-        bench-service clean
+.PHONY: install venv-support serve test test-data lint browser docker-check docker-tools bench-tools bench \
+        bench-service bench-live clean
 
 install: $(VENV)/.installed
 
@@ -69,12 +69,24 @@ docker-tools:
 docker-check: docker-tools
 	scripts/docker-check
 
-bench: install
+# Debian's FluidSynth and General MIDI SoundFont: benchmarks/scores.py renders the same notes with
+# them to compare speed and what a pitch tracker hears.  Installed when we are root and missing;
+# without them that comparison is left out of the tables.
+bench-tools:
+	@{ command -v fluidsynth >/dev/null 2>&1 && [ -e /usr/share/sounds/sf2/FluidR3_GM.sf2 ]; } || \
+	  { $(IS_ROOT) && $(APT_INSTALL) fluidsynth fluid-soundfont-gm >/dev/null ; } || \
+	  echo "fluidsynth is not installed: benchmarks/scores.py will leave FluidSynth out"
+
+bench: install test-data bench-tools
 	$(BIN)/python -m benchmarks.run_all
 
 # Latency, time to first byte and throughput of the service over real HTTP (uvicorn on a free port).
 bench-service: install
 	$(BIN)/python benchmarks/service_bench.py
+
+# Live play over a websocket: latency, underruns, sessions per core (about four minutes).
+bench-live: install
+	$(BIN)/python benchmarks/live.py
 
 clean:
 	rm -rf $(VENV) .numba_cache .pytest_cache .ruff_cache

@@ -6,7 +6,8 @@
 
 Also: ``blocks`` (the same audio block by block, at the fixed gain), ``frame_count`` (its length,
 before rendering), ``tuned_tension`` (a preset string's tension) and ``warmup`` (load or compile
-every numba kernel once per process).
+every numba kernel once per process); ``Session`` plays a guitar live, event by event, block by
+block (``engine.live``).
 
 Layers, each knowing only those below it (docs/architecture.md draws them):
 
@@ -14,6 +15,7 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     effect_specs the effects a track may use, in units                 (pydantic)
     scene        the validated input: tracks, events, output, quality, limits (pydantic; knows
                  presets, effect_specs)
+    live_events  live play messages: a session's opening and its events without time (schema)
     kernels      the numba time-step loop of one string
     string       one string's grid, coefficients, tuning and geometry (knows kernels, presets)
     controls     events -> one string's control arrays                 (knows scene, kernels)
@@ -25,6 +27,7 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     guitar       the voices of one instrument, block by block
     effects      a track's effects chain (pedalboard), state kept across blocks
     mix          a scene of tracks: a guitar per track, panned, through effects, mixed
+    live         an open-ended session: events pushed as played, blocks pulled (``Session``)
     rendering    the public functions: scene in, audio out
     precompile   compile or load every kernel once per process (``warmup``)
 
@@ -59,9 +62,14 @@ _LAZY = {
     "tuned_tension": "string",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
-    "ScoreError": "score",
-    "scene_labels": "score",
+    # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)
     "score_to_scene": "score",
+    "scene_labels": "score",
+    "ScoreError": "score",
+    "Session": "live",
+    "LiveError": "live_events",
+    "parse_live_open": "live_events",
+    "parse_live_event": "live_events",
 }
 
 __all__ = ["PRESETS", "Preset", "Scene", "frame_count", "get_preset", "parse_scene", *_LAZY]

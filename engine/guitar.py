@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import partial
+from functools import cache, partial
 
 import numpy as np
 
@@ -131,23 +131,35 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
         coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
                                kc_s_skip=kc_skip_level(model, kc_tol))
-        impedance = math.sqrt(model.tension_n * model.rho_a)
         calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
-        shifts = (fret_shifts(model, preset, stopped_frets(events))
+        frets = range(1, preset.frets + 1) if opts.live_grid else stopped_frets(events)
+        shifts = (fret_shifts(model, preset, frets)
                   if calibrate and fret_mode == FRET_RIGID else None)
-        ctl = string_controls(events, preset, i, model.h, model.n, rate * os_, impedance,
-                              partial(tension_ratio_for_cents, model), shifts,
-                              partial(press_force, model, preset, tension_ratio=rmax))
-        margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
-                  if opts.skip_contacts else 1.0)
-        geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                        fretboard=opts.fretboard, fret_shifts=shifts)
+        # the default pressing force of each fret (a small static solve), once per string
+        press = cache(partial(press_force, model, preset, tension_ratio=rmax))
+        build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, press,
+                        pickups, fret_mode, opts)
+        ctl, geom = build(events)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, policy,
-                            rmax, opts.energy_series))
+                            rmax, opts.energy_series, rebuild=build))
     frames = frame_count(scene)
     pan = out.pan or default_pan(nstr)
     body_name = out.body or preset.body
     body = Body(body_name, rate, out.channels) if body_name != "none" else None
     return Guitar(scene, preset, voices, opts, frames, out.channels,
                   {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
+
+
+def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, press,
+                           pickups: list[float], fret_mode: int, opts: RenderOptions, events: list):
+    """String ``i``'s control arrays for ``events`` (those on it, sorted) on the grid of ``model``
+    at the internal ``rate``, and its geometry with the contact margin those events need."""
+    impedance = math.sqrt(model.tension_n * model.rho_a)
+    ctl = string_controls(events, preset, i, model.h, model.n, rate, impedance,
+                          partial(tension_ratio_for_cents, model), shifts, press)
+    margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
+              if opts.skip_contacts else 1.0)
+    geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
+                    fretboard=opts.fretboard, fret_shifts=shifts)
+    return ctl, geom

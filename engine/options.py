@@ -67,6 +67,11 @@ class RenderOptions:
     # them); off, a render with diagnostics keeps only running figures, in memory that does not
     # grow with the scene's duration
     energy_series: bool = False
+    # build every string on the grid a live session needs (``engine.live``), which cannot know its
+    # events in advance: as fingered (the finer contact grid), for the largest bend the schema
+    # allows (``scene.MAX_BEND_SEMITONES``, the highest tension and stability bound), with every
+    # fret calibrated.  An offline render with this option gives a session's samples
+    live_grid: bool = False
 
 
 GAMMA_RULES = {"joint": GAMMA_JOINT, "own": GAMMA_OWN, "paper": GAMMA_PAPER, "none": GAMMA_NONE}

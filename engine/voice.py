@@ -22,6 +22,7 @@ from .controls import FINGER_EVENTS, NEVER, StringControls, max_tension_ratio
 from .options import Quality, RenderOptions
 from .output import Decimator
 from .presets import Preset
+from .scene import MAX_BEND_SEMITONES
 from .string import StringModel, dispersion_cents, tension_ratio_for_cents, tune
 
 SLEEP_MIN_STEPS = 4096  # a string sleeps only through a longer stillness (not worth it below)
@@ -44,18 +45,20 @@ def string_model(preset: Preset, string: int, events: list, rate: float, q: Qual
                  opts: RenderOptions) -> tuple[int, StringModel, float]:
     """The internal oversampling factor, the tuned string on its grid for ``events`` (those on
     ``string``), built for the highest tension the scene's bends reach, and that tension over the
-    tuned one."""
+    tuned one.  ``opts.live_grid``: for any events (fingered, the largest bend allowed)."""
     spec = preset.strings[string - 1]
     length = preset.string_length_m(string)
     comp = opts.compensate_dispersion
     probe = tune(spec, length, rate, q.grid_scale, comp)
     rmax = max_tension_ratio(events, partial(tension_ratio_for_cents, probe))
+    if opts.live_grid:  # any event may come: the largest bend the schema allows
+        rmax = max(rmax, tension_ratio_for_cents(probe, 100.0 * MAX_BEND_SEMITONES))
     if opts.oversample:
         return (opts.oversample,
                 tune(spec, length, rate * opts.oversample, q.grid_scale, comp, rmax), rmax)
     # The contact resolution (max_h_m) is what keeps fretted notes in tune; a string that no
     # finger touches in this scene needs only the dispersion criterion.
-    fingered = any(e.type in FINGER_EVENTS for e in events)
+    fingered = opts.live_grid or any(e.type in FINGER_EVENTS for e in events)
     q_string = q if fingered else replace(q, max_h_m=math.inf)
     return (*oversample_for(spec, length, rate, q_string, rmax, comp), rmax)
 
@@ -78,6 +81,9 @@ class Voice:
     policy: kernels.Policy
     tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
     energy_series: bool = False  # keep the per-step series (else running figures only)
+    # events (on this string, sorted) -> (controls, geometry) on this grid (``guitar.prepare``):
+    # a live session recompiles them as events arrive
+    rebuild: object = field(default=None, repr=False)
     step: int = 0
     stopped: bool = False
     asleep_until: int = 0  # no step before this is computed (the string is still, nothing acts)

@@ -16,10 +16,11 @@ from fastapi.staticfiles import StaticFiles
 
 from . import errors
 from .config import Settings
+from .live import LivePool
 from .logs import setup_logging
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .pool import WorkerPool
-from .routes import health, pages, presets, render
+from .routes import health, live, pages, presets, render, score
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
 timed events: pluck, fret, tap and the articulations hammer-on, pull-off, slide, bend, vibrato,
@@ -36,9 +37,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[dict]:
         pool = WorkerPool(settings)
         await pool.start()  # workers warm up in the background; /health tells when they are
+        live_pool = LivePool(settings)  # WS /live: processes of their own (service/live.py)
+        await live_pool.start()
         try:
-            yield {"pool": pool, "settings": settings}
+            yield {"pool": pool, "settings": settings, "live": live_pool}
         finally:
+            await live_pool.close()
             await pool.close()
 
     app = FastAPI(title="Guitar synthesis service", version="1.0.0", description=DESCRIPTION,
@@ -47,7 +51,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
     app.add_middleware(RequestContextMiddleware)
     errors.install(app, settings.retry_after_s)
-    for router in (pages.router, health.router, presets.router, render.router):
+    for router in (pages.router, health.router, presets.router, render.router, score.router,
+                   score.labels_router, live.router):
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=pages.STATIC_DIR), name="static")
     return app

@@ -44,12 +44,38 @@ class Settings(BaseSettings):
     max_body_bytes: int = Field(256 * 1024, ge=1024)
     max_duration_s: float = Field(30.0, gt=0.0, le=MAX_DURATION_S)
     max_events: int = Field(500, ge=1, le=MAX_EVENTS)
+    # A score plays many more notes per second than a hand-written scene: its own event limit
+    # (POST /render/score), still bounded by duration and the render's time limit.
+    max_score_events: int = Field(5000, ge=1, le=MAX_EVENTS)
+    score_import_time_limit_s: float = Field(
+        10.0, gt=0.0, description="wall time a worker may spend importing one score file")
     min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 
     # Streaming
     stream_block_frames: int = Field(4096, ge=256, le=1 << 20,
                                      description="frames per streamed block")
+
+    # Live play (WS /live): sessions run in processes of their own (service/live.py)
+    live_workers: int = Field(1, ge=0, le=16,
+                              description="live-session worker processes (0: WS /live refused)")
+    live_prestart: bool = Field(False, description="start the live workers with the server (default: "
+                                                   "on the first WS /live session)")
+    live_start_timeout_s: float = Field(180.0, gt=0.0, description="how long a first session "
+                                        "waits for a live worker to warm up")
+    max_live_sessions: int = Field(4, ge=0, le=1000,
+                                   description="live sessions open at once; more are refused")
+    live_idle_timeout_s: float = Field(60.0, gt=0.0,
+                                       description="a session with no message for this long is "
+                                                   "closed")
+    live_lead_ms: float = Field(20.0, ge=0.0, le=1000.0,
+                                description="how far ahead of real time blocks are computed and "
+                                            "sent")
+    live_nice: int = Field(0, ge=-20, le=19,
+                           description="niceness of the live workers (negative: ahead of renders "
+                                       "and other load; needs CAP_SYS_NICE, else ignored)")
+    live_max_events_per_s: int = Field(200, ge=1, description="events a session may send per "
+                                                              "second; more are refused")
 
     # Logging
     log_level: str = Field("INFO", description="level of the service's JSON logs")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 
+from ..scene import MAX_DURATION_S, MAX_TRACKS
 from .common import MAX_SCORE_BYTES, ScoreError
 from .labels import scene_labels, scene_notes
 
@@ -143,8 +144,11 @@ def score_to_scene(source, **options) -> ScoreScene:
                                                               if options.get("tracks") else ""))
     if options.get("sample_rate"):
         scene["sample_rate"] = int(options["sample_rate"])
-    if scene["duration"] > 3600.0:
-        raise ScoreError(f"score plays for {scene['duration']:.0f} s; the limit is 3600 s")
+    if scene["duration"] > MAX_DURATION_S and max_s is None:
+        raise ScoreError(f"score plays for {scene['duration']:.0f} s; a scene plays at most "
+                         f"{MAX_DURATION_S:.0f} s (options.max_seconds renders the start)")
+    if len(scene["tracks"]) > MAX_TRACKS:
+        scene, planned = _keep_busiest_tracks(scene, planned, warnings)
     names = [t["name"] for t in scene["tracks"]]
     notes = [p.report(names) for p in planned]
     if max_s is not None:
@@ -157,3 +161,22 @@ def score_to_scene(source, **options) -> ScoreScene:
     out.notes = sorted(notes, key=lambda n: (n["time"], n["track"], n["string"]))
     out.format = fmt
     return out
+
+
+def _keep_busiest_tracks(scene: dict, planned: list, warnings: list[str]) -> tuple[dict, list]:
+    """A scene holds at most ``MAX_TRACKS`` instruments: keep the tracks with the most notes (in
+    the score's order) and name each one left out in the warnings."""
+    counts = [0] * len(scene["tracks"])
+    for p in planned:
+        counts[p.track] += 1
+    ranked = sorted(range(len(counts)), key=lambda i: (-counts[i], i))
+    keep = sorted(ranked[:MAX_TRACKS])
+    for i in sorted(ranked[MAX_TRACKS:]):
+        warnings.append(f"track '{scene['tracks'][i]['name']}' ({i + 1}) left out: a scene holds "
+                        f"at most {MAX_TRACKS} tracks, and it has fewer notes ({counts[i]}) than "
+                        "the tracks kept")
+    index = {old: new for new, old in enumerate(keep)}
+    kept = [p for p in planned if p.track in index]
+    for p in kept:
+        p.track = index[p.track]
+    return {**scene, "tracks": [scene["tracks"][i] for i in keep]}, kept

@@ -15,3 +15,9 @@ router = APIRouter(tags=["demo"])
 @router.get("/", include_in_schema=False)
 async def index() -> FileResponse:
     return FileResponse(STATIC_DIR / "index.html", media_type="text/html")
+
+
+@router.get("/play", include_in_schema=False)
+async def play() -> FileResponse:
+    """The live-play page: a fretboard, the keyboard and Web MIDI over WS /live."""
+    return FileResponse(STATIC_DIR / "live.html", media_type="text/html")

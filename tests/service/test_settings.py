@@ -69,7 +69,7 @@ def test_environment_overrides(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 @pytest.mark.parametrize("env,value", [
-    ("GUITAR_WORKERS", "0"), ("GUITAR_MAX_DURATION_S", "500"), ("GUITAR_MAX_SAMPLE_RATE", "192000"),
+    ("GUITAR_WORKERS", "0"), ("GUITAR_MAX_DURATION_S", "5000"), ("GUITAR_MAX_SAMPLE_RATE", "192000"),
     ("GUITAR_MP_CONTEXT", "fork"), ("GUITAR_MAX_EVENTS", "many"),
 ])
 def test_bad_settings_are_refused(monkeypatch: pytest.MonkeyPatch, env: str, value: str) -> None:

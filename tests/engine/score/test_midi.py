@@ -7,12 +7,14 @@ from __future__ import annotations
 import bisect
 import io
 import os
+import re
 import warnings
 
 import mido
 import pretty_midi
 import pytest
 
+from engine.scene import parse_scene
 from engine.score import fingering, scene_notes, score_to_scene
 from engine.score.common import preset_tuning
 
@@ -43,6 +45,9 @@ def test_midi_file_becomes_scene_with_matching_labels(path):
     src = [n for inst in _pm(path).instruments if not inst.is_drum for n in inst.notes]
     moved = sum(1 for w in scene.warnings if "outside the instrument's range" in w)
     dropped = sum(1 for w in scene.warnings if "left out (no string" in w)
+    # tracks beyond a scene's 16, left out with their notes (the warning counts those it had)
+    dropped += sum(int(m.group(1)) for w in scene.warnings
+                   if (m := re.search(r"at most \d+ tracks, and it has fewer notes \((\d+)\)", w)))
     assert len(labels) == len(src) - dropped
     times = sorted((n["time"], n["pitch"]) for n in labels)
     keys = [t for t, _ in times]
@@ -181,3 +186,31 @@ def test_tempo_scale_and_max_seconds():
     c = score_to_scene(data, max_seconds=1.0)
     assert c["duration"] == 1.0 and all(e["time"] < 1.0 for e in c["tracks"][0]["events"])
     assert len(c.notes) == 2
+
+
+def test_a_score_of_more_tracks_than_a_scene_holds_keeps_the_busiest():
+    """A MIDI file of 20 parts (20 tracks on the 15 pitched channels): the scene keeps the 16
+    with the most notes, in the score's order, and the warnings name the four left out."""
+    channels = [c for c in range(16) if c != 9]  # channel 10 (9) is percussion
+    from engine.scene import MAX_TRACKS
+
+    mid = mido.MidiFile()
+    for part in range(20):
+        tr = mido.MidiTrack()
+        mid.tracks.append(tr)
+        tr.append(mido.Message("program_change", program=25, channel=channels[part % 15], time=0))
+        for k in range(1 + part):  # part p plays p + 1 notes: the first four are the quietest
+            tr.append(mido.Message("note_on", note=52 + k % 12, velocity=80, channel=channels[part % 15],
+                                   time=0 if k == 0 else 240))
+            tr.append(mido.Message("note_off", note=52 + k % 12, velocity=0, channel=channels[part % 15],
+                                   time=200))
+    buf = io.BytesIO()
+    mid.save(file=buf)
+    scene = score_to_scene(buf.getvalue())
+    assert len(scene["tracks"]) == MAX_TRACKS
+    left_out = [w for w in scene.warnings if "left out: a scene holds at most" in w]
+    assert len(left_out) == 4
+    assert len(parse_scene(scene).tracks) == MAX_TRACKS  # the engine takes it
+    kept = {t["name"] for t in scene["tracks"]}
+    assert {n["track_name"] for n in scene.notes} == kept
+    assert len(scene.notes) == sum(range(5, 21))  # the notes of the 16 busiest parts

@@ -37,3 +37,32 @@ def test_midi_scores_render(name, seconds):
     scene["quality"] = "draft"
     audio = engine.render(scene)
     assert np.all(np.isfinite(audio)) and np.max(np.abs(audio)) > 0
+
+
+EXCERPT_S = 3.0
+
+
+def _renderable(collecting: bool = True) -> list[str]:
+    """Every corpus file that becomes a scene (GP files without notes and the one PyGuitarPro
+    cannot parse are refused by the importer, which test_gp_corpus checks)."""
+    return [*corpus("gp", "*.gp[345]", collecting), *corpus("midi", "*.mid", collecting)]
+
+
+@pytest.mark.parametrize("path", _renderable(), ids=os.path.basename)
+def test_every_corpus_score_renders_an_excerpt(path):
+    """The first seconds of every score render without an exception or a non-finite sample, and
+    sound wherever the excerpt attacks a string (the excerpt is short to keep the suite fast; the
+    whole scores render in ``benchmarks/scores.py``)."""
+    from engine.score import ScoreError
+
+    try:
+        scene = score_to_scene(path, max_seconds=EXCERPT_S)
+    except ScoreError:
+        return  # refused as test_gp_corpus expects (no notes, or unparseable)
+    scene["quality"] = "draft"
+    audio = engine.render(scene)
+    assert audio.shape[0] == round(scene["duration"] * scene.get("sample_rate", 44100))
+    assert np.all(np.isfinite(audio))
+    attacks = {"pluck", "strum", "tap", "hammer_on", "pull_off"}
+    if any(e["type"] in attacks for t in scene["tracks"] for e in t["events"]):
+        assert np.max(np.abs(audio)) > 0

@@ -1,0 +1,253 @@
+"""Live sessions (``WS /live``) run in a small pool of processes of their own.
+
+Why not the render workers: a render holds its worker for seconds, and a live session must get its
+next block within milliseconds, every few milliseconds, for as long as it is played.  Sharing would
+let one stall the other either way.  So ``GUITAR_LIVE_WORKERS`` processes (default 1) each host
+several sessions (``service.live_worker``), and the render workers stay as they are.  Sessions go
+to the least loaded live worker; at most ``GUITAR_MAX_LIVE_SESSIONS`` are open at once (more are
+refused: ``LiveBusy``).  The live workers start with the first session (which waits for them to warm
+up), not with the server: a server that only renders never pays for them (a warm worker holds the
+engine's compiled kernels, hundreds of MB), and their warm-up does not take CPU from the render
+workers' start.  ``GUITAR_LIVE_PRESTART`` starts them with the server instead.  A live worker that
+dies ends its sessions (their sockets are closed with 1011) and is replaced, as a render worker is.
+
+Threads and the loop, as in ``service.pool``: a reader thread per worker hands every message to the
+event loop; all state here is touched on the loop only.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import multiprocessing as mp
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import live_worker
+from .config import Settings
+
+log = logging.getLogger("service.live")
+
+
+class LiveBusy(Exception):
+    pass
+
+
+class LiveUnavailable(Exception):
+    pass
+
+
+@dataclass
+class LiveSession:
+    id: int
+    worker: _LiveWorker
+    messages: asyncio.Queue = field(default_factory=asyncio.Queue)
+    closed: bool = False
+
+
+class _LiveWorker:
+    def __init__(self, pool: LivePool, ctx: Any, number: int):
+        self.pool = pool
+        self.number = number
+        parent_conn, child_conn = ctx.Pipe(duplex=True)
+        self.proc = ctx.Process(
+            target=live_worker.main,
+            args=(child_conn, pool.settings.warmup, pool.settings.live_lead_ms / 1000.0,
+                  pool.settings.live_nice),
+            name=f"live-worker-{number}", daemon=True)
+        self.proc.start()
+        child_conn.close()
+        self.conn = parent_conn
+        self.started = time.monotonic()
+        self.ready = False
+        self.alive = True
+        self.sessions: dict[int, LiveSession] = {}
+        self._send_lock = threading.Lock()
+        self.thread = threading.Thread(target=self._read, name=f"{self.proc.name}-reader",
+                                       daemon=True)
+        self.thread.start()
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid or 0
+
+    def _read(self) -> None:
+        loop = self.pool.loop
+        while True:
+            try:
+                msg = self.conn.recv()
+            except (EOFError, OSError):
+                break
+            try:
+                loop.call_soon_threadsafe(self.pool._on_message, self, msg)
+            except RuntimeError:
+                return
+        self.proc.join()
+        try:
+            loop.call_soon_threadsafe(self.pool._on_exit, self, self.proc.exitcode)
+        except RuntimeError:
+            pass
+
+    def send(self, msg: Any) -> None:
+        with self._send_lock:
+            self.conn.send(msg)
+
+
+class LivePool:
+    """The live-session worker processes and the sessions open on them."""
+
+    def __init__(self, settings: Settings):
+        self.settings = settings
+        self.size = settings.live_workers
+        self.limit = settings.max_live_sessions
+        self.loop: asyncio.AbstractEventLoop
+        self._ctx = mp.get_context(settings.mp_context)
+        self._workers: list[_LiveWorker] = []
+        self._numbers = itertools.count(1)
+        self._ids = itertools.count(1)
+        self._closing = False
+        self._started = False
+        self._opening = 0  # sessions waiting for a live worker to warm up
+        self._ready_event: asyncio.Event
+        self.replaced = 0
+
+    async def start(self) -> None:
+        self.loop = asyncio.get_running_loop()
+        self._ready_event = asyncio.Event()
+        if self.settings.live_prestart:
+            self._start_workers()
+
+    def _start_workers(self) -> None:
+        if not self._started:
+            self._started = True
+            for _ in range(self.size):
+                self._spawn()
+
+    def _spawn(self) -> None:
+        w = _LiveWorker(self, self._ctx, next(self._numbers))
+        self._workers.append(w)
+        log.info("live worker started", extra={"fields": {"worker": w.number, "pid": w.pid}})
+
+    async def close(self, timeout_s: float = 5.0) -> None:
+        self._closing = True
+        for w in self._workers:
+            try:
+                w.send(None)
+            except OSError:
+                pass
+        deadline = time.monotonic() + timeout_s
+        for w in list(self._workers):
+            await asyncio.to_thread(w.proc.join, max(0.0, deadline - time.monotonic()))
+            if w.proc.is_alive():
+                w.proc.kill()
+            await asyncio.to_thread(w.proc.join, 1.0)
+            w.conn.close()
+        self._workers.clear()
+
+    @property
+    def ready(self) -> bool:
+        return any(w.ready for w in self._workers)
+
+    @property
+    def open_sessions(self) -> int:
+        return sum(len(w.sessions) for w in self._workers)
+
+    def status(self) -> dict[str, Any]:
+        return {"live_workers": self.size, "started": self._started,
+                "live_workers_ready": sum(w.ready for w in self._workers),
+                "live_sessions": self.open_sessions, "max_live_sessions": self.limit}
+
+    def pids(self) -> list[int]:
+        return [w.pid for w in self._workers if w.alive]
+
+    # ---- sessions ---------------------------------------------------------------------------
+
+    async def open(self, message: dict) -> LiveSession:
+        """Start a session on the least loaded ready worker (the open message was validated),
+        starting the live workers first if they are not yet, and waiting for one to be ready;
+        its first message (``opened`` or ``failed``) arrives on ``session.messages``."""
+        if self._closing:
+            raise LiveUnavailable("the server is shutting down")
+        if self.size == 0:
+            raise LiveUnavailable("live play is off on this server (GUITAR_LIVE_WORKERS=0)")
+        if self.open_sessions + self._opening >= self.limit:
+            raise LiveBusy(f"too many live sessions: the limit is {self.limit}")
+        self._start_workers()
+        self._opening += 1
+        try:
+            await asyncio.wait_for(self._ready_event.wait(),
+                                   self.settings.live_start_timeout_s)
+        except TimeoutError:
+            raise LiveUnavailable("no live worker became ready in time") from None
+        finally:
+            self._opening -= 1
+        ready = [w for w in self._workers if w.ready and w.alive]
+        if not ready or self._closing:
+            raise LiveUnavailable("no live worker is ready; try again")
+        w = min(ready, key=lambda x: len(x.sessions))
+        s = LiveSession(next(self._ids), w)
+        w.sessions[s.id] = s
+        try:
+            w.send(("open", s.id, message))
+        except OSError as exc:
+            w.sessions.pop(s.id, None)
+            raise LiveUnavailable("the live worker is gone; try again") from exc
+        return s
+
+    def event(self, s: LiveSession, message: dict) -> None:
+        if not s.closed:
+            try:
+                s.worker.send(("event", s.id, message))
+            except OSError:
+                pass  # its exit ends the session
+
+    def end(self, s: LiveSession) -> None:
+        if s.closed:
+            return
+        s.closed = True
+        s.worker.sessions.pop(s.id, None)
+        try:
+            s.worker.send(("close", s.id))
+        except OSError:
+            pass
+
+    # ---- messages from the reader threads ----------------------------------------------------
+
+    def _on_message(self, w: _LiveWorker, msg: tuple) -> None:
+        if msg[0] == "ready":
+            w.ready = True
+            self._ready_event.set()
+            log.info("live worker ready", extra={"fields": {
+                "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
+            return
+        s = w.sessions.get(msg[1])
+        if s is not None:
+            s.messages.put_nowait(msg)
+            if msg[0] == "failed":
+                s.closed = True
+                w.sessions.pop(s.id, None)
+
+    def _on_exit(self, w: _LiveWorker, exitcode: int | None) -> None:
+        w.alive = False
+        w.ready = False
+        if w in self._workers:
+            self._workers.remove(w)
+        if not any(x.ready for x in self._workers):
+            self._ready_event.clear()
+        for s in list(w.sessions.values()):
+            s.closed = True
+            s.messages.put_nowait(("died", s.id, exitcode))
+        w.sessions.clear()
+        if self._closing:
+            return
+        log.warning("live worker exited", extra={"fields": {
+            "worker": w.number, "pid": w.pid, "exitcode": exitcode}})
+        self.replaced += 1
+        self.loop.call_later(1.0, self._respawn)
+
+    def _respawn(self) -> None:
+        if not self._closing and len(self._workers) < self.size:
+            self._spawn()

@@ -1,0 +1,171 @@
+"""The live-session worker: the code that runs inside each process of ``service.live.LivePool``.
+
+One process hosts several sessions (``engine.Session``) and computes their blocks in one loop, each
+session paced to real time: block k of a session is computed when the wall clock reaches
+``t0 + k * block_seconds - lead`` (so blocks reach the client ``lead`` ahead of when they play), the
+session whose block is due soonest first.  Between blocks it reads the pipe, so an event is
+applied in the next block computed for its session.
+
+    parent -> worker   ("open", sid, open_message) | ("event", sid, message) | ("close", sid)
+                       | None (stop)
+    worker -> parent   ("ready", pid, warmup_seconds)
+                       ("opened", sid, info)                  the session exists
+                       ("block", sid, frame, float32_bytes)   one block (mono, little-endian)
+                       ("ack", sid, id, frame)                 an event with an ``id`` acts at frame
+                       ("error", sid, field, message, id)      an event refused (the session goes on)
+                       ("failed", sid, message)                the session could not go on
+
+Everything sent is plain data.  An exception in one session ends that session only (``failed``),
+never the process or its other sessions.
+
+Opening a session prepares its guitar (tuning every string, calibrating every fret: a fifth of a
+second at ``draft``), which would stall the other sessions of the process for that long.  So each
+guitar, rate and quality is prepared once and kept (``_TEMPLATES``, the most recent few); a
+session is a copy of it (about a millisecond).  The warm-up prepares the default guitar at 44.1
+and 48 kHz.
+"""
+
+from __future__ import annotations
+
+import copy
+import heapq
+import json
+import os
+import signal
+import time
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+
+_TEMPLATES: dict[str, Any] = {}  # prepared sessions, most recently used last
+_MAX_TEMPLATES = 8
+
+
+def _new_session(engine: Any, opened: Any) -> Any:
+    """A session for a validated open message: a copy of the prepared one for its guitar, rate
+    and quality (prepared now if it is new)."""
+    key = json.dumps([opened.scene_guitar().model_dump(), opened.sample_rate, opened.quality])
+    template = _TEMPLATES.pop(key, None)
+    if template is None:
+        template = engine.Session(opened.scene_guitar(), opened.sample_rate, 256, opened.quality)
+    _TEMPLATES[key] = template
+    while len(_TEMPLATES) > _MAX_TEMPLATES:
+        _TEMPLATES.pop(next(iter(_TEMPLATES)))
+    s = copy.deepcopy(template)
+    s.block_frames = opened.block_frames
+    return s
+
+
+class _Live:
+    def __init__(self, session: Any, lead_s: float):
+        self.session = session
+        self.block_s = session.block_frames / session.sample_rate
+        self.t0 = time.monotonic() - lead_s  # block k is due at t0 + k * block_s
+        self.k = 0
+        self.acks: list[tuple[Any, int]] = []
+
+    @property
+    def due(self) -> float:
+        return self.t0 + self.k * self.block_s
+
+
+def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if nice:
+        # An audio process needs little CPU but needs it on time: a negative niceness puts it
+        # ahead of renders and other load (as audio servers raise their priority).  Without the
+        # privilege it runs at the default priority, and says so.
+        try:
+            os.setpriority(os.PRIO_PROCESS, 0, nice)
+        except OSError as exc:
+            print(f"live worker: niceness {nice} not set ({exc}); running at the default",
+                  flush=True)
+    import engine
+
+    t0 = time.perf_counter()
+    if warmup:
+        engine.warmup()
+        for rate in (44100, 48000):  # the default guitar prepared, and a session's first calls
+            s = _new_session(engine, engine.parse_live_open({"sample_rate": rate}))
+            s.push({"type": "fret", "string": 1, "fret": 2})
+            s.push({"type": "pluck", "string": 1})
+            s.block()
+    try:
+        conn.send(("ready", os.getpid(), time.perf_counter() - t0))
+        _serve(conn, engine, lead_s)
+    except (BrokenPipeError, EOFError, ConnectionResetError):
+        pass
+
+
+def _serve(conn: Connection, engine: Any, lead_s: float) -> None:
+    sessions: dict[int, _Live] = {}
+    while True:
+        now = time.monotonic()
+        wait = min((s.due for s in sessions.values()), default=now + 1.0) - now
+        if conn.poll(max(wait, 0.0)):
+            while True:  # every message waiting, then the blocks due
+                msg = conn.recv()
+                if msg is None:
+                    return
+                _handle(conn, engine, sessions, msg, lead_s)
+                if not conn.poll(0):
+                    break
+        now = time.monotonic()
+        due = [(s.due, sid) for sid, s in sessions.items() if s.due <= now]
+        heapq.heapify(due)
+        while due:
+            _, sid = heapq.heappop(due)
+            _block(conn, sessions, sid)
+
+
+def _handle(conn: Connection, engine: Any, sessions: dict[int, _Live], msg: tuple,
+            lead_s: float) -> None:
+    kind, sid = msg[0], msg[1]
+    if kind == "open":
+        try:
+            s = _new_session(engine, engine.parse_live_open(msg[2]))
+        except Exception as exc:
+            conn.send(("failed", sid, f"{type(exc).__name__}: {exc}"))
+            return
+        live = sessions[sid] = _Live(s, lead_s)
+        conn.send(("opened", sid, {"sample_rate": s.sample_rate, "block_frames": s.block_frames,
+                                   "delay_frames": s.delay, "quality": s.quality,
+                                   "strings": s.preset.n_strings, "frets": s.preset.frets,
+                                   "preset": s.preset.name, "lead_s": lead_s,
+                                   "block_seconds": live.block_s}))
+    elif kind == "event":
+        live = sessions.get(sid)
+        if live is None:
+            return
+        message = dict(msg[2])
+        ident = message.pop("id", None)
+        try:
+            at = live.session.frame + message.get("offset", 0) + live.session.delay
+            live.session.push(message)
+            if ident is not None:
+                live.acks.append((ident, at))
+        except ValueError as exc:  # engine.LiveError, or a validation the parent let through
+            field = getattr(exc, "field", "message")
+            conn.send(("error", sid, field, getattr(exc, "message", str(exc)), ident))
+    elif kind == "close":
+        sessions.pop(sid, None)
+
+
+def _block(conn: Connection, sessions: dict[int, _Live], sid: int) -> None:
+    live = sessions[sid]
+    s = live.session
+    frame = s.frame
+    try:
+        x = s.block()
+        if not np.all(np.isfinite(x)):
+            raise FloatingPointError("the session's audio became non-finite")
+    except Exception as exc:
+        sessions.pop(sid, None)
+        conn.send(("failed", sid, f"{type(exc).__name__}: {exc}"))
+        return
+    for ident, at in live.acks:
+        conn.send(("ack", sid, ident, at))
+    live.acks.clear()
+    conn.send(("block", sid, frame, x.astype("<f4").tobytes()))
+    live.k += 1

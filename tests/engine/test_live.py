@@ -1,0 +1,156 @@
+"""engine.Session: a live session's blocks equal the offline render of the same events (the
+equivalent scene, rendered on the session's grids with ``RenderOptions(live_grid=True)``), silent
+strings cost nothing, and messages that cannot be played are refused naming their field."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+import engine
+from engine import RenderOptions
+
+BLOCK = 256
+
+# block index -> the messages pushed before that block
+PLAN = {
+    2: [{"type": "fret", "string": 5, "fret": 3}, {"type": "pluck", "string": 5, "offset": 100}],
+    10: [{"type": "strum", "direction": "down", "force": 1.5}],
+    20: [{"type": "bend", "string": 2, "semitones": 1.0, "duration": 0.05}],
+    30: [{"type": "hammer_on", "string": 3, "fret": 5, "offset": 7},
+         {"type": "pluck", "string": 1, "force": 3.0}],
+    45: [{"type": "release", "string": 2, "what": "bend"},
+         {"type": "mute", "string": 6, "amount": 0.5}],
+    60: [{"type": "pull_off", "string": 3, "fret": 5},
+         {"type": "slide", "string": 4, "from_fret": 2, "to_fret": 5, "duration": 0.1}],
+    70: [{"type": "release", "what": "all"}, {"type": "pluck", "string": 4}],
+    80: [{"type": "tap", "string": 2, "fret": 7, "release": 0.05},
+         {"type": "harmonic", "string": 1, "fret": 12, "release": 0.1},
+         {"type": "pluck", "string": 1, "offset": 3}],
+    85: [{"type": "mute", "amount": 0.5}],
+    90: [{"type": "release", "string": 3, "what": "mute"}, {"type": "pluck", "string": 3}],
+    95: [{"type": "release", "what": "mute"}],
+}
+
+
+def play(session: engine.Session, plan: dict, blocks: int) -> np.ndarray:
+    out = []
+    for b in range(blocks):
+        for m in plan.get(b, []):
+            session.push(m)
+        out.append(session.block())
+    return np.concatenate(out)
+
+
+def offline(session: engine.Session, **opts) -> np.ndarray:
+    return np.concatenate(list(engine.blocks(session.scene(), BLOCK,
+                                             RenderOptions(live_grid=True, **opts))))
+
+
+@pytest.mark.parametrize("quality", ["draft", "standard"])
+def test_session_equals_the_offline_render_of_its_events(quality):
+    """To the bit, with the decayed-string skip off on both sides; ``standard`` oversamples
+    (factors 1-3 here), so events act ``delay`` frames after their block boundary."""
+    s = engine.Session("steel-acoustic", 44100, BLOCK, quality=quality, record=True,
+                       options=RenderOptions(skip_decayed=False))
+    live = play(s, PLAN, 100)
+    ref = offline(s, skip_decayed=False)
+    assert np.max(np.abs(live)) > 0.05
+    assert np.array_equal(live, ref)
+    if quality == "standard":
+        assert s.delay > 0
+
+
+def test_session_with_the_decay_skip_equals_the_render():
+    """With the default skip on, no string decays between its events here: equal to the bit."""
+    s = engine.Session("steel-acoustic", 44100, BLOCK, record=True)
+    live = play(s, PLAN, 100)
+    assert np.array_equal(live, offline(s))
+
+
+def test_a_long_session_prunes_and_stays_exact():
+    """Past events are dropped from a string's list once it is long (plucks over, fingers gone,
+    bends returned); the samples stay those of the render of every event."""
+    plan: dict[int, list] = {}
+    for k in range(90):
+        b = 2 + 3 * k
+        plan[b] = [{"type": "fret", "string": 2, "fret": 1 + k % 7},
+                   {"type": "pluck", "string": 2, "offset": 20, "force": 1.0 + (k % 3)}]
+        if k % 10 == 0:
+            plan[b].append({"type": "bend", "string": 2, "semitones": 0.5, "duration": 0.01,
+                            "release": 0.02})
+        if k % 15 == 7:
+            plan[b].append({"type": "pull_off", "string": 2, "fret": 1 + k % 7, "offset": 200})
+    s = engine.Session("steel-acoustic", 44100, BLOCK, record=True,
+                       options=RenderOptions(skip_decayed=False))
+    live = play(s, plan, 2 + 3 * 90 + 10)
+    assert len(s._events[2]) < 40  # pruned (the record keeps every event)
+    assert np.array_equal(live, offline(s, skip_decayed=False))
+
+
+def test_silent_strings_cost_nothing():
+    s = engine.Session("steel-acoustic", 44100, BLOCK)
+    assert not np.any(s.block())
+    assert s.active_strings() == []
+    steps = [v.state.run_steps.sum() for v in s.voices]
+    s.push({"type": "pluck", "string": 1})
+    for _ in range(4):
+        s.block()
+    assert s.active_strings() == [1]
+    assert [v.state.run_steps.sum() for v in s.voices][1:] == steps[1:]
+
+
+def test_a_decayed_string_stops_and_plays_again():
+    s = engine.Session("steel-acoustic", 44100, 1024,
+                       options=RenderOptions(decay_velocity=1e-3))
+    s.push({"type": "pluck", "string": 1, "force": 0.5})
+    for _ in range(400):
+        s.block()
+        if not s.active_strings():
+            break
+    assert s.active_strings() == []
+    s.push({"type": "pluck", "string": 1})
+    assert np.max(np.abs(s.block())) > 1e-3
+
+
+@pytest.mark.parametrize("message, field", [
+    ({"type": "pluck", "string": 1, "time": 0.5}, "time"),
+    ({"type": "strike", "string": 1}, "type"),
+    ({"string": 1}, "type"),
+    ({"type": "pluck", "string": 7}, "string"),
+    ({"type": "pluck", "string": 1, "force": -1}, "force"),
+    ({"type": "pluck", "string": 1, "offset": 256}, "offset"),
+    ({"type": "pluck", "string": 1, "offset": 1.5}, "offset"),
+    ({"type": "fret", "string": 1, "fret": 21}, "fret"),
+    ({"type": "fret", "string": 1, "fret": 3, "release": 0}, "release"),
+    ({"type": "strum", "strings": [1, 9]}, "strings[1]"),
+    ({"type": "release", "what": "everything"}, "what"),
+    ({"type": "bend", "string": 1, "semitones": 4}, "semitones"),
+    ([1, 2], "message"),
+])
+def test_bad_messages_name_their_field(message, field):
+    s = engine.Session("steel-acoustic", 44100, BLOCK)
+    with pytest.raises(engine.LiveError) as err:
+        s.push(message)
+    assert err.value.field == field, err.value
+
+
+def test_a_second_bend_waits_for_the_first_to_return():
+    s = engine.Session("steel-acoustic", 44100, BLOCK)
+    s.push({"type": "bend", "string": 2, "semitones": 1})
+    s.block()
+    with pytest.raises(engine.LiveError, match="release"):
+        s.push({"type": "bend", "string": 2, "semitones": 2})
+    s.push({"type": "release", "string": 2, "what": "bend"})
+    for _ in range(60):  # rise and return take the bend's duration (0.15 s) each
+        s.block()
+    s.push({"type": "vibrato", "string": 2, "duration": 0.2})
+
+
+def test_a_copy_of_a_prepared_session_plays_the_same():
+    """The live worker prepares a guitar once and opens each session as a copy of it."""
+    template = engine.Session("steel-acoustic", 44100, BLOCK)
+    copied = play(copy.deepcopy(template), PLAN, 100)
+    assert np.array_equal(copied, play(template, PLAN, 100))

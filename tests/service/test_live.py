@@ -1,0 +1,187 @@
+"""WS /live against a real uvicorn process on 127.0.0.1: the audio streamed is the session's (equal
+to the offline render of the same events at the frames the server acknowledged), every bad message
+is answered with an error naming its field while the session goes on, and the session limit and the
+idle timeout close the socket with their codes."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import struct
+import time
+from collections.abc import Iterator
+
+import httpx
+import numpy as np
+import pytest
+import websockets
+from conftest import UvicornServer, wait_ready
+
+import engine
+
+HEADER = struct.Struct("<Q")
+IDLE_S = 2.0
+
+
+@pytest.fixture(scope="module")
+def live_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[UvicornServer]:
+    s = UvicornServer(tmp_path_factory.mktemp("live"), {
+        "GUITAR_WORKERS": "1", "GUITAR_LIVE_WORKERS": "1", "GUITAR_MAX_LIVE_SESSIONS": "2",
+        "GUITAR_LIVE_IDLE_TIMEOUT_S": str(IDLE_S), "GUITAR_LIVE_PRESTART": "1"}).start()
+    wait_ready(lambda: httpx.get(s.url + "/live/status", timeout=2.0).json()["ready"])
+    yield s
+    s.stop()
+
+
+def ws_url(server: UvicornServer) -> str:
+    return server.url.replace("http://", "ws://") + "/live"
+
+
+OPEN = {"type": "open", "preset": "steel-acoustic", "sample_rate": 44100, "block_frames": 256}
+
+
+async def _next_text(ws) -> dict:
+    while True:
+        m = await asyncio.wait_for(ws.recv(), 10.0)
+        if isinstance(m, str):
+            return json.loads(m)
+
+
+def test_streamed_audio_is_the_offline_render_of_the_acknowledged_events(live_server):
+    async def play():
+        blocks: dict[int, np.ndarray] = {}
+        acks: dict[str, int] = {}
+        async with websockets.connect(ws_url(live_server)) as ws:
+            await ws.send(json.dumps(OPEN))
+            opened = json.loads(await ws.recv())
+            assert opened["type"] == "opened" and opened["block_frames"] == 256
+            script = [(0.05, {"type": "fret", "string": 5, "fret": 3, "id": "f"}),
+                      (0.0, {"type": "pluck", "string": 5, "offset": 100, "id": "p1"}),
+                      (0.15, {"type": "strum", "force": 1.5, "id": "s"}),
+                      (0.1, {"type": "bend", "string": 5, "semitones": 1, "duration": 0.05,
+                             "id": "b"}),
+                      (0.1, {"type": "release", "string": 5, "id": "r"})]
+
+            async def receive():
+                async for m in ws:
+                    if isinstance(m, bytes):
+                        blocks[HEADER.unpack(m[:8])[0]] = np.frombuffer(m[8:], "<f4")
+                    else:
+                        body = json.loads(m)
+                        assert body["type"] == "ack", body
+                        acks[body["id"]] = body["frame"]
+
+            task = asyncio.create_task(receive())
+            for pause, msg in script:
+                await asyncio.sleep(pause)
+                await ws.send(json.dumps(msg))
+            await asyncio.sleep(0.5)
+            await ws.close()
+            await task
+        return blocks, acks
+
+    blocks, acks = asyncio.run(play())
+    assert set(acks) == {"f", "p1", "s", "b", "r"}
+    frames = sorted(blocks)
+    assert frames == list(range(0, 256 * len(frames), 256))  # every block, in order
+    audio = np.concatenate([blocks[f] for f in frames])
+    rate = 44100
+    t = {k: f / rate for k, f in acks.items()}
+    scene = {"duration": len(audio) / rate, "sample_rate": rate, "quality": "draft", "events": [
+        {"type": "fret", "time": t["f"], "string": 5, "fret": 3, "release": t["r"]},
+        {"type": "pluck", "time": t["p1"], "string": 5},
+        {"type": "strum", "time": t["s"], "force": 1.5},
+        {"type": "bend", "time": t["b"], "string": 5, "semitones": 1, "duration": 0.05,
+         "release": t["r"]}]}
+    ref = np.concatenate(list(engine.blocks(scene, 256, engine.RenderOptions(live_grid=True))))
+    assert np.max(np.abs(audio)) > 0.01
+    assert np.array_equal(audio, ref.astype("<f4"))
+
+
+BAD = [
+    ("not json", "message", "not JSON"),
+    (b"\x00\x01binary", "message", "binary"),
+    (json.dumps([1, 2]), "message", "object"),
+    (json.dumps({"type": "strike", "string": 1}), "type", "unknown event type"),
+    (json.dumps({"type": "pluck", "string": 1, "force": 50}), "force", "less than or equal"),
+    (json.dumps({"type": "pluck", "string": 9}), "string", "outside 1..6"),
+    (json.dumps({"type": "fret", "string": 1, "fret": 30}), "fret", "24"),
+    (json.dumps({"type": "pluck", "string": 1, "offset": 999}), "offset", "0..255"),
+    (json.dumps({"type": "pluck", "string": 1, "time": 1.0}), "time", "not taken"),
+    (json.dumps({"type": "pluck", "string": 1, "id": [1]}), "id", "string or number"),
+    (json.dumps(OPEN), "type", "already open"),
+]
+
+
+def test_bad_messages_are_answered_and_the_session_goes_on(live_server):
+    async def play():
+        answers = []
+        async with websockets.connect(ws_url(live_server)) as ws:
+            # an event before the open, and a bad open
+            await ws.send(json.dumps({"type": "pluck", "string": 1}))
+            answers.append(await _next_text(ws))
+            await ws.send(json.dumps({**OPEN, "block_frames": 5}))
+            answers.append(await _next_text(ws))
+            await ws.send(json.dumps(OPEN))
+            assert (await _next_text(ws))["type"] == "opened"
+            for msg, _, _ in BAD:
+                await ws.send(msg)
+                answers.append(await _next_text(ws))
+            # a bend while one is held: refused by the session itself (in the worker)
+            await ws.send(json.dumps({"type": "bend", "string": 2, "semitones": 1, "id": 1}))
+            await ws.send(json.dumps({"type": "bend", "string": 2, "semitones": 2, "id": 2}))
+            answers.append(await _next_text(ws))
+            await ws.send(json.dumps({"type": "pluck", "string": 1, "id": "ok"}))
+            while (last := await _next_text(ws)).get("id") != "ok":
+                if last["type"] != "ack":  # the first bend's ack may come after the refusal
+                    answers.append(last)
+            return answers, last
+
+    answers, last = asyncio.run(play())
+    assert answers[0]["field"] == "type" and "open the session first" in answers[0]["message"]
+    assert answers[1]["field"] == "block_frames"
+    for answer, (_, field, text) in zip(answers[2:], BAD, strict=False):
+        assert answer["type"] == "error"
+        assert answer["field"] == field, answer
+        assert text in answer["message"], answer
+    refused = answers[2 + len(BAD)]
+    assert refused["id"] == 2 and refused["field"] == "type" and "bend" in refused["message"]
+    assert last == {"type": "ack", "id": "ok", "frame": last["frame"]}
+
+
+def test_session_limit_closes_with_1013(live_server):
+    async def play():
+        async with websockets.connect(ws_url(live_server)) as a, \
+                websockets.connect(ws_url(live_server)) as b:
+            for ws in (a, b):
+                await ws.send(json.dumps(OPEN))
+                assert (await _next_text(ws))["type"] == "opened"
+            async with websockets.connect(ws_url(live_server)) as c:
+                await c.send(json.dumps(OPEN))
+                with pytest.raises(websockets.ConnectionClosed) as closed:
+                    await _next_text(c)
+                return closed.value.rcvd
+
+    rcvd = asyncio.run(play())
+    assert rcvd.code == 1013 and "limit is 2" in rcvd.reason
+    # the slots are free again once those sessions closed
+    deadline = time.monotonic() + 5
+    while httpx.get(live_server.url + "/live/status").json()["live_sessions"]:
+        assert time.monotonic() < deadline
+        time.sleep(0.1)
+
+
+def test_idle_session_is_closed_with_4408(live_server):
+    async def play():
+        async with websockets.connect(ws_url(live_server)) as ws:
+            await ws.send(json.dumps(OPEN))
+            assert (await _next_text(ws))["type"] == "opened"
+            t0 = time.monotonic()
+            with pytest.raises(websockets.ConnectionClosed) as closed:
+                while True:
+                    await asyncio.wait_for(ws.recv(), 10.0)
+            return closed.value.rcvd, time.monotonic() - t0
+
+    rcvd, waited = asyncio.run(play())
+    assert rcvd.code == 4408 and "idle" in rcvd.reason
+    assert IDLE_S - 0.2 < waited < IDLE_S + 3.0

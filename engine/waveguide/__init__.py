@@ -27,12 +27,14 @@ and the body response apply unchanged.  One difference of timing: the
 finite-difference output sample m is the velocity at (m + 1/2) / rate, this one's at
 (m - 1/2) / rate (a backward difference), one sample apart.
 
-Where each model is better (``benchmarks/waveguide.py`` measures it): the waveguide is much cheaper
-and tunes every note exactly (open strings, stopped strings, bends) through its fractional delay;
-the finite-difference model computes what the waveguide approximates: the frets' intonation
-physics (pressing stretch, stiffness over the crown), the finger's own dynamics on the string, a
-distributed Kirchhoff-Carrier tension, penalty contacts with an exact energy balance, and the
-transients of pressing and lifting a finger.
+Where each model is better (``benchmarks/waveguide.py`` measures it and says so in its docstring):
+the waveguide is about ten times cheaper per note (five to seven times on a fretted six-string
+strum: short of twenty) and tunes every note exactly through its fractional delay (open strings,
+stopped strings, bends); the finite-difference model computes what the waveguide approximates:
+the frets' intonation physics (pressing stretch, stiffness over the crown), the finger's own
+dynamics on the string and its damping of a held note, a distributed Kirchhoff-Carrier tension,
+penalty contacts with an exact energy balance, and the transients of pressing a finger down; its
+spectrum is the reference's.
 """
 
 from __future__ import annotations

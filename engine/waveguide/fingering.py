@@ -18,8 +18,9 @@ fretted steel string does.  This model therefore keeps Fig. 7's structure (the s
 ends at a reflecting termination with a gain g_f and a sign inversion, and the string beyond it
 towards the nut is cut off) with the reflection at the crown: the termination of ``string`` moved
 to the fret, reflection -g_f with g_f = ``FRET_REFLECTION`` (the finger behind the crown is what
-it would take energy from; the finite-difference model's held notes lose 0.4-5 dB/s to it,
-``engine.intonation.held_note``, which this leaves out).  The light fingering junction of (40)
+it would take energy from; the finite-difference model's held notes lose some of their decay to
+it, ``engine.intonation.held_note``, which this leaves out: ``benchmarks/waveguide.py`` prints the
+fretted notes' decay against the finite-difference reference).  The light fingering junction of (40)
 without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
 what it models well, a finger that touches without stopping: a dead note (a ``fret`` pressing
 less than the string's seating force, ``engine.intonation.seating_force``), the harmonic touch and
@@ -37,8 +38,9 @@ Pitch of a stopped string.  The termination's delay is tuned so the stopped loop
   down to the finger and the crown: E A dL / L, the finger's press force against the tension
   setting its depth), and the bending stiffness carrying over the crown, which shortens the
   speaking length by half the clamped-end correction, ell / 2 with ell = sqrt(E I / T)
-  (``stopped_frequency``).  On the steel preset this lands within -5.0..+3.4 cents of 12-TET at
-  frets 1-12 (``benchmarks/waveguide.py --intonation``), about the finite-difference model's spread.
+  (``stopped_frequency``).  ``benchmarks/waveguide.py --intonation`` prints where this lands
+  against 12-TET at frets 1-12 of the steel preset: a spread about the finite-difference
+  model's (its saddle setbacks were fitted to the finite-difference physics, not to this).
 
 Passivity: the termination's reflection has |.| = g_f <= 1 times the passive loop filters of
 ``string``; cutting the string at the crown discards the waves on the nut side (energy lost, never

@@ -19,11 +19,11 @@ the waveguide into (3) gives them H = 1/A(z),
     A(z) = M' (1 - z^-1)^2 + rho (1 - z^-2) + kappa z^-1 + 1,                          (18)
     M' = M / (mu X),  rho = R / (2 sqrt(mu K0)),  kappa = K X / K0.                    (4), (5)
 
-Measured on this waveguide, (16) gets two things wrong, both at low frequencies: its damper has
-A(1) = 1, so a palm or a harmonic touch that should take tens of dB/s off the fundamental took
-almost nothing (partials 3-5 damped, the fundamental not at all); and its force term turns a force
-into a displacement proportional to it (an E4 string plucked with 2 N came out 3.5 times weaker
-than the finite-difference string).  (3) and the waveguide are the same scheme only for states the
+On this waveguide (16) gets two things wrong, both at low frequencies: its damper has A(1) = 1,
+so a palm or a harmonic touch leaves the fundamental almost undamped (the palm-mute and harmonic
+tests in tests/engine/waveguide fail with it); and its force term turns a force into a
+displacement proportional to it, not a velocity, so a pluck comes out much weaker than the
+finite-difference string's.  (3) and the waveguide are the same scheme only for states the
 two rails can represent, which a point perturbation is not.  This model keeps E&E's junction (the
 balanced perturbation, S of (21)) and takes H from the finger's continuous point impedance: a point
 of mass M, stiffness K and damping R on a string of wave impedance Z = sqrt(T mu) on each side,
@@ -43,9 +43,10 @@ is the identity (a point cannot hold a static displacement on a string between f
 damper does not resist one), above a few tens of hertz it is the biquad.  For a damper,
 H = 1 - g HP(z) with g = 2 rho / (1 + rho) and HP = (1 - z^-1) / (1 - leak z^-1), whose
 Re HP = (1 + leak) / 2 |HP|^2, so |H| <= 1 iff g <= 1 + leak: ``max_damping`` caps rho there.
-With a mass the leak costs a little passivity below LEAK_HZ (|H| up to 1.03 with m' up to
-``MAX_MASS_RATIO``, where contacts are capped: a contact as heavy as ten grid steps of string
-already stops the point), for the milliseconds of a pluck only.
+With a mass the leak costs a little passivity below LEAK_HZ (tests/engine/waveguide/
+test_passivity.py bounds |H| by 1.03 with m' up to ``MAX_MASS_RATIO``, where contacts are capped:
+a contact as heavy as ten grid steps of string already stops the point), for the milliseconds of
+a pluck only.
 
 A damper alone gives h = -2 rho / (1 + rho) u_in: a dashpot transmits 1 / (1 + rho) of a wave at
 every frequency, as it should.  With M = K = R = 0, h = 0: S is the identity, and a slot costs
@@ -78,8 +79,8 @@ steady contacts, the palm and the touches, let go over 2 ms the same way), scale
 fingertip is a heavier, lossier contact than a plectrum.  The spring K of (1) is kept at zero in
 every style: it holds a static displacement against the player's force, and the scene's force is
 already the force on the string; with a spring to the finger's rest the pulse and the spring
-fight, and the spring snaps the string back at release (a 15 m/s click on a 1 N pluck of E4,
-four times the pluck's own peak).  The junction still takes one.  The contact is spread over the
+fight, and the spring snaps the string back at release (a click several times the pluck's own
+peak).  The junction still takes one.  The contact is spread over the
 string with a tapering window (the paper's "tapered plucking zone for thick strings"): a bell
 (Hann) window ``width_m`` wide for a finger, a triangle for a pick, over as many grid points as it
 covers (X is 2.4 mm on the E2 string and 9.7 mm on E4 at 44.1 kHz), at most ``MAX_POINTS``.

@@ -16,8 +16,7 @@ At a change of the stopping fret (``controls.Timeline.stops``):
 
 Either move takes the time the finger needs at its speed (a tap's ``velocity``,
 ``LIFT_SPEED_M_S`` for a lift) to cover the depth of the fret's crown, at most ``RAMP_MAX_S``:
-done at once, the corner at the crown would leave at any speed (a 1.5 m/s tap had peaked at
-38 m/s at the pickup).
+done at once, the corner at the crown would leave at any speed, far faster than the finger.
 """
 
 from __future__ import annotations

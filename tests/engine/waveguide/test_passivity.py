@@ -10,11 +10,11 @@ rails' energy (``WaveguideVoice.energy``: mu X (du/dt)^2 of both travelling wave
 grid). That energy leaves out what is in transit inside a termination's filters (a few samples of
 the loop) and beats between partials, so it is averaged over windows: once a string's last event and
 its contacts' release have passed, no window's mean may exceed the one before by more than
-``GROWTH`` (the largest seen on 40 passive random scenes was 1.4e-4). The tension modulation
-(``glide``) trades energy with the string's stretch, which the rails' energy leaves out (on a light
-C#1 string override plucked at 20 N it moved the windowed energy by +91 % at a millionth of its
-peak), so the window-to-window check runs without it and, with it, the energy may not rise above its
-first window. The same check flags a loop that gains 0.02 % per period
+``GROWTH`` (a tenth of a per cent; the passive scenes here stay well below it). The tension
+modulation (``glide``) trades energy with the string's stretch, which the rails' energy leaves out
+(on a light string override plucked hard it moves the windowed energy at a millionth of its peak by
+far more than ``GROWTH``), so the window-to-window check runs without it and, with it, the energy
+may not rise above its first window. The same check flags a loop that gains 0.02 % per period
 (``test_the_check_sees_a_small_gain``).
 """
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import waveguide
 from .effects import Chain
 from .guitar import Guitar
 from .guitar import prepare as prepare_guitar
@@ -96,7 +97,8 @@ class Mix:
 
 
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
-    """A guitar for every track (``engine.guitar.prepare``) with its pan, effects and gain."""
+    """A guitar for every track (``engine.guitar.prepare``, or ``engine.waveguide.prepare`` for a
+    track whose model is "waveguide") with its pan, effects and gain."""
     frames = frame_count(scene)
     stereo = scene.output.channels == 2
     tracks = []
@@ -105,7 +107,10 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
         if placed:  # rendered mono, then placed as a whole
             single = single.model_copy(
                 update={"output": single.output.model_copy(update={"channels": 1})})
-        guitar = prepare_guitar(single, options)
+        if single.model == "waveguide":  # Evangelista & Eckerholm's digital waveguide
+            guitar = waveguide.prepare(single, waveguide.options_from(options))
+        else:
+            guitar = prepare_guitar(single, options)
         chain = Chain(track.effects, scene.sample_rate) if track.effects else None
         tracks.append(Track(guitar, scene.track_label(i),
                             pan_gains(track.pan) if placed else None, chain,

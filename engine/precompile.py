@@ -3,8 +3,8 @@
 ``WARMUP_SCENES`` are tiny scenes that between them take every numba kernel path a render can
 take: fingers (fret, tap, hammer-on, pull-off, slide), rigid frets and the fretboard, the
 Kirchhoff-Carrier column, dampers (harmonic, palm mute), tension breakpoints (bend, vibrato),
-several pickups, stereo, both built-in bodies and none, the energy terms, and oversampled strings
-(the decimator).
+several pickups, stereo, both built-in bodies and none, the energy terms, oversampled strings
+(the decimator), and the waveguide model's sample loop.
 """
 
 from __future__ import annotations
@@ -49,6 +49,12 @@ WARMUP_SCENES: tuple[dict, ...] = (
         "quality": "draft",
         "output": {"normalize": False},
         "events": [{"type": "strum", "time": 0.0, "spread": 0.005}],
+    },
+    {  # the waveguide model's kernel (engine.waveguide): one type signature for every scene
+        "duration": 0.01,
+        "model": "waveguide",
+        "events": [{"type": "fret", "time": 0.0, "string": 2, "fret": 3},
+                   {"type": "strum", "time": 0.0, "spread": 0.005}],
     },
 )
 

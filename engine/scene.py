@@ -377,6 +377,8 @@ class Track(_Model):
                     "omitted: its strings spread as a single guitar's (low strings left)")
     effects: list[Effect] = Field(default_factory=list, max_length=MAX_EFFECTS,
                                   description="effects chain, in order (engine.effect_specs)")
+    model: Literal["fdtd", "waveguide"] | None = Field(
+        None, description="the string model of this track (omitted: the scene's ``model``)")
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{
@@ -400,6 +402,12 @@ class Scene(_Model):
         description="several instruments (instead of guitar and events); see Track")
     output: Output = Field(default_factory=Output)
     quality: Literal["draft", "standard", "high"] = "standard"
+    model: Literal["fdtd", "waveguide"] = Field(
+        "fdtd",
+        description="fdtd: the DAFx24 finite-difference string (default); waveguide: the digital "
+                    "waveguide of Evangelista & Eckerholm 2010, many times cheaper, driven by the "
+                    "same events (engine/waveguide)",
+    )
     diagnostics: bool = False
 
     model_config = ConfigDict(
@@ -454,7 +462,8 @@ class Scene(_Model):
         ``tracks`` is its own only one."""
         if self.tracks is None:
             return [self]
-        return [self.model_copy(update={"guitar": t.guitar, "events": t.events, "tracks": None})
+        return [self.model_copy(update={"guitar": t.guitar, "events": t.events, "tracks": None,
+                                        "model": t.model or self.model})
                 for t in self.tracks]
 
     def track_label(self, i: int) -> str:

@@ -1,0 +1,203 @@
+"""The digital-waveguide guitar of Evangelista & Eckerholm 2010 (IEEE TASLP 18(4)), beside the
+finite-difference model: the same scenes, presets and output conventions.
+
+    >>> from engine import waveguide
+    >>> inst = waveguide.prepare(engine.parse_scene({... "model": "waveguide"}))
+    >>> audio = np.concatenate(list(inst.blocks(4096)))   # pickup velocity, m/s, mono
+
+Modules, one per object, each opening with the equations it implements:
+
+* ``string``     displacement-wave rails, the termination's fractional delay (third-order
+                 Lagrange), loss (one-pole fitted to the presets' two T60 values) and dispersion
+                 (allpass cascade) filters, the tuning;
+* ``pluck``      the plucking junction: a time-varying mass-spring-damper with the scene's force
+                 pulse, tapered over the contact (also the light finger, harmonic touch, palm);
+* ``fingering``  the fingering termination (a stopped string), its pitch and rest line;
+* ``collision``  the collision junctions along the neck (frets, fretboard), active only where the
+                 string can reach them;
+* ``glide``      tension modulation (pitch glide of hard plucks);
+* ``controls``   scene events -> a string's timeline;
+* ``kernel``     the numba sample loop;
+* ``voice``      one string's state across blocks and the changes of its stop.
+
+Output: the string velocity at the pickup positions (m/s) summed over strings (panned and through
+the body response as the finite-difference guitar does), at the scene's sample rate (no
+oversampling: a waveguide at X = c T is exact for the ideal string), so ``engine.FIXED_GAIN``
+and the body response apply unchanged.  One difference of timing: the
+finite-difference output sample m is the velocity at (m + 1/2) / rate, this one's at
+(m - 1/2) / rate (a backward difference), one sample apart.
+
+Where each model is better (``benchmarks/waveguide.py`` measures it and says so in its docstring):
+the waveguide is about ten times cheaper per note (five to seven times on a fretted six-string
+strum: short of twenty) and tunes every note exactly through its fractional delay (open strings,
+stopped strings, bends); the finite-difference model computes what the waveguide approximates:
+the frets' intonation physics (pressing stretch, stiffness over the crown), the finger's own
+dynamics on the string and its damping of a held note, a distributed Kirchhoff-Carrier tension,
+penalty contacts with an exact energy balance, and the transients of pressing a finger down; its
+spectrum is the reference's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from ..output import Body, default_pan, pan_gains
+from ..presets import Preset
+from ..scene import Scene
+from .controls import timeline
+from .fingering import INTONATION
+from .string import physical
+from .voice import WaveguideVoice
+
+__all__ = ["WaveguideOptions", "WaveguideInstrument", "options_from", "prepare", "render"]
+
+
+@dataclass
+class WaveguideOptions:
+    """Switches of the waveguide model (the benchmarks and tests turn them)."""
+
+    intonation: str = "ideal"  # ``fingering``: "ideal" (12-TET at the frets) or "physical"
+    dispersion: bool = True
+    collisions: bool = True
+    glide: bool = True
+    skip_silent: bool = True
+    skip_decayed: bool = True
+    decay_velocity: float = 1e-7  # m/s, as the finite-difference model's
+    block_frames: int = 2048
+
+
+@dataclass
+class WaveguideInstrument:
+    """A scene's guitar prepared for the waveguide: the same face as ``engine.guitar.Guitar``
+    (``blocks``, ``render_frames``, ``voices``, ``energy_error``, ``warnings``), so that the
+    mixer (``engine.mix``) treats both models alike."""
+
+    scene: Scene
+    preset: Preset
+    voices: list[WaveguideVoice]
+    frames: int
+    options: WaveguideOptions
+    channels: int = 1
+    pans: dict = field(default_factory=dict)
+    body: Body | None = None
+    frame: int = 0
+    _warnings: list[str] = field(default_factory=list)
+
+    def blocks(self, block_frames: int | None = None):
+        """Yield the pickup velocity (m/s) block by block at the scene's rate, each string panned
+        (stereo) and through the body as ``engine.guitar.Guitar`` does; with ``body`` None and one
+        channel, the strings' plain sum."""
+        bf = block_frames or self.options.block_frames
+        while self.frame < self.frames:
+            m = min(bf, self.frames - self.frame)
+            yield self.render_frames(m)
+
+    def render_frames(self, m: int) -> np.ndarray:
+        mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
+        for v in self.voices:
+            y = v.run(m)
+            if self.channels == 2:
+                gl, gr = self.pans[v.index]
+                mix[:, 0] += gl * y
+                mix[:, 1] += gr * y
+            else:
+                mix += y
+        self.frame += m
+        return self.body(mix) if self.body is not None else mix
+
+    def energy_error(self) -> float:
+        """0.0: the waveguide has no discrete energy balance to report.  Its terminations hold
+        state in recursive filters, so the stored energy is not one expression of the rails at an
+        instant; passivity is argued junction by junction in the modules' docstrings and checked
+        by ``tests/engine/waveguide/test_passivity.py`` (the rails' energy, ``WaveguideVoice
+        .energy``, never grows once the forces stop)."""
+        return 0.0
+
+    def warnings(self) -> list[str]:
+        return list(self._warnings)
+
+
+@lru_cache(maxsize=4096)
+def _seating_force(preset: Preset, string: int, rate: float, fret: int) -> float:
+    from ..intonation import seating_force
+    from ..string import tune
+
+    spec = preset.strings[string - 1]
+    return seating_force(tune(spec, preset.string_length_m(string), rate), preset, fret)
+
+
+def _seating(preset: Preset, string: int, rate: float):
+    """seated(fret, force): does a finger pressing ``force`` N rest the string on ``fret``?  The
+    pressed string's statics (``engine.intonation.seating_force``, on the finite-difference grid
+    of the scene's rate, so both models agree on which notes are dead; cached per process)."""
+
+    def seated(fret: int, force: float | None) -> bool:
+        if force is None or fret < 1:
+            return True  # a finger with no force of its own presses hard enough
+        return force >= _seating_force(preset, string, rate, fret)
+
+    return seated
+
+
+def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideInstrument:
+    """Design every string that the scene plays and compile its events."""
+    opts = options or WaveguideOptions()
+    if opts.intonation not in INTONATION:
+        raise ValueError(f"intonation must be one of {INTONATION}")
+    preset = scene.preset()
+    rate = float(scene.sample_rate)
+    out = scene.output
+    if out.pickups:
+        pickups = [p.position for p in out.pickups]
+        gains = np.array([p.gain for p in out.pickups], float)
+    else:
+        pickups = [out.pickup_position or preset.pickup_position]
+        gains = np.ones(1)
+    voices = []
+    warnings: list[tuple[float, str]] = []
+    for i in range(1, preset.n_strings + 1):
+        phys = physical(preset, i)
+        seated = _seating(preset, i, rate)
+        tl = timeline(scene, preset, i, rate, phys.impedance, seated)
+        if opts.skip_silent and not tl.slots and not tl.fingers:
+            continue
+        for f in tl.fingers:
+            if not f.seated:
+                warnings.append((f.on / rate, f"string {i}: the finger at {f.on / rate:g} s "
+                                 f"presses {f.force:g} N, too lightly to rest the string on "
+                                 f"fret {f.fret}: the note sounds dead"))
+        voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
+                                     opts.dispersion, opts.collisions, opts.glide,
+                                     opts.skip_decayed, opts.decay_velocity))
+    frames = int(round(scene.duration * scene.sample_rate))
+    pan = out.pan or default_pan(preset.n_strings)
+    body_name = out.body or preset.body
+    body = Body(body_name, rate, out.channels) if body_name != "none" else None
+    inst = WaveguideInstrument(scene, preset, voices, frames, opts, out.channels,
+                               {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
+    inst._warnings = [w for _, w in sorted(warnings)]
+    return inst
+
+
+def options_from(render_options) -> WaveguideOptions:
+    """The waveguide's options for an ``engine.RenderOptions`` (what the two models share)."""
+    if render_options is None:
+        return WaveguideOptions()
+    return WaveguideOptions(skip_silent=render_options.skip_silent,
+                            skip_decayed=render_options.skip_decayed,
+                            decay_velocity=render_options.decay_velocity,
+                            block_frames=render_options.block_frames)
+
+
+def render(scene: Scene, options: WaveguideOptions | None = None) -> np.ndarray:
+    """The whole scene's pickup velocity (m/s; through the body and panned as the scene's output
+    says): the blocks concatenated."""
+    inst = prepare(scene, options)
+    parts = list(inst.blocks())
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+

@@ -1,0 +1,98 @@
+"""The fingering junction: a finger stopping the string at a fret (E&E sec. IV-B, Fig. 7).
+
+E&E terminate the string at the pressing point n_f with a fingering junction (the plucking
+junction of eq. (21) without the force) backed, towards the nut, by a damped reflector of gain
+g_f <= 1 with a sign inversion; the terminated junction's transfer function is
+
+    L(z) = U_out+ / U_in- = (1 - A(z) - 2 g_f z^-2) / (2 A(z) + g_f z^-2 (1 - A(z)))      (40)
+
+and in the large finger-mass limit (A -> infinity, the finger pressed onto the neck)
+
+    L(z) = -1 / (2 - g_f z^-2).                                                          (41)
+
+On a fretless neck the finger itself stops the string and (41) is its imperfect clamp.  On a
+fretted neck the string is stopped by the fret's crown, a rigid knife edge, with the finger a few
+millimetres behind it: less than one grid step at 44.1 kHz on the treble strings.  (41) would
+make the crown a low-pass reflector losing 22 % of the amplitude per period at 2 kHz, which no
+fretted steel string does.  This model therefore keeps Fig. 7's structure (the speaking string
+ends at a reflecting termination with a gain g_f and a sign inversion, and the string beyond it
+towards the nut is cut off) with the reflection at the crown: the termination of ``string`` moved
+to the fret, reflection -g_f with g_f = ``FRET_REFLECTION`` (the finger behind the crown is what
+it would take energy from; the finite-difference model's held notes lose some of their decay to
+it, ``engine.intonation.held_note``, which this leaves out: ``benchmarks/waveguide.py`` prints the
+fretted notes' decay against the finite-difference reference).  The light fingering junction of (40)
+without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
+what it models well, a finger that touches without stopping: a dead note (a ``fret`` pressing
+less than the string's seating force, ``engine.intonation.seating_force``), the harmonic touch and
+the palm (``pluck``, ``controls``).
+
+Pitch of a stopped string.  The termination's delay is tuned so the stopped loop sounds f_q
+(``string``).  Two intonation models:
+
+* ``ideal`` (default): a perfectly compensated instrument: the finger at x metres from the nut
+  sounds f0 * S / (S - x), S the scale length; at the frets that is the equal-tempered
+  f0 * 2^(q / 12).  This is the waveguide synthesiser's convention (E&E: the fractional delays
+  "also serve for fine tuning the model to correct pitch").
+* ``physical``: the stopped stiff string on the preset's geometry: the speaking length L - x_q
+  (L including the saddle setback), the tension raised by pressing (the string bent from the nut
+  down to the finger and the crown: E A dL / L, the finger's press force against the tension
+  setting its depth), and the bending stiffness carrying over the crown, which shortens the
+  speaking length by half the clamped-end correction, ell / 2 with ell = sqrt(E I / T)
+  (``stopped_frequency``).  ``benchmarks/waveguide.py --intonation`` prints where this lands
+  against 12-TET at frets 1-12 of the steel preset: a spread about the finite-difference
+  model's (its saddle setbacks were fitted to the finite-difference physics, not to this).
+
+Passivity: the termination's reflection has |.| = g_f <= 1 times the passive loop filters of
+``string``; cutting the string at the crown discards the waves on the nut side (energy lost, never
+gained).  When the finger lifts, the cut-off part is put back at rest on the string's new rest line
+and the string is released from its pressed shape (the displacement is continuous, its velocity
+unchanged): the energy that appears is the potential energy the finger's work stored in the
+pressed shape.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..controls import finger_x_m
+from ..presets import Preset
+from .string import Physical
+
+FRET_REFLECTION = 1.0
+INTONATION = ("ideal", "physical")
+
+
+def stopped_frequency(preset: Preset, phys: Physical, string: int, x_m: float, fret: int | None,
+                      intonation: str, press_force: float) -> float:
+    """Fundamental (Hz) of the string stopped x_m metres from the nut (``fret`` when it is on one;
+    None for a point between frets during a slide, where the physical model interpolates)."""
+    scale = preset.scale_length_m
+    f_ideal = phys.f0 * scale / (scale - x_m)
+    if intonation == "ideal" or x_m <= 0.0:
+        return f_ideal
+    if fret is None:
+        return f_ideal  # a finger between frets (a slide on its way) stops on no crown
+    length = phys.length_m
+    c = float(preset.clearance_m(x_m))
+    xf = finger_x_m(preset, fret)
+    a = max(x_m - xf, 1e-4)
+    t0 = phys.tension_n
+    depth = (press_force / t0 + c / a) / (1.0 / xf + 1.0 / a)
+    stretch = depth**2 / (2 * xf) + (depth - c) ** 2 / (2 * a) + c * c / (2 * (length - x_m))
+    tension = t0 + phys.ea * stretch / length
+    speaking = length - x_m
+    ell = math.sqrt(phys.ei / tension)
+    b = math.pi**2 * phys.ei / (tension * speaking**2)
+    return math.sqrt(tension / phys.mu) / (2.0 * (speaking - 0.5 * ell)) * math.sqrt(1.0 + b)
+
+
+def rest_height(preset: Preset, length_m: float, stop_x: float | None, x_m: float) -> float:
+    """Height (m, negative: towards the fretboard) of the string's rest line at x_m when it is
+    stopped on the fret crown at stop_x (None: the open string, a straight line): straight from the
+    crown to the bridge, and from the nut down to the crown behind it."""
+    if stop_x is None:
+        return 0.0
+    c = float(preset.clearance_m(stop_x))
+    if x_m >= stop_x:
+        return -c * (length_m - x_m) / (length_m - stop_x)
+    return -c * x_m / stop_x

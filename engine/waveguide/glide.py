@@ -1,0 +1,44 @@
+"""Pitch glide of hard plucks: tension modulation (E&E sec. IV-A, after Tolonen, Valimaki & Karjalainen
+2000).
+
+A displaced string is longer than at rest, so its tension rises (Kirchhoff-Carrier):
+
+    T(t) = T0 + (E A / (2 L)) * integral_0^L u_x^2 dx                              (TVK (7))
+
+and the wave speed, hence the pitch, with sqrt(T / T0). The paper modulates first-order allpass
+delays near the bridge by the elongation; here the termination's fractional delay D is the modulated
+delay (``string``): every ``GLIDE_EVERY`` samples (5.8 ms at 44.1 kHz; a glide lasts tens of
+milliseconds and more) the kernel sums the squared slope over the live grid, sum_n (u(n+1) - u(n))^2
+/ X (the integral above for the sounding length; the few samples of loop inside the termination's
+filters are left out), and the loop period becomes P / sqrt(1 + dT / T0). E A is the preset's (the
+finite-difference model's Kirchhoff-Carrier term uses the same value), so a hard pluck glides down
+from the same raised pitch in both models.
+
+It moves D only, whose filter is passive for every D (``string``); the modulation itself trades
+energy between the waves and the string's stretch, which the rails' energy does not count
+(tests/engine/waveguide/test_passivity.py checks the two apart). The cost is N operations every
+``GLIDE_EVERY`` samples, and the period moves linearly in between (``kernel``). Bends and vibrato
+act on the same delay (``controls``).
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from ..config import JIT_INLINE
+
+GLIDE_EVERY = 256
+
+
+@njit(**JIT_INLINE)
+def _slope_sum(R, Mb, mask, s, n_lo, n_hi):
+    """sum (u(n+1) - u(n))^2 over n_lo <= n < n_hi at step s, and u(n_hi)^2 (the step from n_hi
+    to the bridge, where u = 0)."""
+    acc = 0.0
+    prev = R[(s - n_lo) & mask] + Mb[(s + n_lo) & mask]
+    for n in range(n_lo + 1, n_hi + 1):
+        u = R[(s - n) & mask] + Mb[(s + n) & mask]
+        d = u - prev
+        acc += d * d
+        prev = u
+    return acc + prev * prev  # the last step, to the bridge (u = 0 there)

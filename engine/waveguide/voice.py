@@ -1,0 +1,349 @@
+"""One waveguide string in a scene: its design, its state across blocks, and the changes of where
+it is stopped (applied between kernel calls, at the exact step).
+
+At a change of the stopping fret (``controls.Timeline.stops``):
+
+* the termination's filters and pitch switch to the new loop's (``string.design_loop`` for the
+  new speaking length, cached per fret) and the obstacles' heights are taken from the new rest
+  line (``collision``, ``fingering.rest_height``);
+* when the stop moves towards the nut (a finger lifts, a pull-off, a slide down), the part of the
+  string that sounds again is put at rest on its rest line (its rails held garbage while cut off)
+  and the whole string is released from the old rest line onto the new one: the displacement
+  relative to the rest line changes by rest_old - rest_new, added half to each rail (a balanced
+  displacement with no velocity, E&E eq. (12)), so the absolute displacement is continuous;
+* when it moves towards the bridge, the cut-off part is simply no longer read; a striking finger
+  (``tap``, ``hammer_on``) carries the string from the old rest line onto the new one.
+
+Either move takes the time the finger needs at its speed (a tap's ``velocity``,
+``LIFT_SPEED_M_S`` for a lift) to cover the depth of the fret's crown, at most ``RAMP_MAX_S``:
+done at once, the corner at the crown would leave at any speed, far faster than the finger.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..kernels import entry_point
+from ..presets import Preset
+from . import kernel as K
+from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
+from .controls import NEVER, Timeline
+from .fingering import FRET_REFLECTION, rest_height, stopped_frequency
+from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
+from .string import D_LOW, Loop, Physical, design_loop, grid_size
+
+MAX_SECTIONS = 4
+RELEASE_S = 0.002  # a contact (palm, harmonic touch, light finger) lets go over 2 ms
+LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
+RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
+
+
+@dataclass
+class WaveguideVoice:
+    index: int  # 1-based string number
+    preset: Preset
+    phys: Physical
+    timeline: Timeline
+    rate: float
+    pickups: list[float]  # x / L
+    gains: np.ndarray
+    intonation: str
+    dispersion: bool = True
+    collisions: bool = True
+    glide: bool = True
+    skip_decayed: bool = True
+    decay_velocity: float = 1e-7
+    step: int = 0
+    stopped: bool = False
+    oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
+    loops: dict = field(default_factory=dict)
+    _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
+    ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
+
+    def __post_init__(self):
+        spec = self.preset.strings[self.index - 1]
+        self.spec = spec
+        self.open_loop = self.loop(None)
+        self.n = grid_size(self.open_loop)
+        self.p0 = self.open_loop.period
+        n = self.n
+        # the ring must hold the live rails, the history the termination reads and its delay
+        dmax = 0.12 * self.p0 + 16.0 + K.HISTORY
+        size = 1 << int(math.ceil(math.log2(n + dmax + 16)))
+        self.R = np.zeros(size)
+        self.Mb = np.zeros(size)
+        self.dcap = float(size - n - 8)
+        self.ist = np.zeros(2, np.int64)
+        self.fst = np.zeros(K.F_PICKUP + len(self.pickups))
+        self.fst[K.F_GLIDE] = 1.0
+        self.dsx = np.zeros(MAX_SECTIONS)
+        self.dsy = np.zeros(MAX_SECTIONS)
+        length = self.phys.length_m
+        self.x_step = length / (0.5 * self.p0)  # X, metres per grid step
+        # junctions
+        tl = self.timeline
+        ns = len(tl.slots)
+        self.js_on = np.array([s.on for s in tl.slots], np.int64)
+        self.js_off = np.array([s.off for s in tl.slots], np.int64)
+        self.js_len = np.array([s.length for s in tl.slots], np.int64)
+        # every contact lets go over its pulse's length, at least RELEASE_S
+        self.js_rel = np.array([max(s.length, int(round(RELEASE_S * self.rate)), 1)
+                                for s in tl.slots], np.int64)
+        self.js_idx = np.zeros((ns, MAX_POINTS), np.int64)
+        self.js_np = np.zeros(ns, np.int64)
+        self.js_f = np.zeros((ns, MAX_POINTS))
+        self.js_mp = np.zeros((ns, MAX_POINTS))
+        self.js_rho = np.zeros((ns, MAX_POINTS))
+        self.js_kappa = np.zeros((ns, MAX_POINTS))
+        self.jst = np.zeros((ns, MAX_POINTS, 6))
+        mu = self.phys.mu
+        X = self.x_step
+        c = X * self.rate
+        k0 = mu * c * c  # the tension that makes (3) the waveguide's own scheme: K0 = mu c^2
+        z = mu * c
+        self.x_k0 = X / k0
+        for j, s in enumerate(tl.slots):
+            if s.window == "split":
+                centre = self.n_of(s.x_m)
+                i0 = int(math.floor(centre))
+                pts = [(i0, 1.0 - (centre - i0)), (i0 + 1, centre - i0)]
+                pts = [(i, w) for i, w in pts if w > 0.0]
+            else:
+                pts = window(s.window, s.width_m, s.x_m, X, self.n_of)
+            self.js_np[j] = len(pts)
+            if s.force != 0.0:  # a blow at i moves the points i - 1 and i: centre it on x
+                pts = [(i + 1, w) for i, w in pts]
+            for k, (i, w) in enumerate(pts):  # m', rho, k' of ``pluck._msd``
+                self.js_idx[j, k] = i
+                self.js_f[j, k] = w * s.force
+                self.js_mp[j, k] = min(w * s.mass * self.rate / z, MAX_MASS_RATIO)
+                self.js_rho[j, k] = min(w * s.damping / (2.0 * z), max_damping(self.rate))
+                self.js_kappa[j, k] = w * s.stiffness / (4.0 * self.rate * z)
+        # pickups
+        self.pk_n = np.zeros(len(self.pickups), np.int64)
+        self.pk_w = np.zeros(len(self.pickups))
+        for p, xp in enumerate(self.pickups):
+            g = min(max(self.n_of(xp * length), 1.0), n - 1.0 - 1e-9)
+            self.pk_n[p] = int(math.floor(g))
+            self.pk_w[p] = g - self.pk_n[p]
+        # collision points: every grid point under the neck, its obstacle's height from the
+        # straight rest line and its restitution
+        self._collision_points()
+        self.seg_p = np.zeros(n // REACH_EVERY + 2)
+        self.seg_m = np.zeros(n // REACH_EVERY + 2)
+        # pitch ratio breakpoints
+        self.pb_step = np.array(tl.ratio_steps, np.int64)
+        self.pb_f = np.array(tl.ratios, float)
+        self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / X
+                        if self.glide else 0.0)
+        self.changes = self.timeline.stops(self.preset)
+        self.change_i = 0
+        self.stop_fret: int | None = None
+        self.cfg = np.zeros(10)
+        self._configure(None)
+        self.ist[K.I_NT] = self._place(self.open_loop)
+
+    # -- geometry -------------------------------------------------------------------------------
+    def n_of(self, x_m: float) -> float:
+        """Fractional grid index of the point x_m metres from the nut (measured from the bridge)."""
+        return self.n - (self.phys.length_m - x_m) / self.x_step
+
+    def x_of(self, n: np.ndarray) -> np.ndarray:
+        return self.phys.length_m - (self.n - np.asarray(n, float)) * self.x_step
+
+    def _collision_points(self) -> None:
+        p = self.preset
+        n = self.n
+        if not self.collisions:
+            self.col_n = np.zeros(0, np.int64)
+            self.col_abs = np.zeros(0)
+            self.col_cr = np.zeros(0)
+        else:
+            last = float(p.fret_x_m(p.frets + 0.5))
+            idx = np.arange(1, n)
+            x = self.x_of(idx)
+            keep = (x > 0.0) & (x <= last)
+            idx, x = idx[keep], x[keep]
+            board = -(np.asarray(p.clearance_m(x), float) + p.fret_height_m)
+            cr = np.full(len(idx), BOARD_RESTITUTION)
+            for q in range(1, p.frets + 1):
+                xq = float(p.fret_x_m(q))
+                i = int(round(self.n_of(xq)))
+                hit = np.flatnonzero(idx == i)
+                if hit.size:
+                    board[hit[0]] = max(board[hit[0]], -float(p.clearance_m(xq)))
+                    cr[hit[0]] = FRET_RESTITUTION
+            self.col_n = idx.astype(np.int64)
+            self.col_abs = board
+            self.col_cr = cr
+        self.col_ref = self.col_abs.copy()
+        self.col_prev = np.zeros(len(self.col_n))
+        self.col_live = np.zeros(len(self.col_n), np.int64)
+        self.col_list = np.zeros(len(self.col_n), np.int64)
+
+    # -- configurations ---------------------------------------------------------------------------
+    def loop(self, fret: int | None) -> Loop:
+        if fret in self.loops:
+            return self.loops[fret]
+        p = self.preset
+        x = 0.0 if fret is None else float(p.fret_x_m(fret))
+        f1 = stopped_frequency(p, self.phys, self.index, x, fret, self.intonation,
+                               p.finger.press_force_n)
+        speaking = self.phys.length_m - x
+        loop = design_loop(self.spec, self.phys, self.rate, f1, speaking,
+                           1.0 if fret is None else FRET_REFLECTION, self.dispersion)
+        self.loops[fret] = loop
+        return loop
+
+    def _configure(self, fret: int | None) -> None:
+        lp = self.loop(fret)
+        c = self.cfg
+        c[K.C_LOSS_G], c[K.C_LOSS_A] = lp.loss_g, lp.loss_a
+        c[K.C_DISP_A], c[K.C_REFL_G], c[K.C_TAU] = lp.disp_a, lp.refl_g, lp.tau
+        c[K.C_GAIN], c[K.C_FS], c[K.C_GLIDE_K] = lp.gain_bound, self.rate, self.glide_k
+        c[K.C_DCAP], c[K.C_FBASE] = self.dcap, self.rate / lp.period
+        self.disp_m = lp.disp_m
+        self.stop_fret = fret
+        stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
+        if len(self.col_n):
+            rest = np.array([rest_height(self.preset, self.phys.length_m, stop_x, x)
+                             for x in self.x_of(self.col_n)])
+            self.col_ref = self.col_abs - rest
+            self.col_live[:] = 0
+
+    def _ratio_now(self) -> float:
+        s = self.step
+        i = int(np.searchsorted(self.pb_step, s, side="right")) - 1
+        i = max(i, 0)
+        if i + 1 < len(self.pb_step):
+            a = (s - self.pb_step[i]) / (self.pb_step[i + 1] - self.pb_step[i])
+            return float(self.pb_f[i] + a * (self.pb_f[i + 1] - self.pb_f[i]))
+        return float(self.pb_f[i])
+
+    def _place(self, lp: Loop) -> int:
+        """The termination's grid index for loop ``lp`` now: D = P - 2 (N - n_t) - tau in
+        [1, 3)."""
+        period = lp.period / (self._ratio_now() * self.fst[K.F_GLIDE])
+        half = int(math.floor((period - lp.tau - D_LOW) / 2.0))
+        return int(min(max(self.n - half, 0), self.n - 1))
+
+    def _rest(self, fret: int | None, x: np.ndarray) -> np.ndarray:
+        stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
+        return np.array([rest_height(self.preset, self.phys.length_m, stop_x, v) for v in x])
+
+    def _change(self, fret: int | None, strike: float) -> None:
+        old = self.stop_fret
+        if fret == old:
+            return
+        mask = len(self.R) - 1
+        s = self.step
+        nt_old = int(self.ist[K.I_NT])
+        self._configure(fret)
+        nt = self._place(self.loop(fret))
+        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old))
+        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret))
+        release = x_new < x_old
+        if release and nt < nt_old:
+            lo = max(nt - 8, nt - self.n)
+            for i in range(lo, nt_old):  # the part cut off comes back at rest
+                self.R[(s - i) & mask] = 0.0
+                self.Mb[(s + i) & mask] = 0.0
+        self.ist[K.I_NT] = nt
+        if release:  # the filters' memory belongs to the loop that was cut
+            self.fst[K.F_LOSS] = 0.0
+            self.dsx[:] = 0.0
+            self.dsy[:] = 0.0
+        if release or strike > 0.0:
+            # the string moves from the old rest line to the new one at the finger's speed: the
+            # displacement from the rest line changes by rest_old - rest_new over that time, in
+            # equal steps with no velocity of their own (balanced, E&E eq. (12))
+            idx = np.arange(nt + 1, self.n)
+            x = self.x_of(idx)
+            delta = self._rest(old, x) - self._rest(fret, x)
+            speed = strike if strike > 0.0 else LIFT_SPEED_M_S
+            depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
+            steps = int(min(max(round(depth / speed * self.rate), 1), RAMP_MAX_S * self.rate))
+            jumps = []
+            for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
+                xp = self.x_of(np.array([n_p, n_p + 1]))
+                j = self._rest(old, xp) - self._rest(fret, xp)
+                jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
+            self.ramp = (idx, delta / steps, np.array(jumps) / steps, steps)
+
+    def _ramp_step(self) -> None:
+        """One step of the move onto the new rest line (``_change``).  The pickups read the
+        displacement from the rest line: their last reading moves with it, so that they see the
+        string's motion, not the change of frame."""
+        idx, d, jumps, left = self.ramp
+        mask = len(self.R) - 1
+        s = self.step
+        self.R[(s - idx) & mask] += 0.5 * d
+        self.Mb[(s + idx) & mask] += 0.5 * d
+        self.fst[K.F_PICKUP:] += jumps
+        self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
+
+    # -- running ----------------------------------------------------------------------------------
+    def run(self, nsteps: int) -> np.ndarray:
+        """Advance nsteps samples; the pickups' velocity mix (m/s)."""
+        out = np.zeros(nsteps)
+        if self.stopped:
+            self.step += nsteps
+            return out
+        done = 0
+        while done < nsteps:
+            while (self.change_i < len(self.changes)
+                   and self.changes[self.change_i][0] <= self.step):
+                _, fret, strike = self.changes[self.change_i]
+                self._change(fret, strike)
+                self.change_i += 1
+            nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
+                   else NEVER)
+            m = int(min(nsteps - done, nxt - self.step))
+            if self.ramp is not None:  # a finger carrying the string: one step at a time
+                self._ramp_step()
+                m = 1
+            args = (self.R, self.Mb, self.ist, self.fst, self.dsx, self.dsy, self.step, m,
+                    out[done:done + m], self.cfg, self.disp_m, self.n, self.pb_step, self.pb_f,
+                    self.js_on, self.js_off, self.js_len, self.js_rel, self.js_idx, self.js_np,
+                    self.js_f, self.js_mp, self.js_rho, self.js_kappa, self.jst, self.x_k0,
+                    self.col_n, self.col_ref, self.col_cr, self.col_prev, self.col_live,
+                    self.col_list, self.seg_p, self.seg_m, self.pk_n, self.pk_w, self.gains)
+            if self._run is None:  # the argument types are the same in every call
+                self._run = entry_point(K.run_block, args)
+            ok = self._run(*args)
+            if not ok:
+                raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
+            self.step += m
+            done += m
+        if self.skip_decayed and self.step > self.timeline.last_step + 1:
+            self._maybe_stop(out)
+        return out
+
+    def _maybe_stop(self, out: np.ndarray) -> None:
+        if any(f.rel < NEVER and f.rel >= self.step for f in self.timeline.fingers):
+            return
+        tail = 8.0 * self.rate / (2.0 * math.pi * LEAK_HZ)
+        if np.any((self.js_off + self.js_rel + tail > self.step) & (self.js_off < NEVER)):
+            return
+        if len(self.pb_step) and self.pb_step[-1] >= self.step:
+            return
+        vmax = max(np.max(np.abs(np.diff(self.R))), np.max(np.abs(np.diff(self.Mb)))) * self.rate
+        if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
+            self.stopped = True
+
+    def energy(self) -> float:
+        """Stored energy of the sounding grid, J: each travelling wave's mu X (du/dt)^2 summed
+        (kinetic plus potential energy of d'Alembert's waves; the terminations' filter states and
+        the junctions' masses are not counted)."""
+        mask = len(self.R) - 1
+        s = self.step - 1
+        nt = int(self.ist[K.I_NT])
+        idx = np.arange(nt, self.n + 1)
+        # u+(n, s) - u+(n, s - 1) = R[s - n] - R[s - 1 - n]; u-: Mb[s + n] - Mb[s - 1 + n]
+        dp = self.R[(s - idx) & mask] - self.R[(s - 1 - idx) & mask]
+        dm = self.Mb[(s + idx) & mask] - self.Mb[(s - 1 + idx) & mask]
+        return float(self.phys.mu * self.x_step * self.rate**2 * (np.sum(dp * dp)
+                                                                  + np.sum(dm * dm)))

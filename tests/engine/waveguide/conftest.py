@@ -1,0 +1,28 @@
+"""Helpers of the waveguide tests: render a scene dict with the waveguide model (pickup velocity,
+m/s, no body), and measure pitch the way the finite-difference tests do."""
+
+import numpy as np
+import pytest
+
+import engine
+from engine import waveguide
+from engine.analysis import cents, spectrum_peak
+from engine.testing.scenes import SR, fret, pluck, scene  # noqa: F401  (the tests' builders)
+
+
+def render(events: list, duration: float, options=None, **extra) -> np.ndarray:
+    sc = engine.parse_scene({**scene(events, duration, **extra), "model": "waveguide"})
+    audio = waveguide.render(sc, options)
+    assert np.isfinite(audio).all()
+    return audio
+
+
+def pitch_cents(audio: np.ndarray, target: float, start: float = 0.2, stop: float | None = None,
+                sr: int = SR) -> float:
+    seg = audio[int(start * sr):None if stop is None else int(stop * sr)]
+    return float(cents(spectrum_peak(seg, sr, target, 0.08), target))
+
+
+@pytest.fixture(scope="session")
+def presets():
+    return {name: engine.get_preset(name) for name in engine.PRESETS}

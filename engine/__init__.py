@@ -25,6 +25,8 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     voice        one string of a scene: state across blocks, energy bookkeeping
     playability  warnings: what may not sound as the player means it
     guitar       the voices of one instrument, block by block
+    waveguide/   the same instrument as digital waveguides (Evangelista & Eckerholm 2010; knows
+                 what guitar knows)
     effects      a track's effects chain (pedalboard), state kept across blocks
     mix          a scene of tracks: a guitar per track, panned, through effects, mixed
     live         an open-ended session: events pushed as played, blocks pulled (``Session``)

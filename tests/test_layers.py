@@ -14,14 +14,14 @@ ROOT = Path(__file__).resolve().parents[1]
 # low to high, as engine/__init__.py lists them; a module may import only those before it
 ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "kernels", "string",
          "controls", "intonation", "options", "output", "voice", "playability", "guitar",
-         "effects", "mix", "live", "rendering", "precompile"]
+         "waveguide", "effects", "mix", "live", "rendering", "precompile"]
 
 
 def _engine_imports(path: Path) -> set[str]:
     """The engine modules a file imports (relative ones only inside the engine), by their name
     below ``engine``."""
     tree = ast.parse(path.read_text())
-    in_kernels = path.parent.name == "kernels"
+    sub = path.parent.name if path.parent.parent.name == "engine" else None  # kernels, score ...
     in_engine = "engine" in path.relative_to(ROOT).parts[:1]
     out = set()
     for node in ast.walk(tree):
@@ -30,14 +30,16 @@ def _engine_imports(path: Path) -> set[str]:
                 out.add(node.module.split(".")[1])
             elif not in_engine:
                 continue
-            elif node.level == 1 and in_kernels:
-                out.add("kernels")
+            elif node.level == 1 and sub:
+                out.add(sub)  # a module of the same subpackage
             elif node.level == 1 and node.module:
                 out.add(node.module.split(".")[0])
             elif node.level == 1:
                 out.update(a.name for a in node.names)
             elif node.level == 2 and node.module:
                 out.add(node.module.split(".")[0])
+            elif node.level == 2:
+                out.update(a.name for a in node.names)
         elif isinstance(node, ast.Import):
             out.update(a.name.split(".")[1] for a in node.names if a.name.startswith("engine."))
     return out
@@ -45,7 +47,7 @@ def _engine_imports(path: Path) -> set[str]:
 
 def test_every_engine_module_imports_only_modules_below_it():
     listed = {p.stem for p in (ROOT / "engine").glob("*.py")} - {"__init__", "analysis"}
-    assert listed | {"kernels"} == set(ORDER), "a module is missing from the layer list"
+    assert listed | {"kernels", "waveguide"} == set(ORDER), "a module is missing from the list"
     bad = []
     for path in [*(ROOT / "engine").glob("*.py"), *(ROOT / "engine" / "kernels").glob("*.py")]:
         name = "kernels" if path.parent.name == "kernels" else path.stem
@@ -79,3 +81,14 @@ def test_the_service_reaches_the_engine_through_its_public_names():
             if isinstance(node, ast.ImportFrom) and node.module == "engine.scene":
                 assert {a.name for a in node.names} <= {
                     "MAX_DURATION_S", "MAX_EVENTS", "SAMPLE_RATE_MAX", "SAMPLE_RATE_MIN"}, path
+
+
+def test_the_rooms_beside_the_layers_know_only_what_they_need():
+    """The waveguide model sits beside the finite-difference guitar (``mix`` picks one per
+    track): it may use what the guitar uses, nothing above.  The score importers know only the
+    scene's schema and the presets."""
+    below_mix = set(ORDER[:ORDER.index("waveguide")])
+    for path in (ROOT / "engine" / "waveguide").glob("*.py"):
+        assert _engine_imports(path) - {"waveguide"} <= below_mix, path
+    for path in (ROOT / "engine" / "score").glob("*.py"):
+        assert _engine_imports(path) - {"score"} <= {"scene", "presets"}, path

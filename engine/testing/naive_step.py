@@ -140,7 +140,7 @@ def _solve(cols, zfree, lam_z):
 
 def _predict(cols, x, zfree, lam_z):
     z = zfree.copy()
-    for c, xc in zip(cols, x):
+    for c, xc in zip(cols, x, strict=True):
         z += lam_z * c.v * xc
     return z
 
@@ -259,7 +259,7 @@ def naive_step(c, geo, ctl, st, step: int, rule: int | None = None) -> dict:
         if np.any(pens > 0.0):
             vpot = np.sum(c.fret_k / (c.fret_alpha + 1.0) * pens ** (c.fret_alpha + 1.0))
             gt = np.zeros(ni)
-            for jq, pq in zip(frets_j, pens):
+            for jq, pq in zip(frets_j, pens, strict=True):
                 if pq > 0.0:
                     gt -= c.fret_k * pq ** c.fret_alpha / math.sqrt(2.0 * vpot + EPS) * jq
             gprev_f = gt.copy()
@@ -418,12 +418,12 @@ STATE_FIELDS = ("u", "psi", "f_w", "f_psi")
 def compare_steps(scene: dict, seconds: float, options=None, start: float = 0.0) -> dict:
     """Step every voice of ``scene`` one internal step at a time through ``kernels.step_block``
     and, on the same state in, through ``naive_step``; returns, over the steps from ``start`` to
-    ``start + seconds`` of scene time, the largest relative difference of each state field (u^(n+1)
-    over max |u^(n+1)|, the pickups' velocity over max |u^(n+1) - u^n| / k, the fingers' w over max
-    |w|, each psi over the size of the terms it is summed from, eq. (48)), the number of steps in which the two differ in a discrete
-    decision (a finger's state, the rigid frets' active set), the steps compared and how many
-    steps had each kind of column.  The kernel's state goes on to the next step, so differences do
-    not accumulate."""
+    ``start + seconds`` of scene time, the largest relative difference of each state field
+    (u^(n+1) over max |u^(n+1)|, the pickups' velocity over max |u^(n+1) - u^n| / k, the fingers'
+    w over max |w|, each psi over the size of the terms it is summed from, eq. (48)), the number
+    of steps in which the two differ in a discrete decision (a finger's state, the rigid frets'
+    active set), the steps compared and how many steps had each kind of column.  The kernel's
+    state goes on to the next step, so differences do not accumulate."""
     from engine import RenderOptions, Scene, kernels
     from engine.guitar import prepare
 

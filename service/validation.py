@@ -95,11 +95,12 @@ def check_limits(scene: engine.Scene, settings: Settings) -> None:
             f"Input should be less than or equal to {settings.max_duration_s:g} "
             "(service limit GUITAR_MAX_DURATION_S)", scene.duration,
             {"le": settings.max_duration_s}))
-    if len(scene.events) > settings.max_events:
+    events = scene.event_count()  # over all tracks
+    if events > settings.max_events:
         errors.append(_error(
-            "events", "too_long",
+            "events" if scene.tracks is None else "tracks", "too_long",
             f"List should have at most {settings.max_events} items "
-            f"(service limit GUITAR_MAX_EVENTS), not {len(scene.events)}", len(scene.events),
+            f"(service limit GUITAR_MAX_EVENTS, counted over all tracks), not {events}", events,
             {"max_length": settings.max_events}))
     if not settings.min_sample_rate <= scene.sample_rate <= settings.max_sample_rate:
         errors.append(_error(

@@ -29,7 +29,7 @@ from .data import (
 )
 from .energy import _step_energy
 from .excitation import _pluck_forces
-from .finger import _beta, _eta, _finger_x, _w_free
+from .finger import _beta, _eta, _finger_row, _finger_x, _w_free
 from .linear import (
     _add_kc,
     _kc_multiplier,
@@ -101,6 +101,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     scr, du, wfree, fext, fp, fw0, fw1, fchi, fbeta, fcol = (
         w.scr, w.du, w.wfree, w.fext, w.fp, w.fw0, w.fw1, w.fchi, w.fbeta, w.fcol)
     lam_f = k * k / c.fg_mass
+    rdamp = c.fg_r / (2.0 * k)  # the finger's contact damping R / (2 k)
     status = OK
 
     b0 = c.b0
@@ -264,11 +265,9 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 continue
             fbeta[s] = bt
             fchi[s] = 1.0 if contact else 0.0
-            cf = 0.25 * bt * bt + fchi[s] * c.fg_r / (2.0 * k)
+            cc[nc], ca[nc] = _finger_row(bt, f_psi[s], eta1, fchi[s], rdamp)
             kind[nc] = FINGER
             cslot[nc] = s
-            ca[nc] = bt * f_psi[s] - cf * eta1
-            cc[nc] = cf
             vfree[nc] = etaf
             v1[nc] = eta1
             cidx[nent] = p_
@@ -404,7 +403,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             if gpass == 1 or not joint or nsav == 0 or status != OK:
                 break
             if not _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam,
-                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, c.fg_r / (2.0 * k), nc):
+                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, rdamp, nc):
                 break
         # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
         free = pol.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)

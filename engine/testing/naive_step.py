@@ -41,6 +41,7 @@ import math
 import numpy as np
 
 from engine.kernels import EPS, GAMMA_JOINT, GAMMA_NONE, GAMMA_PAPER
+from engine.testing.scenes import fret, pluck, scene, tap
 
 IDLE, ACTIVE, GONE = 0, 1, 2
 
@@ -412,6 +413,28 @@ def _joint_gamma(cols, all_cols, x, zfree, z1, lam_z, psi, f_psi, rdamp) -> bool
 
 # ---- stepping a scene with both --------------------------------------------------------------
 
+# Scenes that between them bring every column and contact into play (``compare_steps`` over
+# the stretch where they act).  name: (events, seconds compared from the start, the column kinds
+# that must have acted)
+CASES = {
+    "pluck": ([pluck(6, force=8.0)], 0.004, {"kc"}),
+    "fretted": ([fret(3, 5), pluck(3, time=0.003, force=4.0)], 0.008, {"finger", "rigid"}),
+    "tap": ([tap(2, 7, velocity=1.0)], 0.006, {"finger", "rigid"}),
+    "slam": ([tap(1, 12, force=10.0, velocity=5.0)], 0.004, {"finger", "sav", "rigid"}),
+    "slide": ([fret(3, 5), pluck(3, time=0.002, force=4.0),
+               {"type": "slide", "time": 0.003, "string": 3, "from_fret": 5, "to_fret": 7,
+                "duration": 0.003}], 0.008, {"finger", "rigid"}),
+    "harmonic": ([{"type": "harmonic", "time": 0.0, "string": 1, "fret": 12, "release": 0.004},
+                  pluck(1, time=0.001, force=2.0)], 0.006, {"damper"}),
+    "palm-mute": ([{"type": "mute", "time": 0.0, "string": 6}, pluck(6, time=0.001, force=4.0)],
+                  0.004, {"damper"}),
+    "bend": ([fret(2, 7), pluck(2, time=0.001, force=4.0),
+              {"type": "bend", "time": 0.002, "string": 2, "semitones": 1.0, "duration": 0.003}],
+             0.006, {"finger", "rigid"}),
+}
+
+
+
 STATE_FIELDS = ("u", "psi", "f_w", "f_psi")
 
 
@@ -470,3 +493,18 @@ def compare_steps(scene: dict, seconds: float, options=None, start: float = 0.0)
                     or not np.array_equal(st.fret_active, ref["fret_active"])):
                 decisions += 1
     return {"worst": worst, "decisions": decisions, "steps": compared, "kinds": kinds}
+
+
+def main() -> None:
+    """Print ``compare_steps`` on each of ``CASES`` (what ``test_naive_step.py`` asserts)."""
+    print("| scene | steps | u | pickup velocity | psi | finger w | finger psi | decisions differ |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    for name, (events, seconds, _) in CASES.items():
+        r = compare_steps(scene(events, seconds), seconds)
+        w = r["worst"]
+        print(f"| {name} | {r['steps']} | {w['u']:.1e} | {w['out']:.1e} | {w['psi']:.1e} | "
+              f"{w['f_w']:.1e} | {w['f_psi']:.1e} | {r['decisions']} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -4,14 +4,16 @@ Table 1, per string of the default preset at the chosen quality: the linear stri
 "baseline" of the paper's sec. 7), and the full model (Kirchhoff-Carrier, fretboard, rigid frets, a
 finger pressing at fret 5, an 8 N pluck), with the ratio between them; and an open string's 2 N
 pluck with every nonlinearity on against the same pluck on the linear string.
-Table 2, whole scenes: a six-string strum (open strings), a fretted chord, and the paper's Table 1
-configuration for comparison (their C++: 40-180 ms per second of audio per string).
+Table 2, whole scenes: a six-string strum (open strings), a fretted chord (with held steps and
+without: what the held run buys), a fretted single-line melody whose notes are damped as a player
+ends them (with sleeping and stopping quiet strings, the default, and without), and the paper's
+Table 1 configuration for comparison (their C++: 40-180 ms per second of audio per string).
 Table 3, where a fretted string's time goes: each force switched on in turn, ns, cycles and
 instructions per time step, and the time over the linear string's.  Table 4, the tension rise that
 pressing alone gives each string: above the Kirchhoff-Carrier skip's level, a fretted note needs the
 column in every step (which table 3's "KC in every step" rows price).
 
-    python -m benchmarks.speed [--quality standard] [--seconds 2] [--repeat 3]
+    python -m benchmarks.speed [--quality standard] [--seconds 4] [--repeat 3]
 
 Timings are the best of ``--repeat`` runs of the simulation alone (scene preparation excluded; CPU
 time of the rendering thread), on one core (the engine is single-threaded; the service runs one
@@ -100,6 +102,23 @@ def chord_events() -> list[dict]:
              for s, q in chord_frets.items() if q > 0]
     return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
                     for i in range(6)]
+
+
+# A fretted single line (a C major scale up and down, strings 3 to 1, never an open string), one
+# note every 0.25 s, each stopped by a ``damp`` just before the next note: as a player ends notes.
+MELODY = [(3, 5), (3, 7), (2, 5), (2, 6), (2, 8), (1, 5), (1, 7), (1, 8),
+          (1, 7), (1, 5), (2, 8), (2, 6), (2, 5), (3, 7), (3, 5), (3, 7)]
+
+
+def melody_events(note_s: float = 0.25) -> list[dict]:
+    """``MELODY``: each note fretted, plucked 10 ms later and damped 20 ms before the next."""
+    out = []
+    for i, (s, q) in enumerate(MELODY):
+        t = i * note_s
+        out += [{"type": "fret", "time": t, "string": s, "fret": q},
+                {"type": "pluck", "time": t + 0.01, "string": s, "force": 2.0},
+                {"type": "damp", "time": t + note_s - 0.02, "string": s}]
+    return out
 
 
 def fretted_events(string: int) -> list[dict]:
@@ -196,26 +215,31 @@ def pressed_tension_rise(quality: str, seconds: float = 0.5) -> None:
 
 
 def scenes(quality: str, seconds: float, repeat: int) -> None:
-    strum, chord = strum_events(), chord_events()
+    strum, chord, melody = strum_events(), chord_events(), melody_events(seconds / len(MELODY))
     paper = [{"type": "fret", "time": 0.0, "string": 6, "fret": 5},
              {"type": "pluck", "time": 0.05, "string": 6, "force": 5.0}]
     print(f"\nscenes, quality '{quality}', {seconds:g} s of audio (with the preset's acoustic body)")
-    print("scene                          | ms per s of audio | x real time | Mcycles per s of audio")
+    print("scene                                    | ms per s of audio | x real time | "
+          "Mcycles per s of audio")
     for name, evs, opts in [
         ("six-string strum (open)", strum, RenderOptions(skip_decayed=False)),
         ("the same, KC in every step", strum, RenderOptions(skip_decayed=False, kc_tolerance=0.0)),
         ("fretted C chord, strummed", chord, RenderOptions(skip_decayed=False)),
+        ("the same, held steps in the general path", chord,
+         RenderOptions(skip_decayed=False, held_steps=False)),
+        ("fretted melody, damped note endings", melody, RenderOptions()),
+        ("the same, quiet strings computed", melody, RenderOptions(skip_decayed=False)),
         ("paper Table 1 setup, low E", paper, RenderOptions(skip_decayed=False)),
     ]:
         t = best_time({"duration": seconds, "quality": quality, "events": evs}, opts, repeat)
-        print(f"{name:30s} | {t.seconds / seconds * 1e3:17.1f} | {seconds / t.seconds:11.1f} | "
+        print(f"{name:40s} | {t.seconds / seconds * 1e3:17.1f} | {seconds / t.seconds:11.1f} | "
               f"{_per(t.cycles, seconds * 1e6, 22)}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quality", default="standard", choices=["draft", "standard", "high"])
-    ap.add_argument("--seconds", type=float, default=2.0)
+    ap.add_argument("--seconds", type=float, default=4.0)
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
     per_string(args.quality, args.seconds, args.repeat)

@@ -52,6 +52,7 @@ from .collisions import (  # noqa: F401
     _contact,
     _fret_hit,
     _remove_col,
+    _rigid_row,
     _sav_board,
     _sav_frets,
 )
@@ -85,7 +86,7 @@ from .data import (  # noqa: F401
 from .decimate import fir_decimate  # noqa: F401
 from .energy import _energy, _step_energy  # noqa: F401
 from .excitation import _pluck_force, _pluck_forces  # noqa: F401
-from .finger import _beta, _eta, _finger_x, _w_free  # noqa: F401
+from .finger import _beta, _eta, _finger_row, _finger_x, _w_free  # noqa: F401
 from .linear import (  # noqa: F401
     _add_kc,
     _bent_stencil,

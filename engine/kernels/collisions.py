@@ -144,6 +144,14 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
 
 
 @njit(**JIT_INLINE)
+def _rigid_row(q, fret_p, fret_w0, fret_w1, UF, U1):
+    """A rigid fret's j_q.u_free and j_q.u^(n-1): (v_free, v1) of its row."""
+    p_ = fret_p[q]
+    return (fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1],
+            fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1])
+
+
+@njit(**JIT_INLINE)
 def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret_w0, fret_w1,
                fret_m0, UF, U1, ca, vfree, v1):
     p_ = fret_p[q]
@@ -155,8 +163,7 @@ def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret
     cidx[nent + 1] = p_ + 1
     cval[nent + 1] = fret_w1[q]
     ca[nc] = fret_m0[q]
-    vfree[nc] = fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1]
-    v1[nc] = fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1]
+    vfree[nc], v1[nc] = _rigid_row(q, fret_p, fret_w0, fret_w1, UF, U1)
     cstart[nc + 1] = nent + 2
     return nent + 2
 

@@ -50,3 +50,13 @@ def _beta(c, eta):
     ea = eta if c.fg_alpha == 1.0 else eta**c.fg_alpha  # pow() is slow
     vpot = c.fg_k / (c.fg_alpha + 1.0) * ea * eta
     return c.fg_k * ea / math.sqrt(2.0 * vpot + EPS)
+
+
+@njit(**JIT_INLINE)
+def _finger_row(bt, psi_f, eta1, chi, rdamp):
+    """The finger's row of the small system, x + c eta^(n+1) = -a, from its force
+    x = -bt (psi_f + bt (eta^(n+1) - eta^(n-1)) / 4) - chi R (eta^(n+1) - eta^(n-1)) / (2 k)
+    (eqs. (55c-d) with the contact damping, ``rdamp`` = R / (2 k), acting while chi = 1):
+    returns (c, a)."""
+    cf = 0.25 * bt * bt + chi * rdamp
+    return cf, bt * psi_f - cf * eta1

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..config import JIT_NO_NRT, JIT_STEP
-from .collisions import _add_rigid, _contact, _fret_hit
+from ..config import JIT, JIT_STEP
+from .collisions import _add_rigid, _contact, _fret_hit, _rigid_row
 from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
 from .excitation import _pluck_forces
-from .finger import _beta, _eta, _w_free
+from .finger import _beta, _eta, _finger_row, _w_free
 from .linear import (
     _add_kc,
     _kc_multiplier,
@@ -26,7 +26,7 @@ from .sav import _joint_gamma
 from .system import _assemble, _gram, _gram_kc, _scatter, _solve, _unscatter
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _quiet_until(s, ctl, st):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
@@ -113,7 +113,7 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     return done, s_last
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _held_until(s, ctl, st):
     """The first step >= s at which a held step is not allowed, and the finger slot that holds the
     string; (s, -1) if step s may not be held.
@@ -230,7 +230,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
             nc += 1
     _gram(nc, kind, cstart, cidx, cval, cslot, Q, 0.0, lam, lam_f, G, scr)  # the fixed entries
     vlv = lam * (fw0 * fw0 + fw1 * fw1) + lam_f
-    cf_damp = 1.0 * c.fg_r / (2.0 * k)  # fchi * R / (2 k) in contact
+    rdamp = c.fg_r / (2.0 * k)  # the finger's contact damping R / (2 k)
     done = 0
     for i in range(it, it_end):
         step = step0 + i
@@ -247,9 +247,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         eta1 = _eta(fw0, fw1, fpos, U1, f_w1[slot])
         etaf = _eta(fw0, fw1, fpos, UF, wfree)
         bt = _beta(c, eta)
-        cf = 0.25 * bt * bt + cf_damp
-        ca[fc] = bt * f_psi[slot] - cf * eta1
-        cc[fc] = cf
+        cc[fc], ca[fc] = _finger_row(bt, f_psi[slot], eta1, 1.0, rdamp)
         vfree[fc] = etaf
         v1[fc] = eta1
         if c.kc > 0.0:
@@ -259,10 +257,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
             v1[0] = qu1
             _gram_kc(0, nc, cstart, cidx, cval, Q, qq, lam, G)  # the rest of G is fixed
         for ci in range(fc + 1, nc):
-            p_ = cidx[cstart[ci]]
-            q = cfret[ci]
-            vfree[ci] = fret_w0[q] * UF[p_] + fret_w1[q] * UF[p_ + 1]
-            v1[ci] = fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1]
+            vfree[ci], v1[ci] = _rigid_row(cfret[ci], fret_p, fret_w0, fret_w1, UF, U1)
         _assemble(nc, kind, ca, cc, vfree, G, A, x)
         if not _solve(A, x, nc):
             return done, s_last
@@ -287,7 +282,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         fbeta[slot] = bt
         fchi[slot] = 1.0
         if _joint_gamma(fc + 1, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs,
-                        cbt, ccon, psi, f_psi, fbeta, fchi, cf_damp, nc):
+                        cbt, ccon, psi, f_psi, fbeta, fchi, rdamp, nc):
             return done, s_last
         # the step is a held one: apply it, z^(n+1) = z_free + Lambda sum_c v_c x_c
         f_bprev[slot] = bt

@@ -13,6 +13,7 @@ from numba import njit
 
 from ..config import JIT_INLINE
 from .data import BOARD, FINGER, FRETPEN, GAMMA_JOINT, GAMMA_NONE, GAMMA_PAPER
+from .finger import _finger_row
 
 
 @njit(**JIT_INLINE)
@@ -127,9 +128,7 @@ def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam
         if kd == FINGER:
             bt = gnew * cbt[i]
             fbeta[s_] = bt
-            cf = 0.25 * bt * bt + fchi[s_] * rdamp
-            cc[i] = cf
-            ca[i] = bt * ps - cf * v1[i]
+            cc[i], ca[i] = _finger_row(bt, ps, v1[i], fchi[s_], rdamp)
         else:
             f = gnew / gold
             for e in range(cstart[i], cstart[i + 1]):

@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_NO_NRT, JIT_STEP
+from ..config import JIT, JIT_STEP
 from .collisions import _add_rigid, _fret_hit, _remove_col, _sav_board, _sav_frets
 from .data import (
     ACTIVE,
@@ -29,7 +29,7 @@ from .data import (
 )
 from .energy import _step_energy
 from .excitation import _pluck_forces
-from .finger import _beta, _eta, _finger_x, _w_free
+from .finger import _beta, _eta, _finger_row, _finger_x, _w_free
 from .linear import (
     _add_kc,
     _kc_multiplier,
@@ -51,8 +51,7 @@ def step_block(c, geo, ctl, st, pol, step0, nsteps, out, diag, e_h, e_q, e_p):
     finger brings or takes away when it is put down or removed and the work of a changing tension.
     Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit;
     ``pol`` (``Policy``) says whether quiet and held steps may take their own loops.
-    Allocates the block's scratch (``Work``) and hands over to ``_advance``, which is compiled
-    without reference counting and so may not allocate (config.JIT_NO_NRT).
+    Allocates the block's scratch (``Work``) and hands over to ``_advance``.
     """
     n = c.n
     nfret = geo.fret_p.shape[0]
@@ -102,6 +101,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     scr, du, wfree, fext, fp, fw0, fw1, fchi, fbeta, fcol = (
         w.scr, w.du, w.wfree, w.fext, w.fp, w.fw0, w.fw1, w.fchi, w.fbeta, w.fcol)
     lam_f = k * k / c.fg_mass
+    rdamp = c.fg_r / (2.0 * k)  # the finger's contact damping R / (2 k)
     status = OK
 
     b0 = c.b0
@@ -265,11 +265,9 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 continue
             fbeta[s] = bt
             fchi[s] = 1.0 if contact else 0.0
-            cf = 0.25 * bt * bt + fchi[s] * c.fg_r / (2.0 * k)
+            cc[nc], ca[nc] = _finger_row(bt, f_psi[s], eta1, fchi[s], rdamp)
             kind[nc] = FINGER
             cslot[nc] = s
-            ca[nc] = bt * f_psi[s] - cf * eta1
-            cc[nc] = cf
             vfree[nc] = etaf
             v1[nc] = eta1
             cidx[nent] = p_
@@ -405,7 +403,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             if gpass == 1 or not joint or nsav == 0 or status != OK:
                 break
             if not _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam,
-                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, c.fg_r / (2.0 * k), nc):
+                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, rdamp, nc):
                 break
         # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
         free = pol.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
@@ -477,12 +475,12 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     return status
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _restore(U0, U1, UF, r):
     """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
     # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
     # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
-    # node by node, in place (no allocation: see JIT_NO_NRT)
+    # node by node, in place
     if r == 1:
         # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
         for j in range(U0.shape[0]):

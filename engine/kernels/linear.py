@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_INLINE
+from ..config import JIT_INLINE, JIT_NO_NRT
 
 
 @njit(**JIT_INLINE)
@@ -46,9 +46,10 @@ def interp(x: float, h: float, n: int):
 # ``_linear_pass``.  The three loops therefore get the same sums to the last bit by construction;
 # inlined into each loop (as they were up to 6e8d8bc), they relied on LLVM vectorising every copy
 # the same way, which held for the quiet run and not for the held run.  The call costs each step
-# a few ns (``docs/engine.md``).  The kernels take the coefficients they use, not ``Coefs``:
+# a few ns (``docs/engine.md``); without reference counting (``config.JIT_NO_NRT``) it no longer
+# counts the six arrays it passes.  The kernels take the coefficients they use, not ``Coefs``:
 # every field passed is an argument to marshal in each call.
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over
     the N intervals of u^n, and the nodes of u^n below the fretboard and within reach of a fret
@@ -89,7 +90,7 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     return qq, quf, qu1, s2 + last * last, below, close
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count):
     """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_pass_kc``); returns
     (S, below, close)."""

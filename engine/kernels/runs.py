@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..config import JIT, JIT_STEP
+from ..config import JIT_NO_NRT, JIT_STEP
 from .collisions import _add_rigid, _contact, _fret_hit, _rigid_row
 from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
@@ -26,7 +26,7 @@ from .sav import _joint_gamma
 from .system import _assemble, _gram, _gram_kc, _scatter, _solve, _unscatter
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _quiet_until(s, ctl, st):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
@@ -113,7 +113,7 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     return done, s_last
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _held_until(s, ctl, st):
     """The first step >= s at which a held step is not allowed, and the finger slot that holds the
     string; (s, -1) if step s may not be held.

@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_STEP
+from ..config import JIT, JIT_NO_NRT, JIT_STEP
 from .collisions import _add_rigid, _fret_hit, _remove_col, _sav_board, _sav_frets
 from .data import (
     ACTIVE,
@@ -51,7 +51,8 @@ def step_block(c, geo, ctl, st, pol, step0, nsteps, out, diag, e_h, e_q, e_p):
     finger brings or takes away when it is put down or removed and the work of a changing tension.
     Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit;
     ``pol`` (``Policy``) says whether quiet and held steps may take their own loops.
-    Allocates the block's scratch (``Work``) and hands over to ``_advance``.
+    Allocates the block's scratch (``Work``) and hands over to ``_advance``, which is compiled
+    without reference counting and so may not allocate (config.JIT_NO_NRT).
     """
     n = c.n
     nfret = geo.fret_p.shape[0]
@@ -475,12 +476,12 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     return status
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _restore(U0, U1, UF, r):
     """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
     # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
     # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
-    # node by node, in place
+    # node by node, in place (no allocation: see JIT_NO_NRT)
     if r == 1:
         # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
         for j in range(U0.shape[0]):

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_INLINE
+from ..config import JIT_INLINE, JIT_NO_NRT
 from .data import KC, RIGID
 from .linear import _q_index
 
@@ -137,7 +137,7 @@ def _assemble(nc, kind, ca, cc, vfree, G, A, b):
             b[i] = -ca[i] - cc[i] * vfree[i]
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _step_to_zero(x, xp, nbase, nc):
     """Lawson and Hanson's step: xp (every rigid reaction >= 0) moves towards the solve x, which
     has a negative one, until the first rigid reaction reaches zero; returns that column.  Not
@@ -157,7 +157,7 @@ def _step_to_zero(x, xp, nbase, nc):
     return worst
 
 
-@njit(**JIT)
+@njit(**JIT_NO_NRT)
 def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, ca, cc, vfree,
                  xp, G, A, b, scr, d, A2):
     """A rigid fret (the last of the nc columns) was just added to xp, a solution of the others

@@ -11,7 +11,9 @@ every numba kernel once per process).
 Layers, each knowing only those below it (docs/architecture.md draws them):
 
     presets      instruments in physical units                       (numpy)
-    scene        the validated input: events, output, quality, limits (pydantic; knows presets)
+    effect_specs the effects a track may use, in units                 (pydantic)
+    scene        the validated input: tracks, events, output, quality, limits (pydantic; knows
+                 presets, effect_specs)
     kernels      the numba time-step loop of one string
     string       one string's grid, coefficients, tuning and geometry (knows kernels, presets)
     controls     events -> one string's control arrays                 (knows scene, kernels)
@@ -21,6 +23,8 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     voice        one string of a scene: state across blocks, energy bookkeeping
     playability  warnings: what may not sound as the player means it
     guitar       the voices of one instrument, block by block
+    effects      a track's effects chain (pedalboard), state kept across blocks
+    mix          a scene of tracks: a guitar per track, panned, through effects, mixed
     rendering    the public functions: scene in, audio out
     precompile   compile or load every kernel once per process (``warmup``)
 

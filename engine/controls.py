@@ -21,6 +21,11 @@ How each event acts on the physics
   with no pressing force: modes with a node at the touch point pass, the others are damped.
 * ``mute``: a palm near the bridge, a damper spread over ``PALM_WIDTH_M`` with R = amount * 0.8
   sqrt(T rho A): shorter decay, duller tone.
+* ``damp``: the player stops the string.  Any fretting finger lifts (relaxes: it stops pressing)
+  and a pad of flesh rests on the string where that finger was, or over fret ``DAMP_OPEN_FRET`` on
+  an open string (the fretting hand laid across it): a damper spread over ``DAMP_WIDTH_M`` with
+  R = ``DAMP_DAMPING`` sqrt(T rho A), a loss in the balance's Q like the palm's.  It stays until the
+  string's next event (of any type).  docs/engine.md gives the decay times it gives.
 * ``bend``/``vibrato``: the tension T(t) = T0 * ratio(t), piecewise linear between breakpoints; the
   ratio for a pitch change is solved from the scheme's dispersion relation.  The grid is built for
   the highest tension the scene reaches (``max_tension_ratio``).
@@ -37,6 +42,7 @@ from .kernels import Controls, interp
 from .presets import Preset
 from .scene import (
     Bend,
+    Damp,
     Fret,
     HammerOn,
     Harmonic,
@@ -59,6 +65,9 @@ PALM_WIDTH_M = 0.02
 HARMONIC_DAMPING = 2.0  # x sqrt(T rho A)
 PALM_DAMPING = 0.8  # x sqrt(T rho A) at amount 1
 VIBRATO_POINTS_PER_CYCLE = 32
+DAMP_DAMPING = 2.0  # x sqrt(T rho A), spread over the pad
+DAMP_WIDTH_M = 0.015  # a fingertip pad laid along the string
+DAMP_OPEN_FRET = 5  # where the fretting hand touches an open string
 
 # style -> (pulse length s, direction): a pick releases faster than a fingertip; a slap drives
 # the string into the frets, a pop pulls it away so that it snaps back onto them.
@@ -88,7 +97,7 @@ def expand(scene: Scene, n_strings: int) -> list:
                 if t < scene.duration:
                     out.append(Pluck(time=t, string=s, force=e.force, position=e.position,
                                      style=e.style))
-        elif isinstance(e, Mute) and e.string is None:
+        elif isinstance(e, Mute | Damp) and e.string is None:
             out += [e.model_copy(update={"string": s}) for s in range(1, n_strings + 1)]
         else:
             out.append(e)
@@ -195,7 +204,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             if s["rel"] > at and (only is None or s is only):
                 s["rel"] = at
 
-    for e in events:
+    for j, e in enumerate(events):
         on = step(e.time)
         last = max(last, on)
         if isinstance(e, Pluck):
@@ -238,6 +247,14 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             xs = centre + np.linspace(-0.5, 0.5, 5) * PALM_WIDTH_M
             dampers.append((on, off, e.amount * PALM_DAMPING * impedance,
                             [(float(xv), 0.2) for xv in xs]))
+        elif isinstance(e, Damp):
+            held = [s for s in slots if s["on"] <= on < s["rel"]]
+            x = held[-1]["x1"] if held else finger_at(DAMP_OPEN_FRET)
+            lift(on)
+            off = step(events[j + 1].time) if j + 1 < len(events) else NEVER
+            last = max(last, on if off == NEVER else off)
+            xs = x + np.linspace(-0.5, 0.5, 5) * DAMP_WIDTH_M
+            dampers.append((on, off, DAMP_DAMPING * impedance, [(float(xv), 0.2) for xv in xs]))
         elif isinstance(e, Bend):
             r = ratio_for_cents(100.0 * e.semitones)
             up = max(step(e.duration), 1)

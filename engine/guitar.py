@@ -144,7 +144,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
                         fretboard=opts.fretboard, fret_shifts=shifts)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, policy,
-                            rmax))
+                            rmax, opts.energy_series))
     frames = frame_count(scene)
     pan = out.pan or default_pan(nstr)
     body_name = out.body or preset.body

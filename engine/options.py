@@ -63,6 +63,10 @@ class RenderOptions:
     gamma_rule: str = "joint"
     compensate_dispersion: bool = True
     calibrate_frets: bool | None = None  # overrides ``Quality.calibrate_frets``
+    # keep each voice's per-step energy series (``Voice.energy_h`` ...; tests and benchmarks read
+    # them); off, a render with diagnostics keeps only running figures, in memory that does not
+    # grow with the scene's duration
+    energy_series: bool = False
 
 
 GAMMA_RULES = {"joint": GAMMA_JOINT, "own": GAMMA_OWN, "paper": GAMMA_PAPER, "none": GAMMA_NONE}

@@ -126,14 +126,16 @@ def convolve_ir(audio: np.ndarray, ir: np.ndarray) -> np.ndarray:
                      for c in range(audio.shape[1])], axis=1)
 
 
-def to_output_scale(velocity: np.ndarray, normalize: bool) -> np.ndarray:
-    """Pickup velocity (m/s) -> samples: peak at ``PEAK_DBFS``, or the fixed gain ``FIXED_GAIN``."""
+def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = False) -> np.ndarray:
+    """Pickup velocity (m/s) -> samples: peak at ``PEAK_DBFS``, or the fixed gain ``FIXED_GAIN``.
+    ``in_place``: scale ``velocity`` itself (a long render holds one copy of its output)."""
+    out = velocity if in_place else None
     if not normalize:
-        return velocity * FIXED_GAIN
+        return np.multiply(velocity, FIXED_GAIN, out=out)
     peak = float(np.max(np.abs(velocity))) if velocity.size else 0.0
     if peak == 0.0:
-        return velocity.copy()
-    return velocity * (10.0 ** (PEAK_DBFS / 20.0) / peak)
+        return velocity if in_place else velocity.copy()
+    return np.multiply(velocity, 10.0 ** (PEAK_DBFS / 20.0) / peak, out=out)
 
 
 class Decimator:

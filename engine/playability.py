@@ -49,14 +49,19 @@ def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[s
     Below that force rendered notes were found not to hold (``benchmarks/seating.py``): the finger
     pushes the string down without stopping it, and the note sounds dead or buzzes.  Fingers with
     no force of their own press hard enough (``intonation.press_force``).  In time order.  A
-    prepared scene has the same list without building the grids again: ``Guitar.warnings``."""
+    prepared scene has the same list without building the grids again: ``Guitar.warnings``.
+    With ``tracks``, each track's list in turn, each warning prefixed by its track."""
     opts = options or RenderOptions()
-    preset = scene.preset()
     q = opts.quality or QUALITY[scene.quality]
-    out = []
-    for i in range(1, preset.n_strings + 1):
-        events = events_on(scene, preset.n_strings, i)
-        if any(e.type in FINGER_EVENTS and e.force is not None for e in events):
-            _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q, opts)
-            out += finger_warnings(preset, i, events, model, ratio)
-    return [text for _, _, text in sorted(out)]
+    texts = []
+    for t, single in enumerate(scene.track_scenes()):
+        preset = single.preset()
+        out = []
+        for i in range(1, preset.n_strings + 1):
+            events = events_on(single, preset.n_strings, i)
+            if any(e.type in FINGER_EVENTS and e.force is not None for e in events):
+                _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q, opts)
+                out += finger_warnings(preset, i, events, model, ratio)
+        label = scene.track_label(t)
+        texts += [f"{label}: {text}" if label else text for _, _, text in sorted(out)]
+    return texts

@@ -294,11 +294,68 @@ def get_preset(name: str) -> Preset:
         raise KeyError(f"unknown preset {name!r}; choose one of {sorted(PRESETS)}") from None
 
 
+def tension_n(spec: StringSpec, length_m: float) -> float:
+    """A string's tension at its pitch, stiff-string estimate: 4 L^2 rho A f0^2 - pi^2 E I / L^2
+    (``engine.string.tune`` solves the scheme's own relation; it differs by the grid's error)."""
+    return spec.pitch_tension_n(length_m) - spec.stiffness_tension_n(length_m)
+
+
+def added_string(preset: Preset, note: str) -> StringSpec:
+    """A string below the preset's lowest (string n), built as a maker extends a set: the same
+    construction as string n (its effective density, so the same wrap-to-core make-up, and its
+    core-to-gauge ratio, so the same effective Young's modulus; its decay times and saddle
+    setback), at the mean tension of the preset's two lowest strings (within their range), with
+    the radius that gives that tension at ``note``: rho A = T / (2 L f0)^2, solved together with
+    the small stiffness term.  ``tests/engine/test_tracks.py`` prints the results: the electric's
+    B1 at 0.063" (7-string sets sell .059-.064), the steel acoustic's B1 at 0.074", the bass's B0
+    at 0.141" (5-string sets: .125-.135; our bass's E1 is heavy, .105, too)."""
+    low = preset.strings[-1]
+    pair = preset.strings[-2:]
+    n = preset.n_strings
+    target = sum(tension_n(s, preset.string_length_m(n - len(pair) + 1 + j))
+                 for j, s in enumerate(pair)) / len(pair)
+    spec = replace(low, note=note)
+    length = preset.scale_length_m + low.saddle_setback_m
+    f0 = note_frequency(note)
+    radius = low.radius_m
+    for _ in range(50):  # fixed point: rho pi r^2 (2 L f0)^2 = T + pi^2 E pi r^4 / 4 / L^2
+        stiff = math.pi**2 * low.youngs_modulus_pa * math.pi * radius**4 / 4.0 / length**2
+        new = math.sqrt((target + stiff) / (low.density_kg_m3 * math.pi * (2 * length * f0) ** 2))
+        if abs(new - radius) < 1e-15:
+            break
+        radius = new
+    return replace(spec, radius_m=new)
+
+
+def fit_strings(preset: Preset, notes: list[str]) -> tuple[StringSpec, ...]:
+    """The preset's strings for a tuning of ``len(notes)`` notes (string 1 first).  As many notes
+    as strings: each string retuned.  More: strings added below the lowest, one by one, each built
+    from the two strings above it (``added_string``).  Fewer: the run of consecutive preset
+    strings whose open pitches are nearest the notes (least sum of squared semitone differences;
+    the highest run on a tie), retuned, so a four-note bass tuning on a six-string guitar keeps
+    the four lowest strings rather than thin trebles tuned down two octaves."""
+    k, n = len(notes), preset.n_strings
+    if k > n:
+        extended = preset
+        for note in notes[n:]:
+            extended = replace(extended, strings=extended.strings + (added_string(extended, note),))
+        strings = extended.strings
+    elif k < n:
+        def cost(start: int) -> float:
+            return sum((12 * math.log2(note_frequency(m) / s.frequency_hz)) ** 2
+                       for m, s in zip(notes, preset.strings[start:start + k], strict=True))
+        start = min(range(n - k + 1), key=lambda j: (cost(j), j))
+        strings = preset.strings[start:start + k]
+    else:
+        strings = preset.strings
+    return tuple(replace(s, note=m) for s, m in zip(strings, notes, strict=True))
+
+
 def apply_overrides(preset: Preset, guitar) -> Preset:
     """The preset refined by a scene's ``guitar`` overrides (tuning, strings, frets, action)."""
     strings = list(preset.strings)
     if guitar.tuning is not None:
-        strings = [replace(s, note=n) for s, n in zip(strings, guitar.tuning, strict=True)]
+        strings = list(fit_strings(preset, list(guitar.tuning)))
     for o in guitar.strings:
         changes = {
             k: v for k, v in o.model_dump(exclude={"string"}).items() if v is not None

@@ -1,8 +1,10 @@
 """The engine's front door: a scene in, audio out.
 
-``render`` validates the scene (``engine.scene``), prepares its guitar (``engine.guitar.prepare``:
-a voice per string that needs simulating) and concatenates the guitar's blocks; ``blocks`` yields
-them as they are computed, at the fixed gain a stream needs.  Every front end (Python, the HTTP
+``render`` validates the scene (``engine.scene``), prepares its tracks (``engine.mix.prepare``: a
+guitar per track, ``engine.guitar.prepare``: a voice per string that needs simulating) and writes
+the mix's blocks into the output array; ``blocks`` yields them as they are computed, at the fixed
+gain a stream needs, and holds nothing but the current block (a song of any length streams in
+bounded memory).  Every front end (Python, the HTTP
 service's workers, a command line) goes through these two functions.
 """
 
@@ -14,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .guitar import Guitar, prepare
+from .mix import Mix, prepare
 from .options import RenderOptions
 from .output import FIXED_GAIN, convolve_ir, to_output_scale
 from .scene import Scene, parse_scene
@@ -30,7 +32,7 @@ class RenderResult:
     energy_error: float | None
     sample_rate: int
     seconds: float  # wall time of the simulation
-    oversample: dict[int, int]  # string -> internal oversampling factor
+    oversample: dict[int, int]  # string -> internal oversampling factor (largest over tracks)
     warnings: list[str] = field(default_factory=list)  # ``engine.playability.scene_warnings``
 
 
@@ -59,22 +61,24 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     t0 = time.perf_counter()
     if impulse_response is not None:
         sc = sc.model_copy(update={"output": sc.output.model_copy(update={"body": "none"})})
-    guitar = prepare(sc, options)
-    parts = list(guitar.blocks())
-    vel = np.concatenate(parts) if parts else np.zeros(0)
+    mix = prepare(sc, options)
+    # the blocks are written into the output as they come: no more than the output is held
+    vel = np.zeros((mix.frames, 2) if sc.output.channels == 2 else mix.frames)
+    for blk in mix.blocks():
+        vel[mix.frame - len(blk):mix.frame] = blk
     if impulse_response is not None:
         vel = convolve_ir(vel, impulse_response)
     seconds = time.perf_counter() - t0
-    audio = to_output_scale(vel, sc.output.normalize)
-    return RenderResult(audio, guitar.energy_error() if sc.diagnostics else None, sc.sample_rate,
-                        seconds, {v.index: v.oversample for v in guitar.voices}, advice(guitar))
+    audio = to_output_scale(vel, sc.output.normalize, in_place=True)
+    return RenderResult(audio, mix.energy_error() if sc.diagnostics else None, sc.sample_rate,
+                        seconds, mix.oversample(), advice(mix))
 
 
-def advice(guitar: Guitar) -> list[str]:
-    """``guitar.warnings()``, which are advice: if working them out fails, the audio still comes,
+def advice(mix: Mix) -> list[str]:
+    """``mix.warnings()``, which are advice: if working them out fails, the audio still comes,
     without them (the failure is logged)."""
     try:
-        return guitar.warnings()
+        return mix.warnings()
     except Exception:
         log.exception("working out the scene's warnings failed; the render goes without them")
         return []
@@ -83,13 +87,13 @@ def advice(guitar: Guitar) -> list[str]:
 class Blocks:
     """The scene's audio block by block at the fixed gain (what a stream can send: it cannot know
     the peak in advance); concatenated, equal to ``render`` with ``normalize: false``.
-    ``warnings`` are known once the guitar is prepared, before the first block."""
+    ``warnings`` are known once the tracks are prepared, before the first block."""
 
     def __init__(self, scene: Scene | dict, block_frames: int = 4096,
                  options: RenderOptions | None = None):
-        guitar = prepare(parse_scene(scene), options)
-        self.warnings: list[str] = advice(guitar)
-        self._blocks = guitar.blocks(block_frames)
+        mix = prepare(parse_scene(scene), options)
+        self.warnings: list[str] = advice(mix)
+        self._blocks = mix.blocks(block_frames)
 
     def __iter__(self):
         return self

@@ -11,10 +11,15 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from .effect_specs import MAX_EFFECTS, Effect
 from .presets import DEFAULT_PRESET, PRESETS, Preset, apply_overrides, get_preset, note_frequency
 
-MAX_DURATION_S = 120.0
-MAX_EVENTS = 2000
+# A scene may be as long as a song: it is rendered in blocks, in bounded memory
+# (benchmarks/long_song.py); a server sets its own, tighter limits (service/config.py).
+MAX_DURATION_S = 1800.0
+MAX_EVENTS = 20000  # over all tracks
+MAX_TRACKS = 16
+MAX_STRINGS = 12
 MAX_PLUCK_FORCE_N = 20.0
 MAX_FINGER_FORCE_N = 10.0
 MAX_TAP_VELOCITY_M_S = 5.0
@@ -33,7 +38,7 @@ Position = Annotated[float, Field(gt=0.0, lt=1.0, description="x / L: 0 at the n
 
 class _Event(_Model):
     time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")
-    string: int = Field(ge=1, le=12, description="1 = highest string")
+    string: int = Field(ge=1, le=MAX_STRINGS, description="1 = highest string")
 
 
 PluckStyle = Literal["finger", "pick", "slap", "pop"]
@@ -207,7 +212,7 @@ class Mute(_Model):
 
     type: Literal["mute"] = "mute"
     time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")
-    string: int | None = Field(None, ge=1, le=12, description="omit to mute every string")
+    string: int | None = Field(None, ge=1, le=MAX_STRINGS, description="omit to mute every string")
     position: float = Field(0.96, ge=0.7, le=0.99, description="palm centre, x / L")
     amount: float = Field(0.7, ge=0.0, le=1.0, description="0 barely touching .. 1 firm")
     release: float | None = Field(None, gt=0.0, description="time the palm lifts, s")
@@ -241,8 +246,25 @@ class Strum(_Model):
         return v
 
 
+class Damp(_Model):
+    """The player stops the string: the fretting finger relaxes onto it (or, on an open string, a
+    hand touches it) and the note dies, until the string's next event.  Modelled as a lossy pad
+    (``engine.controls.DAMP_DAMPING`` x sqrt(T rho A), ``DAMP_WIDTH_M`` wide) where the finger was,
+    or over fret ``DAMP_OPEN_FRET`` on an open string, with any fretting finger lifted; docs/engine.md
+    gives the decay times."""
+
+    type: Literal["damp"] = "damp"
+    time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")
+    string: int | None = Field(None, ge=1, le=MAX_STRINGS, description="omit to damp every string")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{"type": "damp", "time": 1.0, "string": 6}]}
+    )
+
+
 Event = Annotated[
-    Pluck | Fret | Tap | HammerOn | PullOff | Slide | Bend | Vibrato | Harmonic | Mute | Strum,
+    Pluck | Fret | Tap | HammerOn | PullOff | Slide | Bend | Vibrato | Harmonic | Mute | Strum
+    | Damp,
     Field(discriminator="type"),
 ]
 
@@ -250,7 +272,7 @@ Event = Annotated[
 class StringOverride(_Model):
     """Per-string physical overrides of a preset; omitted fields keep the preset's value."""
 
-    string: int = Field(ge=1, le=12)
+    string: int = Field(ge=1, le=MAX_STRINGS)
     note: str | None = Field(None, description="open-string pitch, e.g. 'D2'")
     radius_m: float | None = Field(None, ge=5e-5, le=2e-3)
     density_kg_m3: float | None = Field(None, ge=500.0, le=25000.0)
@@ -275,7 +297,11 @@ class StringOverride(_Model):
 class Guitar(_Model):
     preset: str = Field(DEFAULT_PRESET, description=f"one of {sorted(PRESETS)}")
     tuning: list[str] | None = Field(
-        None, description="open-string notes, string 1 first (e.g. ['D4','B3','G3','D3','G2','D2'])"
+        None, min_length=1, max_length=MAX_STRINGS,
+        description="open-string notes, string 1 first (e.g. ['D4','B3','G3','D3','G2','D2']); more "
+                    "notes than the preset has strings add strings on the low side, built like the "
+                    "preset's lowest (engine.presets.extend_preset); fewer keep the preset's "
+                    "strings nearest in pitch (engine.presets.fit_strings)"
     )
     strings: list[StringOverride] = Field(default_factory=list)
     frets: int | None = Field(None, ge=1, le=24, description="number of frets")
@@ -333,11 +359,45 @@ class Output(_Model):
         return v
 
 
+# --- Several instruments in one scene (API.md): a track is one instrument with its own events,
+# level, place in the stereo field and effects chain.
+
+
+class Track(_Model):
+    """One instrument of a scene: its strings are independent of the other tracks'; its output
+    goes through ``effects`` in order, then ``gain_db``, and is mixed with the others."""
+
+    name: str = Field("", max_length=100, description="a label (labels, warnings)")
+    guitar: Guitar = Field(default_factory=Guitar)
+    events: list[Event] = Field(default_factory=list, max_length=MAX_EVENTS)
+    gain_db: float = Field(0.0, ge=-60.0, le=24.0, description="track level after its effects, dB")
+    pan: float | None = Field(
+        None, ge=-1.0, le=1.0,
+        description="stereo place of the whole track, -1 left .. 1 right (constant power); "
+                    "omitted: its strings spread as a single guitar's (low strings left)")
+    effects: list[Effect] = Field(default_factory=list, max_length=MAX_EFFECTS,
+                                  description="effects chain, in order (engine.effect_specs)")
+
+    model_config = ConfigDict(
+        json_schema_extra={"examples": [{
+            "name": "Rhythm", "guitar": {"preset": "electric"}, "gain_db": -3.0, "pan": -0.4,
+            "events": [{"type": "strum", "time": 0.0}],
+            "effects": [{"type": "drive", "gain_db": 18}, {"type": "reverb", "room_size": 0.4}]}]}
+    )
+
+    def preset(self) -> Preset:
+        """The track's preset with its overrides (and extra strings) applied."""
+        return apply_overrides(get_preset(self.guitar.preset), self.guitar)
+
+
 class Scene(_Model):
     duration: float = Field(gt=0.0, le=MAX_DURATION_S, description="seconds")
     sample_rate: int = Field(44100, ge=SAMPLE_RATE_MIN, le=SAMPLE_RATE_MAX, description="Hz")
     guitar: Guitar = Field(default_factory=Guitar)
     events: list[Event] = Field(default_factory=list, max_length=MAX_EVENTS)
+    tracks: list[Track] | None = Field(
+        None, min_length=1, max_length=MAX_TRACKS,
+        description="several instruments (instead of guitar and events); see Track")
     output: Output = Field(default_factory=Output)
     quality: Literal["draft", "standard", "high"] = "standard"
     diagnostics: bool = False
@@ -362,71 +422,116 @@ class Scene(_Model):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:
-        base = get_preset(self.guitar.preset)
-        n = base.n_strings
-        if self.guitar.tuning is not None and len(self.guitar.tuning) != n:
-            raise ValueError(f"guitar.tuning: {n} notes expected for {base.name}")
-        for s in self.guitar.strings:
-            if s.string > n:
-                raise ValueError(f"guitar.strings: string {s.string} outside 1..{n}")
-        preset = self.preset()
-        self._playable(preset)
-        frets = preset.frets
-        if self.output.pan is not None and len(self.output.pan) != n:
-            raise ValueError(f"output.pan: {n} values expected for {preset.name}")
-        for i, ev in enumerate(self.events):
-            where = f"events[{i}]"
-            single = getattr(ev, "string", None)
-            if single is not None and single > n:
-                raise ValueError(f"{where}.string: {single} outside 1..{n} for {preset.name}")
-            for j, st in enumerate(getattr(ev, "strings", None) or []):
-                if st > n:
-                    raise ValueError(f"{where}.strings[{j}]: {st} outside 1..{n} for {preset.name}")
-            if not ev.time < self.duration:
-                raise ValueError(f"{where}.time: {ev.time} outside 0 <= time < {self.duration}")
-            for name in ("fret", "from_fret", "to_fret"):
-                fret = getattr(ev, name, None)
-                if fret is not None and fret > frets:
-                    raise ValueError(f"{where}.{name}: {fret} outside 0..{frets} for {preset.name}")
-            release = getattr(ev, "release", None)
-            if release is not None and not release > ev.time:
-                raise ValueError(f"{where}.release: {release} must be after time {ev.time}")
+        if self.tracks is None:
+            _check_instrument(self.guitar, self.events, self.duration, "", self.output.pan)
+            return self
+        if self.events or "guitar" in self.model_fields_set:
+            raise ValueError("tracks: give either tracks or top-level guitar/events, not both")
+        if self.output.pan is not None:
+            raise ValueError("output.pan: per-string pan is for a single guitar; "
+                             "with tracks use tracks[i].pan")
+        total = sum(len(t.events) for t in self.tracks)
+        if total > MAX_EVENTS:
+            raise ValueError(f"tracks: {total} events over all tracks, at most {MAX_EVENTS}")
+        for i, t in enumerate(self.tracks):
+            _check_instrument(t.guitar, t.events, self.duration, f"tracks[{i}].", None)
         return self
 
-    def _playable(self, preset: Preset) -> None:
-        """Cross-field limits of the physical overrides: a string's rest line must clear the fret
-        tips, and every string needs a positive tension at every pitch a scene can ask of it."""
-        g = self.guitar
-        if preset.action_12th_m < preset.action_nut_m:
-            # the rest line would fall towards the body and run into the upper frets
-            name = "action_12th_m" if g.action_12th_m is not None else "action_nut_m"
-            raise ValueError(
-                f"guitar.{name}: action_12th_m {preset.action_12th_m:g} m is below action_nut_m "
-                f"{preset.action_nut_m:g} m; the string must rise from the nut towards the body "
-                "(action_12th_m >= action_nut_m) or it starts below the fret tips")
-        # Stiff string: f1^2 4 L^2 rho A = T + pi^2 E I / L^2.  The stiffness term must stay below
-        # the pitch's at the lowest pitch a vibrato reaches, or no positive tension tunes it.
-        low = 2.0 ** (-2.0 * MAX_VIBRATO_CENTS / 1200.0)
-        for i, spec in enumerate(preset.strings, start=1):
-            length = preset.string_length_m(i)
-            stiff = spec.stiffness_tension_n(length)
-            limit = low * spec.pitch_tension_n(length)
-            if stiff < limit:
-                continue
-            # the field that made it so: the string's override, else a lowered tuning
-            where = next((f"guitar.strings[{j}].youngs_modulus_pa" for j, o in enumerate(g.strings)
-                          if o.string == i), f"guitar.tuning[{i - 1}]")
-            raise ValueError(
-                f"{where}: string {i} ({spec.note}) is too stiff for its pitch: "
-                f"its bending stiffness pi^2 E I / L^2 = {stiff:.3g} N must be below "
-                f"4 L^2 rho A f0^2 x 2^(-1/6) = {limit:.3g} N (a positive tension down to a "
-                f"{MAX_VIBRATO_CENTS:g}-cent vibrato); with this radius_m, density_kg_m3 and note "
-                f"youngs_modulus_pa must be below {spec.youngs_modulus_pa * limit / stiff:.3g} Pa "
-                "(or lower radius_m, raise density_kg_m3 or the note)")
-
     def preset(self) -> Preset:
-        """The preset with this scene's overrides applied."""
+        """The preset with this scene's overrides applied (of a scene without ``tracks``)."""
         return apply_overrides(get_preset(self.guitar.preset), self.guitar)
+
+    def instruments(self) -> list[Track]:
+        """The scene's tracks; a scene with top-level ``guitar``/``events`` is one track of them
+        (its pan None: strings spread as ``output.pan`` says)."""
+        if self.tracks is not None:
+            return list(self.tracks)
+        return [Track(guitar=self.guitar, events=self.events)]
+
+    def track_scenes(self) -> list[Scene]:
+        """One single-instrument scene per track (the same duration, rate, output, quality and
+        diagnostics; no ``output.pan``), which ``engine.guitar.prepare`` renders.  A scene without
+        ``tracks`` is its own only one."""
+        if self.tracks is None:
+            return [self]
+        return [self.model_copy(update={"guitar": t.guitar, "events": t.events, "tracks": None})
+                for t in self.tracks]
+
+    def track_label(self, i: int) -> str:
+        """How warnings name track ``i``: ``track 1 'Rhythm'`` (empty for a single guitar)."""
+        if self.tracks is None:
+            return ""
+        name = self.tracks[i].name
+        return f"track {i + 1}" + (f" {name!r}" if name else "")
+
+    def event_count(self) -> int:
+        """Events over all tracks (what ``MAX_EVENTS`` and a server's limit count)."""
+        return sum(len(t.events) for t in self.instruments())
+
+
+def _check_instrument(guitar: Guitar, events: list, duration: float, where: str,
+                      pan: list[float] | None) -> None:
+    """Cross-field limits of one instrument: its overrides, its events' strings, times and
+    frets against its preset.  ``where`` prefixes every field name (``tracks[i].``)."""
+    base = get_preset(guitar.preset)
+    for s in guitar.strings:
+        n_tuned = len(guitar.tuning) if guitar.tuning is not None else base.n_strings
+        if s.string > n_tuned:
+            raise ValueError(f"{where}guitar.strings: string {s.string} outside 1..{n_tuned}")
+    preset = apply_overrides(base, guitar)
+    n = preset.n_strings
+    _playable(guitar, preset, where)
+    frets = preset.frets
+    if pan is not None and len(pan) != n:
+        raise ValueError(f"output.pan: {n} values expected for {preset.name}")
+    for i, ev in enumerate(events):
+        at = f"{where}events[{i}]"
+        single = getattr(ev, "string", None)
+        if single is not None and single > n:
+            raise ValueError(f"{at}.string: {single} outside 1..{n} for {preset.name}")
+        for j, st in enumerate(getattr(ev, "strings", None) or []):
+            if st > n:
+                raise ValueError(f"{at}.strings[{j}]: {st} outside 1..{n} for {preset.name}")
+        if not ev.time < duration:
+            raise ValueError(f"{at}.time: {ev.time} outside 0 <= time < {duration}")
+        for name in ("fret", "from_fret", "to_fret"):
+            fret = getattr(ev, name, None)
+            if fret is not None and fret > frets:
+                raise ValueError(f"{at}.{name}: {fret} outside 0..{frets} for {preset.name}")
+        release = getattr(ev, "release", None)
+        if release is not None and not release > ev.time:
+            raise ValueError(f"{at}.release: {release} must be after time {ev.time}")
+
+
+def _playable(g: Guitar, preset: Preset, where: str = "") -> None:
+    """Cross-field limits of the physical overrides: a string's rest line must clear the fret
+    tips, and every string needs a positive tension at every pitch a scene can ask of it."""
+    if preset.action_12th_m < preset.action_nut_m:
+        # the rest line would fall towards the body and run into the upper frets
+        name = "action_12th_m" if g.action_12th_m is not None else "action_nut_m"
+        raise ValueError(
+            f"{where}guitar.{name}: action_12th_m {preset.action_12th_m:g} m is below action_nut_m "
+            f"{preset.action_nut_m:g} m; the string must rise from the nut towards the body "
+            "(action_12th_m >= action_nut_m) or it starts below the fret tips")
+    # Stiff string: f1^2 4 L^2 rho A = T + pi^2 E I / L^2.  The stiffness term must stay below
+    # the pitch's at the lowest pitch a vibrato reaches, or no positive tension tunes it.
+    low = 2.0 ** (-2.0 * MAX_VIBRATO_CENTS / 1200.0)
+    for i, spec in enumerate(preset.strings, start=1):
+        length = preset.string_length_m(i)
+        stiff = spec.stiffness_tension_n(length)
+        limit = low * spec.pitch_tension_n(length)
+        if stiff < limit:
+            continue
+        # the field that made it so: the string's override, else a lowered tuning
+        at = next((f"guitar.strings[{j}].youngs_modulus_pa" for j, o in enumerate(g.strings)
+                   if o.string == i), f"guitar.tuning[{i - 1}]")
+        raise ValueError(
+            f"{where}{at}: string {i} ({spec.note}) is too stiff for its pitch: "
+            f"its bending stiffness pi^2 E I / L^2 = {stiff:.3g} N must be below "
+            f"4 L^2 rho A f0^2 x 2^(-1/6) = {limit:.3g} N (a positive tension down to a "
+            f"{MAX_VIBRATO_CENTS:g}-cent vibrato); with this radius_m, density_kg_m3 and note "
+            f"youngs_modulus_pa must be below {spec.youngs_modulus_pa * limit / stiff:.3g} Pa "
+            "(or lower radius_m, raise density_kg_m3 or the note)")
 
 
 def parse_scene(scene: Scene | dict) -> Scene:

@@ -74,6 +74,7 @@ class Voice:
     decay_velocity: float
     policy: kernels.Policy
     tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
+    energy_series: bool = False  # keep the per-step series (else running figures only)
     step: int = 0
     stopped: bool = False
     energy_h: list = field(default_factory=list)
@@ -96,6 +97,10 @@ class Voice:
             run_steps=np.zeros(2, np.int64),
         )
         self.h_start = 0.0  # H^(-1/2): the string starts at rest
+        # running figures of the balance, so that a long render keeps no per-step series
+        self._h_last = self.h_start  # the last H stored
+        self._h_max = 0.0  # max |H|
+        self._dev_max = 0.0  # max |H^(n+1/2) - H^(n-1/2) + k Q^n - k P^n|
 
     @property
     def u(self) -> np.ndarray:
@@ -123,10 +128,15 @@ class Voice:
         if status != kernels.OK:
             raise FloatingPointError(f"string {self.index}: the simulation became non-finite")
         self.step += nsteps
-        if d:
-            self.energy_h.append(e_h)
-            self.energy_q.append(e_q)
-            self.energy_p.append(e_p)
+        if d and nsteps:
+            hprev = np.concatenate(([self._h_last], e_h[:-1]))
+            self._dev_max = max(self._dev_max, float(np.max(np.abs(e_h - hprev + e_q - e_p))))
+            self._h_max = max(self._h_max, float(np.max(np.abs(e_h))))
+            self._h_last = e_h[-1]
+            if self.energy_series:
+                self.energy_h.append(e_h)
+                self.energy_q.append(e_q)
+                self.energy_p.append(e_p)
         mix = self.pickup_gains @ out
         if self.skip_decayed and not d and self.step > self.ctl.last_step:
             self._maybe_stop(out)
@@ -154,14 +164,7 @@ class Voice:
         with [.]_2 the nearest power of two below (the paper normalises by H^(1/2), which is zero
         for a string that starts at rest and is plucked; the largest stored energy is the scale).
         """
-        if not self.energy_h:
+        if self._h_max == 0.0:
             return 0.0
-        h = np.concatenate(self.energy_h)
-        q = np.concatenate(self.energy_q)
-        p = np.concatenate(self.energy_p)
-        hprev = np.concatenate(([self.h_start], h[:-1]))
-        scale = np.max(np.abs(h))
-        if scale == 0.0:
-            return 0.0
-        scale = 2.0 ** math.floor(math.log2(scale))
-        return float(np.max(np.abs(h - hprev + q - p)) / scale)
+        scale = 2.0 ** math.floor(math.log2(self._h_max))
+        return self._dev_max / scale

@@ -12,8 +12,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 # low to high, as engine/__init__.py lists them; a module may import only those before it
-ORDER = ["config", "presets", "scene", "kernels", "string", "controls", "intonation", "options",
-         "output", "voice", "playability", "guitar", "rendering", "precompile"]
+ORDER = ["config", "presets", "effect_specs", "scene", "kernels", "string", "controls", "intonation",
+         "options", "output", "voice", "playability", "guitar", "effects", "mix", "rendering",
+         "precompile"]
 
 
 def _engine_imports(path: Path) -> set[str]:

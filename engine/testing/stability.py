@@ -24,12 +24,13 @@ others) and the soak (``benchmarks/soak.py``, thousands of random scenes from
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from engine import kernels
 from engine.guitar import prepare
+from engine.options import RenderOptions
 from engine.scene import Scene
 
 PROBE_FRAMES = 16
@@ -107,7 +108,7 @@ def check(scene: dict, options=None, probe_frames: int = PROBE_FRAMES) -> Report
     sc = Scene.model_validate({**scene, "diagnostics": True})
     rep = Report(seconds=sc.duration)
     try:
-        eng = prepare(sc, options)
+        eng = prepare(sc, replace(options or RenderOptions(), energy_series=True))
         probe = PsiProbe(eng.voices)
         for block in eng.blocks(probe_frames):
             if not np.all(np.isfinite(block)):

@@ -50,7 +50,7 @@ def test_stored_energy_never_grows_without_forcing():
     """After the pluck ends, H^(n+1/2) is non-increasing (Q >= 0, no supplied power)."""
     sc = Scene.model_validate(scene([pluck(6, force=8.0, duration=0.001)], duration=0.5,
                                     diagnostics=True))
-    eng = prepare(sc)
+    eng = prepare(sc, RenderOptions(energy_series=True))
     list(eng.blocks())
     v = eng.voices[0]
     h = np.concatenate(v.energy_h)
@@ -63,7 +63,7 @@ def test_stored_energy_never_grows_without_forcing():
 def test_energy_rises_by_exactly_the_work_of_the_pluck(string):
     """The pluck's discrete work k P^n sums to the stored plus dissipated energy."""
     sc = Scene.model_validate(scene([pluck(string, force=2.0)], duration=0.05, diagnostics=True))
-    eng = prepare(sc)
+    eng = prepare(sc, RenderOptions(energy_series=True))
     list(eng.blocks())
     v = eng.voices[0]
     h, q, p = (np.concatenate(x) for x in (v.energy_h, v.energy_q, v.energy_p))

@@ -61,7 +61,8 @@ def test_every_sample_rate_at_the_top_of_the_force_ranges(rate):
 
 
 def _psi_trace(sc: dict):
-    eng = prepare(Scene.model_validate({**sc, "diagnostics": True}))
+    eng = prepare(Scene.model_validate({**sc, "diagnostics": True}),
+                  RenderOptions(energy_series=True))
     probe = PsiProbe(eng.voices)
     for _ in eng.blocks(16):
         probe()

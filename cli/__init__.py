@@ -1,0 +1,1 @@
+"""The ``guitar-synth`` command line: ``render``, ``scene`` and ``serve`` (``cli.main``)."""

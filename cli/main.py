@@ -1,0 +1,474 @@
+"""guitar-synth: render scenes and scores to audio, turn scores into scenes, serve HTTP.
+
+    guitar-synth render song.gp5 -o song.flac --labels song.jams --tracks 0,2
+    guitar-synth scene tune.mid -o tune.json
+    guitar-synth serve --port 8000
+
+Bad input (a missing, truncated or wrong-type file, an invalid scene, an unknown output suffix)
+ends with one line on stderr naming the problem and exit status 2; an unexpected failure with one
+line and status 1 (``--debug`` shows the traceback).  The command knows the engine only by its
+public API (``engine.parse_scene``, ``engine.blocks``, ``engine.frame_count``,
+``engine.score.load_score``, ``engine.scene_labels``) and the service only as ``service.app:app``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any, NoReturn
+
+SCENE_SUFFIXES = (".json",)
+SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".mid", ".midi")
+AUDIO_FORMATS = {".wav": "wav", ".flac": "flac", ".ogg": "ogg"}
+MAX_WARNINGS_SHOWN = 10
+EXIT_BAD_INPUT = 2
+EXIT_INTERNAL = 1
+
+
+class BadInput(Exception):
+    """A problem with what the user gave; its message is the one line printed."""
+
+
+# ---- argument parsing ----------------------------------------------------------------------
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (the usage is one ``--help`` away)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, not {text!r}")
+    return x
+
+
+def _track_list(text: str) -> list[int | str]:
+    """``0,2`` or ``Lead,Bass``: score track indices (from 0) or names."""
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError("give track indices or names separated by commas")
+    return [int(t) if t.isdigit() else t for t in items]
+
+
+def _add_score_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("scores (Guitar Pro and MIDI input)")
+    g.add_argument("--tracks", type=_track_list, metavar="LIST",
+                   help="the score's tracks to play, by index (from 0) or name, comma-separated "
+                        "(default: every pitched track)")
+    g.add_argument("--preset", metavar="NAME",
+                   help="the preset of every track (default: from the score: General MIDI "
+                        "program or Guitar Pro instrument); for a scene, its guitar's preset")
+    g.add_argument("--tempo-scale", type=_positive_float, metavar="X",
+                   help="play X times as fast (default 1)")
+    g.add_argument("--max-seconds", type=_positive_float, metavar="S",
+                   help="keep only the first S seconds (a score or a scene)")
+
+
+def _add_render_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("rendering (override the scene's own fields)")
+    g.add_argument("--quality", choices=("draft", "standard", "high"))
+    g.add_argument("--sample-rate", type=int, metavar="HZ")
+    g.add_argument("--channels", type=int, choices=(1, 2), help="1 mono, 2 stereo")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="guitar-synth", description=__doc__.split("\n\n")[0],
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an unexpected failure")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    r = sub.add_parser("render", help="render a scene or a score to an audio file",
+                       description="Render a scene (.json), a Guitar Pro file (.gp3/.gp4/.gp5) "
+                                   "or a MIDI file (.mid/.midi) to WAV, FLAC or Ogg Vorbis, with "
+                                   "a progress bar on stderr.")
+    r.add_argument("input", metavar="INPUT", help="scene .json, .gp3/.gp4/.gp5 or .mid/.midi")
+    r.add_argument("-o", "--output", required=True, metavar="OUTPUT",
+                   help="audio file; its suffix picks the format: .wav, .flac or .ogg")
+    r.add_argument("--labels", metavar="LABELS.jams",
+                   help="also write the note labels as JAMS (GuitarSet layout)")
+    r.add_argument("--subtype", choices=("PCM_16", "PCM_24", "FLOAT"),
+                   help="WAV sample format (default PCM_16; FLAC keeps 24 bits for PCM_24/FLOAT)")
+    norm = r.add_mutually_exclusive_group()
+    norm.add_argument("--normalize", dest="normalize", action="store_true", default=None,
+                      help="scale the peak to -1 dBFS (the default)")
+    norm.add_argument("--no-normalize", dest="normalize", action="store_false",
+                      help="the fixed gain: loudness follows force")
+    r.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    _add_score_options(r)
+    _add_render_options(r)
+    r.set_defaults(func=cmd_render)
+
+    s = sub.add_parser("scene", help="write the scene a score becomes, as JSON",
+                       description="Turn a Guitar Pro or MIDI file into a scene (JSON): to read, "
+                                   "edit, render or send to POST /render. A scene .json is "
+                                   "checked and written back with its overrides applied.")
+    s.add_argument("input", metavar="INPUT", help=".gp3/.gp4/.gp5, .mid/.midi or a scene .json")
+    s.add_argument("-o", "--output", required=True, metavar="SCENE.json",
+                   help="where to write the scene ('-' for standard output)")
+    _add_score_options(s)
+    _add_render_options(s)
+    s.set_defaults(func=cmd_scene)
+
+    v = sub.add_parser("serve", help="run the HTTP service",
+                       description="The HTTP service, as `uvicorn service.app:app` runs it: "
+                                   "settings from GUITAR_* environment variables "
+                                   "(docs/service.md).")
+    v.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    v.add_argument("--port", type=int, default=8000, help="port (default 8000)")
+    v.add_argument("--workers", type=int, metavar="N",
+                   help="render worker processes (sets GUITAR_WORKERS; default one per core)")
+    v.add_argument("--log-level", default="info",
+                   choices=("critical", "error", "warning", "info", "debug"),
+                   help="uvicorn's log level")
+    v.set_defaults(func=cmd_serve)
+    return parser
+
+
+# ---- input -------------------------------------------------------------------------------
+
+
+def _existing_file(path: str) -> Path:
+    p = Path(path)
+    if not p.exists():
+        raise BadInput(f"{path}: no such file")
+    if p.is_dir():
+        raise BadInput(f"{path}: is a directory, not a file")
+    if p.stat().st_size == 0:
+        raise BadInput(f"{path}: the file is empty")
+    return p
+
+
+def _read_scene_json(p: Path) -> dict[str, Any]:
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise BadInput(f"{p}: not a text file, so not a scene .json") from None
+    try:
+        data = json.loads(text, parse_constant=_no_constant)
+    except json.JSONDecodeError as e:
+        raise BadInput(f"{p}: not valid JSON: {e.msg} at line {e.lineno} column {e.colno}") \
+            from None
+    except ValueError as e:  # NaN or Infinity
+        raise BadInput(f"{p}: {e}") from None
+    if not isinstance(data, dict):
+        raise BadInput(f"{p}: a scene is a JSON object, not a {type(data).__name__}")
+    return data
+
+
+def _no_constant(name: str) -> NoReturn:
+    raise ValueError(f"{name} is not a number a scene may hold")
+
+
+def _score_options(args: argparse.Namespace) -> dict[str, Any]:
+    opts: dict[str, Any] = {}
+    if args.tracks is not None:
+        opts["tracks"] = args.tracks
+    if args.preset is not None:
+        opts["presets"] = args.preset
+    if args.tempo_scale is not None:
+        opts["tempo_scale"] = args.tempo_scale
+    if args.max_seconds is not None:
+        opts["max_seconds"] = args.max_seconds
+    return opts
+
+
+def _read_score(p: Path, args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
+    from engine import score
+
+    try:
+        result = score.load_score(p, **_score_options(args))
+    except score.ScoreError as e:
+        raise BadInput(f"{p}: {e}") from None
+    except (ValueError, TypeError) as e:  # an option the importer refuses
+        raise BadInput(f"{p}: {e}") from None
+    return result.scene, list(result.warnings)
+
+
+def _cut(scene: dict[str, Any], seconds: float) -> None:
+    """Keep the first ``seconds`` of a scene: a shorter duration, no event from then on."""
+    duration = scene.get("duration")
+    if not isinstance(duration, int | float) or duration <= seconds:
+        return
+    scene["duration"] = seconds
+    holders = [scene, *[t for t in scene.get("tracks") or [] if isinstance(t, dict)]]
+    for h in holders:
+        if isinstance(h.get("events"), list):
+            h["events"] = [e for e in h["events"] if not (
+                isinstance(e, dict) and isinstance(e.get("time"), int | float)
+                and e["time"] >= seconds)]
+
+
+def _set_preset(scene: dict[str, Any], preset: str) -> None:
+    holders = scene["tracks"] if isinstance(scene.get("tracks"), list) else [scene]
+    for h in holders:
+        if isinstance(h, dict):
+            guitar = h.get("guitar") if isinstance(h.get("guitar"), dict) else {}
+            h["guitar"] = {**guitar, "preset": preset}
+
+
+def _overrides(scene: dict[str, Any], args: argparse.Namespace) -> None:
+    if args.quality is not None:
+        scene["quality"] = args.quality
+    if args.sample_rate is not None:
+        scene["sample_rate"] = args.sample_rate
+    output = scene.get("output") if isinstance(scene.get("output"), dict) else {}
+    if args.channels is not None:
+        output["channels"] = args.channels
+    if getattr(args, "normalize", None) is not None:
+        output["normalize"] = args.normalize
+    if getattr(args, "subtype", None) is not None:
+        output["subtype"] = args.subtype
+    if output:
+        scene["output"] = output
+
+
+def load_input(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
+    """The scene (a dict in the JSON form) that INPUT and the options make, and the importer's
+    warnings."""
+    p = _existing_file(args.input)
+    suffix = p.suffix.lower()
+    if suffix in SCENE_SUFFIXES:
+        scene, warnings = _read_scene_json(p), []
+        if args.preset is not None:
+            _set_preset(scene, args.preset)
+        if args.max_seconds is not None:
+            _cut(scene, args.max_seconds)
+        for flag, value in (("--tracks", args.tracks), ("--tempo-scale", args.tempo_scale)):
+            if value is not None:
+                raise BadInput(f"{flag} applies to scores (Guitar Pro, MIDI), not to a scene "
+                               f".json like {p}")
+    elif suffix in SCORE_SUFFIXES:
+        scene, warnings = _read_score(p, args)
+    else:
+        raise BadInput(f"{p}: unknown input type {suffix or '(no suffix)'!r}: give a scene "
+                       ".json, a Guitar Pro .gp3/.gp4/.gp5 or a MIDI .mid/.midi file")
+    _overrides(scene, args)
+    return scene, warnings
+
+
+def _event_tags() -> frozenset[str]:
+    """The event ``type`` values of the scene schema: pydantic puts the tag of a union member
+    into an error's location (``events.2.pluck.force``), which is not a field."""
+    import engine
+
+    tags: set[str] = set()
+
+    def walk(node: Any) -> None:
+        if isinstance(node, dict):
+            tags.update(node.get("discriminator", {}).get("mapping", {}))
+            for v in node.values():
+                walk(v)
+        elif isinstance(node, list):
+            for v in node:
+                walk(v)
+
+    walk(engine.Scene.model_json_schema())
+    return frozenset(tags)
+
+
+def field_path(loc: tuple | list) -> str:
+    """A dotted path such as ``events[2].force`` from a pydantic error location."""
+    tags = _event_tags()
+    path = ""
+    for i, part in enumerate(loc):
+        if isinstance(part, int):
+            path += f"[{part}]"
+        elif "[" in str(part) or (i and isinstance(loc[i - 1], int) and part in tags):
+            continue
+        else:
+            path += f".{part}" if path else str(part)
+    return path
+
+
+def validate(scene: dict[str, Any], source: str) -> Any:
+    """``engine.parse_scene``; an invalid scene becomes one line naming the field."""
+    from pydantic import ValidationError
+
+    import engine
+
+    try:
+        return engine.parse_scene(scene)
+    except ValidationError as e:
+        errors = e.errors()
+        first = errors[0]
+        msg = str(first.get("msg", "")).removeprefix("Value error, ")
+        field = field_path(tuple(first.get("loc", ())))
+        text = msg if not field or msg.startswith(field) else f"{field}: {msg}"
+        more = f" (and {len(errors) - 1} more problems)" if len(errors) > 1 else ""
+        raise BadInput(f"{source}: invalid scene: {text}{more}") from None
+
+
+def _print_warnings(warnings: list[str], quiet: bool = False) -> None:
+    if quiet:
+        return
+    for w in warnings[:MAX_WARNINGS_SHOWN]:
+        print(f"warning: {w}", file=sys.stderr)
+    if len(warnings) > MAX_WARNINGS_SHOWN:
+        print(f"warning: and {len(warnings) - MAX_WARNINGS_SHOWN} more", file=sys.stderr)
+
+
+# ---- commands ------------------------------------------------------------------------------
+
+
+def _audio_format(path: str) -> str:
+    suffix = Path(path).suffix.lower()
+    if suffix not in AUDIO_FORMATS:
+        raise BadInput(f"{path}: unknown audio suffix {suffix or '(none)'!r}: use .wav, .flac "
+                       "or .ogg")
+    return AUDIO_FORMATS[suffix]
+
+
+def _writable(path: str) -> None:
+    parent = Path(path).resolve().parent
+    if not parent.is_dir():
+        raise BadInput(f"{path}: the folder {parent} does not exist")
+    if not os.access(parent, os.W_OK):
+        raise BadInput(f"{path}: cannot write into {parent}")
+
+
+def _progress(total_s: float, quiet: bool) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=round(total_s, 3), unit="s", desc="preparing", file=sys.stderr,
+                disable=quiet, dynamic_ncols=True, leave=True,
+                bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} s of audio "
+                           "[{elapsed}<{remaining}{postfix}]")
+
+
+def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
+    """The scene's audio (frames,) or (frames, 2), scaled as its ``output`` asks, rendered
+    block by block with a progress bar; and the wall time of the render."""
+    import numpy as np
+
+    import engine
+
+    rate = sc.sample_rate
+    frames = engine.frame_count(sc)
+    parts = []
+    t0 = time.perf_counter()
+    with _progress(frames / rate, quiet) as bar:
+        blocks = engine.blocks(sc)  # prepares the instruments: the bar says "preparing"
+        _print_warnings(blocks.warnings, quiet)
+        bar.set_description("rendering")
+        done = 0
+        for block in blocks:
+            if not np.all(np.isfinite(block)):
+                raise FloatingPointError("the audio holds non-finite samples")
+            parts.append(block)
+            done += len(block)
+            elapsed = time.perf_counter() - t0
+            bar.set_postfix_str(f"{done / rate / elapsed:.2f}x real time" if elapsed else "")
+            bar.update(round(done / rate, 3) - bar.n)
+    seconds = time.perf_counter() - t0
+    audio = np.concatenate(parts) if parts else np.zeros(0)
+    if sc.output.normalize:  # blocks come at the fixed gain; normalize as engine.render does
+        audio = engine.to_output_scale(audio / engine.FIXED_GAIN, True)
+    return audio, seconds
+
+
+def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> None:
+    import numpy as np
+    import soundfile as sf
+
+    if fmt == "flac":
+        subtype = "PCM_16" if subtype == "PCM_16" else "PCM_24"
+    elif fmt == "ogg":
+        subtype = "VORBIS"
+    sf.write(path, np.clip(audio, -1.0, 1.0), rate, format=fmt.upper(), subtype=subtype)
+
+
+def write_labels(path: str, sc: Any) -> None:
+    import engine
+
+    engine.scene_labels(sc).save(path)
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    fmt = _audio_format(args.output)  # every check that needs no rendering comes first
+    _writable(args.output)
+    if args.labels:
+        _writable(args.labels)
+    scene, warnings = load_input(args)
+    sc = validate(scene, args.input)
+    _print_warnings(warnings, args.quiet)
+    try:
+        audio, seconds = render_audio(sc, args.quiet)
+    except FloatingPointError as e:
+        raise BadInput(f"{args.input}: the simulation became unstable ({e}); lower the forces or "
+                       "use --quality high") from None
+    write_audio(args.output, audio, sc.sample_rate, fmt, sc.output.subtype)
+    if args.labels:
+        write_labels(args.labels, sc)
+    if not args.quiet:
+        audio_s = len(audio) / sc.sample_rate
+        speed = f", {audio_s / seconds:.2f}x real time" if seconds > 0 else ""
+        labels = f" and {args.labels}" if args.labels else ""
+        print(f"wrote {args.output}{labels}: {audio_s:.2f} s of audio in {seconds:.2f} s"
+              f"{speed}", file=sys.stderr)
+    return 0
+
+
+def cmd_scene(args: argparse.Namespace) -> int:
+    if args.output != "-":
+        _writable(args.output)
+    scene, warnings = load_input(args)
+    validate(scene, args.input)  # what is written is a scene /render accepts
+    _print_warnings(warnings)
+    text = json.dumps(scene, indent=1, allow_nan=False) + "\n"
+    if args.output == "-":
+        sys.stdout.write(text)
+    else:
+        Path(args.output).write_text(text, encoding="utf-8")
+        print(f"wrote {args.output}", file=sys.stderr)
+    return 0
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    if args.workers is not None:
+        if args.workers < 1:
+            raise BadInput(f"--workers: at least 1, not {args.workers}")
+        os.environ["GUITAR_WORKERS"] = str(args.workers)
+    if not 0 < args.port < 65536:
+        raise BadInput(f"--port: 1..65535, not {args.port}")
+    import uvicorn
+
+    uvicorn.run("service.app:app", host=args.host, port=args.port, log_level=args.log_level)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    prog = f"guitar-synth {args.command}"
+    try:
+        return args.func(args)
+    except BadInput as e:
+        print(f"{prog}: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:
+        if args.debug:
+            raise
+        print(f"{prog}: internal error: {type(e).__name__}: {e} (run with --debug for the "
+              "traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,112 @@
+"""A scene of tracks: one ``Guitar`` per track, each through its effects and fader, mixed block by
+block.
+
+A track's strings are independent of every other track's (each track is its own instrument,
+``engine.guitar``).  Per block, each track's guitar renders its pickup velocity (through its body),
+then, in this order:
+
+1. pan: a track with a ``pan`` is rendered mono and placed in the stereo field by the constant-power
+   law (``output.pan_gains``); a track without one spreads its strings as a single guitar does
+   (``output.pan``, or low strings left);
+2. its effects chain (``engine.effects``: pedalboard plugins with their state kept across blocks),
+   on the mono or stereo signal, so a reverb's width acts in stereo;
+3. its ``gain_db`` (a fader after the effects);
+
+and the tracks are summed.  A scene with top-level ``guitar``/``events`` is the one-track case and
+renders exactly (bit for bit) as the guitar alone.  Nothing here grows with the scene's duration:
+each block is computed from the voices' states and the effects' states and handed on.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .effects import Chain
+from .guitar import Guitar, prepare as prepare_guitar
+from .options import RenderOptions
+from .output import pan_gains
+from .scene import Scene, frame_count
+
+
+@dataclass
+class Track:
+    """One track prepared: its guitar, stereo place, effects and linear gain."""
+
+    guitar: Guitar
+    label: str  # for warnings; "" for a single guitar
+    pan: tuple[float, float] | None  # constant-power gains when the whole track is placed
+    chain: Chain | None
+    gain: float
+
+    def render_frames(self, m: int) -> np.ndarray:
+        y = self.guitar.render_frames(m)
+        if self.pan is not None:
+            y = np.stack((self.pan[0] * y, self.pan[1] * y), axis=1)
+        if self.chain is not None:
+            y = self.chain(y)
+        if self.gain != 1.0:
+            y = y * self.gain
+        return y
+
+
+@dataclass
+class Mix:
+    """A scene prepared for rendering: its tracks, mixed block by block."""
+
+    scene: Scene
+    tracks: list[Track]
+    frames: int
+    frame: int = 0
+
+    def blocks(self, block_frames: int | None = None):
+        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block."""
+        bf = block_frames or self.tracks[0].guitar.options.block_frames
+        while self.frame < self.frames:
+            m = min(bf, self.frames - self.frame)
+            yield self.render_frames(m)
+
+    def render_frames(self, m: int) -> np.ndarray:
+        mix = None
+        for t in self.tracks:
+            y = t.render_frames(m)
+            mix = y if mix is None else mix + y
+        self.frame += m
+        return mix
+
+    @property
+    def voices(self):
+        return [v for t in self.tracks for v in t.guitar.voices]
+
+    def oversample(self) -> dict[int, int]:
+        """String number -> internal oversampling factor (the largest over the tracks)."""
+        out: dict[int, int] = {}
+        for v in self.voices:
+            out[v.index] = max(out.get(v.index, 0), v.oversample)
+        return out
+
+    def energy_error(self) -> float:
+        return max((t.guitar.energy_error() for t in self.tracks), default=0.0)
+
+    def warnings(self) -> list[str]:
+        """Every track's ``Guitar.warnings``, each named by its track when there are several."""
+        return [f"{t.label}: {w}" if t.label else w for t in self.tracks for w in t.guitar.warnings()]
+
+
+def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
+    """A guitar for every track (``engine.guitar.prepare``) with its pan, effects and gain."""
+    frames = frame_count(scene)
+    stereo = scene.output.channels == 2
+    tracks = []
+    for i, (track, single) in enumerate(zip(scene.instruments(), scene.track_scenes(), strict=True)):
+        placed = stereo and track.pan is not None
+        if placed:  # rendered mono, then placed as a whole
+            single = single.model_copy(
+                update={"output": single.output.model_copy(update={"channels": 1})})
+        guitar = prepare_guitar(single, options)
+        chain = Chain(track.effects, scene.sample_rate) if track.effects else None
+        tracks.append(Track(guitar, scene.track_label(i),
+                            pan_gains(track.pan) if placed else None, chain,
+                            10.0 ** (track.gain_db / 20.0)))
+    return Mix(scene, tracks, frames)

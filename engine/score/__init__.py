@@ -1,0 +1,156 @@
+"""Scores in, labels out: Guitar Pro 3/4/5 and Standard MIDI Files become scenes (the JSON form of
+``../shared/API.md``, with ``tracks``), and any scene's notes become a JAMS file.
+
+    >>> import engine.score as score
+    >>> scene = score.score_to_scene("song.gp5", tracks=[1], max_seconds=30)
+    >>> scene.warnings          # what could not be played, each naming bar, beat, track, effect
+    >>> jam = score.scene_labels(scene)   # jams.JAMS, GuitarSet's layout
+
+Modules: ``gp`` (Guitar Pro, via PyGuitarPro), ``midi`` (Standard MIDI Files, via pretty_midi and
+mido), ``fingering`` (strings and frets for MIDI notes), ``labels`` (scene -> JAMS), ``common``
+(limits, the event builder).  This package knows only the scene's JSON form and
+``engine.presets``; it renders nothing.
+"""
+
+from __future__ import annotations
+
+import os
+
+from .common import MAX_SCORE_BYTES, ScoreError
+from .labels import scene_labels, scene_notes
+
+__all__ = ["ScoreError", "ScoreScene", "scene_labels", "scene_notes", "score_to_scene"]
+
+_OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate"}
+
+
+class ScoreScene(dict):
+    """The scene (a plain ``dict`` in the JSON form, ready for ``engine.render``), with the
+    conversion's report as attributes: ``warnings`` (list of one-line strings), ``notes`` (the
+    score's notes as played: track, string, fret, time, end, pitch, articulations, bar and beat)
+    and ``format`` ("gp" or "midi")."""
+
+    warnings: list[str]
+    notes: list[dict]
+    format: str
+
+
+def _read(source) -> tuple[bytes, str]:
+    """(bytes, name) of a path, bytes or binary file object, at most ``MAX_SCORE_BYTES``."""
+    if isinstance(source, bytes | bytearray | memoryview):
+        data = bytes(source)
+        name = ""
+    elif isinstance(source, str | os.PathLike):
+        name = os.fspath(source)
+        try:
+            size = os.path.getsize(name)
+            if size > MAX_SCORE_BYTES:
+                raise ScoreError(f"score file is {size} bytes; the limit is {MAX_SCORE_BYTES}")
+            with open(name, "rb") as f:
+                data = f.read(MAX_SCORE_BYTES + 1)
+        except OSError as exc:
+            raise ScoreError(f"cannot read {name!r}: {exc.strerror or exc}") from None
+    elif hasattr(source, "read"):
+        name = str(getattr(source, "name", "") or "")
+        data = source.read(MAX_SCORE_BYTES + 1)
+        if isinstance(data, str):
+            raise ScoreError("score file opened in text mode; open it in binary mode ('rb')")
+        data = bytes(data)
+    else:
+        raise ScoreError(f"score source must be a path, bytes or a binary file, not "
+                         f"{type(source).__name__}")
+    if len(data) > MAX_SCORE_BYTES:
+        raise ScoreError(f"score file is larger than the limit of {MAX_SCORE_BYTES} bytes")
+    if not data:
+        raise ScoreError("score file is empty (0 bytes)")
+    return data, name
+
+
+def sniff(data: bytes, name: str = "") -> str:
+    """'gp' or 'midi' from the file's first bytes (its name's suffix only breaks no tie)."""
+    if data[:4] == b"MThd" or data[:4] == b"RIFF" and data[8:12] == b"RMID":
+        return "midi"
+    if data[1:19] in (b"FICHIER GUITAR PRO", b"CLIPBOARD GUITAR P") or data[1:13] == b"CLIPBOARD GP":
+        return "gp"
+    if data[:4] == b"PK\x03\x04":
+        raise ScoreError("a zip archive (Guitar Pro 6/7 .gpx/.gp or another format), not a "
+                         "Guitar Pro 3/4/5 or MIDI file")
+    suffix = os.path.splitext(name)[1].lower()
+    if suffix in (".gp3", ".gp4", ".gp5"):
+        raise ScoreError(f"not a Guitar Pro 3/4/5 file despite its name {os.path.basename(name)!r} "
+                         "(no Guitar Pro header)")
+    if suffix in (".mid", ".midi"):
+        raise ScoreError(f"not a MIDI file despite its name {os.path.basename(name)!r} "
+                         "(no 'MThd' header)")
+    raise ScoreError("not a Guitar Pro 3/4/5 or Standard MIDI file (unknown header "
+                     f"{data[:8]!r})")
+
+
+def score_to_scene(source, **options) -> ScoreScene:
+    """A Guitar Pro 3/4/5 or Standard MIDI file as a scene (``../shared/API.md``, "Scores in").
+
+    ``source``: a path, the file's bytes, or a binary file object.  Options:
+
+    * ``tracks``: the tracks to keep, by number as the score numbers them (Guitar Pro's track
+      number, 1-based; for MIDI, the 1-based index of the score's parts, one part per channel and
+      program, in the order ``ScoreScene.notes``/warnings name them) or by name; default all
+      pitched tracks.
+    * ``presets``: one preset name for every track, or ``{track number or name: preset}``; default
+      from the instrument (General MIDI program; string count).
+    * ``tempo_scale``: > 0, multiplies the tempo (2.0 plays twice as fast); default 1.
+    * ``max_seconds``: cut the scene there (events after it dropped, duration clamped).
+    * ``format``: "gp" or "midi" to skip detection from the file's header.
+    * ``sample_rate``: the scene's sample rate (default 44100).
+
+    Returns a ``ScoreScene`` (a dict) with ``.warnings`` and ``.notes``.  Raises ``ScoreError``
+    (a ``ValueError``) with one line naming the problem for anything that is not a readable score.
+    """
+    unknown = set(options) - _OPTIONS
+    if unknown:
+        raise ScoreError(f"unknown option(s) {sorted(unknown)}; allowed: {sorted(_OPTIONS)}")
+    scale = options.get("tempo_scale", 1.0)
+    try:
+        scale = float(scale)
+    except (TypeError, ValueError):
+        raise ScoreError(f"options.tempo_scale: {scale!r} is not a number") from None
+    if not 0.05 <= scale <= 20.0:
+        raise ScoreError(f"options.tempo_scale: {scale} outside 0.05..20")
+    options["tempo_scale"] = scale
+    tracks = options.get("tracks")
+    if tracks is not None:
+        if isinstance(tracks, int | str):
+            tracks = [tracks]
+        options["tracks"] = set(tracks)
+    max_s = options.get("max_seconds")
+    if max_s is not None and not (isinstance(max_s, int | float) and max_s > 0):
+        raise ScoreError(f"options.max_seconds: {max_s!r} must be a number > 0")
+    data, name = _read(source)
+    fmt = options.get("format") or sniff(data, name)
+    warnings: list[str] = []
+    if fmt == "gp":
+        from . import gp
+
+        song = gp.parse_song(data)
+        scene, planned = gp.convert(song, options, warnings)
+    elif fmt == "midi":
+        from . import midi
+
+        scene, planned = midi.convert(data, options, warnings)
+    else:
+        raise ScoreError(f"options.format: {fmt!r} is not 'gp' or 'midi'")
+    if options.get("sample_rate"):
+        scene["sample_rate"] = int(options["sample_rate"])
+    if scene["duration"] > 3600.0:
+        raise ScoreError(f"score plays for {scene['duration']:.0f} s; the limit is 3600 s")
+    names = [t["name"] for t in scene["tracks"]]
+    notes = [p.report(names) for p in planned]
+    if max_s is not None:
+        from .common import truncate
+
+        scene = truncate(scene, float(max_s))
+        notes = [n for n in notes if n["time"] < max_s]
+    out = ScoreScene(scene)
+    out.warnings = warnings
+    out.notes = sorted(notes, key=lambda n: (n["time"], n["track"], n["string"]))
+    out.format = fmt
+    return out

@@ -1,0 +1,320 @@
+"""Note labels of any scene, as a JAMS file in GuitarSet's layout.
+
+The labels are read from the scene's events alone (hand-written scenes as well as converted
+scores), with the rules below, so that they say what the scene plays, at the times it plays it.
+
+Layout (as GuitarSet, Xi et al. 2018): one ``note_midi`` annotation per string of each track, in
+track order and, within a track, from the lowest string to the highest; each annotation's
+``annotation_metadata.data_source`` is the string's index counted from the lowest string
+(``"0"`` = the lowest, as GuitarSet numbers its six strings).  Each observation is one note:
+``time`` and ``duration`` in seconds as in the scene's events, ``value`` its (fractional) MIDI
+pitch at the attack, ``confidence`` None.  JAMS observations hold a number as value, so what else
+belongs to a note is kept in the annotation's **sandbox**: ``sandbox.notes`` is a list in the same
+order as the annotation's observations (sorted by time, one note per string at a time), each
+``{"time", "duration", "pitch", "track", "track_name", "string", "fret", "attack",
+"articulations"}``; ``sandbox`` also holds ``track``, ``track_name``, ``string`` (1 = highest, as
+the scene numbers strings), ``open_pitch`` and ``unpitched`` (attacks of dead notes: no pitch
+sounds, so they are no ``note_midi`` observation).  All of it survives ``jams.load``.
+
+Rules (one string at a time, its events in time order; at equal times a ``damp`` first, then the
+left hand (``fret``, ``slide``, touches, palm, bends), then attacks):
+
+* A note starts at every attack: a ``pluck``, each pluck of a ``strum`` (the engine's times: low to
+  high for ``down``, the spread divided evenly), a ``tap``, a ``hammer_on`` at a fret at or above
+  every fret held, a ``pull_off`` of the highest fret held, and the arrival of a ``slide`` that
+  starts more than 5 ms after the note's attack, on a sounding string, with no attack within 1 ms
+  and no damp within 10 ms of its arrival.  A slide that starts within 5 ms of an attack is a slide
+  into that note: the note is labelled with the fret it arrives at.
+* Its pitch: the open string (the tuning of the track's preset and overrides) plus the highest fret
+  held at that moment, plus the bend in effect then.  With a ``harmonic`` touch on the string, the
+  note is the k-th partial of the stopped string, k the smallest of 2..16 whose node (j/k of the
+  length from the stopping fret to the bridge) lies within ``HARMONIC_TOLERANCE / k`` of the touch;
+  a touch at no such node leaves no pitch (a dead note).
+* It ends at the string's next note, at a ``damp`` of the string (or of all strings), or at the
+  scene's end.  A finger lifted without an attack starts no note.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .. import presets as _presets
+from .common import note_midi
+
+HARMONIC_TOLERANCE = 0.02  # |k r - j| for the touch at r of the speaking length
+SLIDE_IN_S = 0.005
+ATTACKS = ("pluck", "tap", "hammer_on", "pull_off")
+_ORDER = {"damp": 0, "fret": 1, "slide": 1, "harmonic": 1, "mute": 1, "bend": 1, "vibrato": 1,
+          "pluck": 2, "tap": 2, "hammer_on": 2, "pull_off": 2, "arrival": 3}
+
+
+def _tracks(scene: dict) -> list[dict]:
+    if hasattr(scene, "model_dump"):
+        scene = scene.model_dump(exclude_none=True)
+    if scene.get("tracks"):
+        return [dict(t) for t in scene["tracks"]]
+    return [{"name": "guitar", "guitar": scene.get("guitar") or {},
+             "events": scene.get("events") or []}]
+
+
+class _Geometry:
+    """A track's strings: open pitches and the lengths a touch is measured against."""
+
+    def __init__(self, guitar: dict):
+        preset = _presets.get_preset(guitar.get("preset", _presets.DEFAULT_PRESET))
+        tuning = guitar.get("tuning")
+        notes = list(tuning) if tuning else [s.note for s in preset.strings]
+        setbacks = [s.saddle_setback_m for s in preset.strings]
+        for o in guitar.get("strings") or []:
+            i = o["string"] - 1
+            if o.get("note") and i < len(notes):
+                notes[i] = o["note"]
+            if o.get("saddle_setback_m") is not None and i < len(setbacks):
+                setbacks[i] = o["saddle_setback_m"]
+        self.open = [note_midi(n) for n in notes]
+        self.scale = preset.scale_length_m
+        self.setbacks = setbacks + [setbacks[-1]] * max(len(notes) - len(setbacks), 0)
+        self.n = len(notes)
+
+    def length(self, string: int) -> float:
+        return self.scale + self.setbacks[string - 1]
+
+    def fret_x(self, fret: float) -> float:
+        return self.scale * (1.0 - 2.0 ** (-fret / 12.0))
+
+
+def _expand(events: list[dict], n_strings: int, duration: float) -> dict[int, list[dict]]:
+    per: dict[int, list[dict]] = {s: [] for s in range(1, n_strings + 1)}
+    for i, e in enumerate(events):
+        kind = e.get("type")
+        if kind == "strum":
+            strings = sorted(e.get("strings") or range(1, n_strings + 1),
+                             reverse=e.get("direction", "down") == "down")
+            dt = e.get("spread", 0.03) / max(len(strings) - 1, 1)
+            for k, s in enumerate(strings):
+                t = e["time"] + k * dt
+                if t < duration and s in per:
+                    per[s].append({"type": "pluck", "time": t, "string": s, "_seq": i,
+                                   "_strum": e.get("direction", "down")})
+        elif kind in ("mute", "damp") and e.get("string") is None:
+            for s in per:
+                per[s].append({**e, "string": s, "_seq": i})
+        elif e.get("string") in per:
+            per[e["string"]].append({**e, "_seq": i})
+    return per
+
+
+def _bend_at(bends: list[dict], t: float) -> float:
+    best = 0.0
+    for b in bends:
+        on, up, semis = b["time"], max(b.get("duration", 0.15), 1e-9), b["semitones"]
+        if t < on:
+            continue
+        v = semis * min((t - on) / up, 1.0)
+        rel = b.get("release")
+        if rel is not None and t >= rel:
+            v = semis * max(1.0 - (t - rel) / up, 0.0)
+        best = max(best, v)
+    return best
+
+
+def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float):
+    """(notes, unpitched) of one string."""
+    evs = sorted(evs, key=lambda e: (e["time"], _ORDER.get(e["type"], 1), e["_seq"]))
+    attacks = [e["time"] for e in evs if e["type"] in ATTACKS]
+    damps = [e["time"] for e in evs if e["type"] == "damp"]
+    slides = [e for e in evs if e["type"] == "slide"]
+    slide_in = set()
+    for sl in slides:
+        if any(-SLIDE_IN_S <= sl["time"] - a <= SLIDE_IN_S for a in attacks):
+            slide_in.add(id(sl))
+    timeline = list(evs)
+    for sl in slides:
+        if id(sl) not in slide_in:
+            timeline.append({"type": "arrival", "time": sl["time"] + sl.get("duration", 0.15),
+                             "string": string, "_slide": sl, "_seq": sl["_seq"]})
+    timeline.sort(key=lambda e: (e["time"], _ORDER.get(e["type"], 1), e["_seq"]))
+
+    fingers: list[dict] = []  # {"fret", "on", "rel", "slide": (t0, t1, a, b) or None}
+    touches: list[tuple[float, float, float]] = []  # (on, off, x_m)
+    mutes: list[tuple[float, float]] = []
+    bends: list[dict] = []
+    notes: list[dict] = []
+    unpitched: list[dict] = []
+    cur: dict | None = None
+
+    def held(t: float) -> list[dict]:
+        return [f for f in fingers if f["on"] <= t < f["rel"]]
+
+    def fret_of(f: dict, t: float) -> int:
+        if f["slide"] is None:
+            return f["fret"]
+        t0, t1, a, b = f["slide"]
+        return b if t >= t1 else a
+
+    def top(t: float) -> int:
+        return max((fret_of(f, t) for f in held(t)), default=0)
+
+    def end_current(t: float):
+        nonlocal cur
+        if cur is not None:
+            cur["duration"] = max(t - cur["time"], 0.0)
+            (unpitched if cur.get("_dead") else notes).append(cur)
+        cur = None
+
+    def start(t: float, fret: int, attack: str, extra=()):
+        nonlocal cur
+        end_current(t)
+        arts = [attack] + list(extra)
+        into = [sl for sl in slides if id(sl) in slide_in and abs(sl["time"] - t) <= SLIDE_IN_S]
+        if into:  # a slide into this note: labelled with the fret it arrives at
+            fret = into[0]["to_fret"]
+            arts.append("slide_in")
+        pitch = geo.open[string - 1] + fret
+        bend = _bend_at(bends, t)
+        if bend > 1e-6:
+            pitch += bend
+            arts.append("prebend")
+        touch = next((x for (on, off, x) in touches if on <= t < off), None)
+        dead = False
+        if touch is not None:
+            x_stop = geo.fret_x(fret) if fret > 0 else 0.0
+            length = geo.length(string)
+            r = (touch - x_stop) / (length - x_stop)
+            if 0.0 < r < 1.0:
+                k = next((k for k in range(2, 17)
+                          if abs(k * r - round(k * r)) <= HARMONIC_TOLERANCE
+                          and 1 <= round(k * r) <= k - 1), None)
+                if k is None:
+                    dead = True
+                    arts.append("dead")
+                else:
+                    pitch += 12.0 * math.log2(k)
+                    arts.append(f"harmonic_{k}")
+        if any(on <= t < off for (on, off) in mutes):
+            arts.append("palm_mute")
+        cur = {"time": t, "duration": 0.0, "pitch": round(pitch, 4), "string": string,
+               "fret": fret, "attack": attack, "articulations": arts}
+        if dead:
+            cur["_dead"] = True
+
+    for e in timeline:
+        t, kind = e["time"], e["type"]
+        if t >= duration:
+            break
+        if kind == "damp":
+            end_current(t)
+        elif kind == "fret":
+            for f in held(t):
+                f["rel"] = t
+            if e["fret"] > 0:
+                fingers.append({"fret": e["fret"], "on": t, "rel": e.get("release") or math.inf,
+                                "slide": None})
+        elif kind == "slide":
+            for f in held(t):
+                f["rel"] = t
+            d = e.get("duration", 0.15)
+            fingers.append({"fret": e["to_fret"], "on": t, "rel": e.get("release") or math.inf,
+                            "slide": (t, t + d, e["from_fret"], e["to_fret"])})
+        elif kind == "harmonic":
+            x = (geo.fret_x(e["fret"]) if e.get("fret") is not None
+                 else e["position"] * geo.length(string))
+            touches.append((t, e.get("release") or math.inf, x))
+        elif kind == "mute":
+            mutes.append((t, e.get("release") or math.inf))
+        elif kind == "bend":
+            bends.append(e)
+            if cur is not None:
+                cur["articulations"].append("bend")
+        elif kind == "vibrato":
+            if cur is not None:
+                cur["articulations"].append("vibrato")
+        elif kind == "pluck":
+            start(t, top(t), "strum_" + e["_strum"] if "_strum" in e else "pluck")
+        elif kind == "tap":
+            for f in held(t):
+                f["rel"] = t
+            fingers.append({"fret": e["fret"], "on": t, "rel": e.get("release") or math.inf,
+                            "slide": None})
+            start(t, e["fret"], "tap")
+        elif kind == "hammer_on":
+            before = top(t)
+            fingers.append({"fret": e["fret"], "on": t, "rel": e.get("release") or math.inf,
+                            "slide": None})
+            if e["fret"] >= before:
+                start(t, e["fret"], "hammer_on")
+        elif kind == "pull_off":
+            before = top(t)
+            mine = [f for f in held(t) if fret_of(f, t) == e["fret"]]
+            if mine:
+                mine[-1]["rel"] = t
+                if e["fret"] >= before:
+                    start(t, top(t), "pull_off")
+        elif kind == "arrival":
+            sl = e["_slide"]
+            if cur is None or cur.get("_dead") or sl["time"] - cur["time"] <= SLIDE_IN_S:
+                continue
+            if any(abs(a - t) <= 1e-3 for a in attacks):
+                continue
+            if any(-1e-3 <= d - t <= 0.010 for d in damps):
+                continue
+            rel = sl.get("release")
+            if rel is not None and rel <= t + 1e-3:
+                continue
+            start(t, sl["to_fret"], "slide")
+    end_current(duration)
+    return notes, unpitched
+
+
+def scene_notes(scene) -> list[dict]:
+    """Every labelled note of a scene (all tracks and strings), sorted by time: dicts with
+    ``time``, ``duration``, ``pitch``, ``track``, ``track_name``, ``string``, ``fret``, ``attack``,
+    ``articulations``."""
+    out = []
+    for per in _labels(scene):
+        out.extend(per["notes"])
+    return sorted(out, key=lambda n: (n["time"], n["track"], n["string"]))
+
+
+def _labels(scene) -> list[dict]:
+    if hasattr(scene, "model_dump"):
+        scene = scene.model_dump(exclude_none=True)
+    duration = float(scene["duration"])
+    result = []
+    for ti, tr in enumerate(_tracks(scene)):
+        geo = _Geometry(tr.get("guitar") or {})
+        name = tr.get("name") or f"track {ti + 1}"
+        per = _expand(tr.get("events") or [], geo.n, duration)
+        for s in range(geo.n, 0, -1):  # lowest string first, as GuitarSet
+            notes, unpitched = _string_notes(per[s], geo, s, duration)
+            for n in notes + unpitched:
+                n.pop("_dead", None)
+                n["track"], n["track_name"] = ti, name
+                n["duration"] = round(n["duration"], 9)
+            result.append({"track": ti, "track_name": name, "string": s,
+                           "index": geo.n - s, "open_pitch": round(geo.open[s - 1], 4),
+                           "notes": notes, "unpitched": unpitched})
+    return result
+
+
+def scene_labels(scene, title: str = ""):
+    """The scene's note labels as a ``jams.JAMS`` (see the module's docstring for the layout)."""
+    import jams
+
+    if hasattr(scene, "model_dump"):
+        scene = scene.model_dump(exclude_none=True)
+    jam = jams.JAMS()
+    jam.file_metadata.duration = float(scene["duration"])
+    jam.file_metadata.title = title
+    for per in _labels(scene):
+        ann = jams.Annotation(namespace="note_midi", time=0.0, duration=float(scene["duration"]))
+        ann.annotation_metadata.data_source = str(per["index"])
+        ann.annotation_metadata.annotation_tools = "guitar-synth engine.score.labels"
+        for n in per["notes"]:
+            ann.append(time=float(n["time"]), duration=float(n["duration"]),
+                       value=float(n["pitch"]), confidence=None)
+        ann.sandbox.update(track=per["track"], track_name=per["track_name"], string=per["string"],
+                           open_pitch=per["open_pitch"], notes=per["notes"],
+                           unpitched=per["unpitched"])
+        jam.annotations.append(ann)
+    return jam

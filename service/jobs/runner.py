@@ -1,0 +1,233 @@
+"""The job runner: takes queued jobs from the store and renders them through the worker pool.
+
+Each job is a stream (``WorkerPool.job_stream``) whose blocks are written to
+``results/ID/audio.wav.part`` as they arrive; progress is the share of the file written.  When the
+last block is in, the file is flushed, converted if the job asked for FLAC or Ogg, renamed into
+place, the labels are written the same way, and only then is the job ``done``.
+
+At most ``Settings.jobs_at_once`` jobs render at once (by default every worker but one), so that
+long jobs never take every worker from ``/render``.  On shutdown the running jobs go back to the
+queue (their attempt not counted); if the process is killed instead, ``Store.recover`` queues them
+again at the next start.  Either way a job is re-run from its start: a render is deterministic, so
+the result is the same.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from .. import audio
+from ..config import Settings
+from ..pool import (
+    PoolClosed,
+    PoolError,
+    RenderFailed,
+    RenderStream,
+    StreamAborted,
+    WorkerDied,
+    WorkerPool,
+)
+from .store import Store
+
+log = logging.getLogger("service.jobs")
+
+PROGRESS_INTERVAL_S = 0.25  # how often a running job's progress is written to the database
+CLEANUP_INTERVAL_S = 60.0
+
+
+class JobRunner:
+    def __init__(self, store: Store, pool: WorkerPool, settings: Settings):
+        self.store = store
+        self.pool = pool
+        self.settings = settings
+        self._wake = asyncio.Event()
+        self._tasks: list[asyncio.Task] = []
+        self._streams: dict[str, RenderStream] = {}
+        self._stopping = False
+        self.completed: dict[str, int] = {"done": 0, "failed": 0, "cancelled": 0, "requeued": 0}
+
+    async def start(self) -> None:
+        requeued, failed = self.store.recover(self.settings.job_max_attempts)
+        if requeued or failed:
+            log.warning("jobs cut off by the last shutdown",
+                        extra={"fields": {"requeued": requeued, "failed": failed}})
+        self.cleanup()
+        for i in range(self.settings.jobs_at_once):
+            self._tasks.append(asyncio.create_task(self._loop(), name=f"job-runner-{i}"))
+        self._tasks.append(asyncio.create_task(self._cleanup_loop(), name="job-cleanup"))
+
+    async def stop(self) -> None:
+        """Put the running jobs back in the queue and stop their renders."""
+        self._stopping = True
+        for job_id, stream in list(self._streams.items()):
+            self.store.requeue(job_id, count_attempt=False)
+            stream.close()
+        for t in self._tasks:
+            t.cancel()
+        for t in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await t
+        self._tasks.clear()
+
+    def wake(self) -> None:
+        self._wake.set()
+
+    def cancel(self, job_id: str) -> None:
+        """Stop a running job's render (its status is already ``cancelled`` in the store)."""
+        stream = self._streams.get(job_id)
+        if stream is not None:
+            stream.close()
+
+    @property
+    def running(self) -> int:
+        return len(self._streams)
+
+    def cleanup(self) -> None:
+        gone = self.store.cleanup(self.settings.job_retention_s, self.settings.max_jobs)
+        if gone:
+            log.info("old jobs deleted", extra={"fields": {"jobs": len(gone)}})
+
+    async def _cleanup_loop(self) -> None:
+        while True:
+            await asyncio.sleep(CLEANUP_INTERVAL_S)
+            try:
+                self.cleanup()
+            except Exception as exc:  # a full disk must not stop the service
+                log.error("job cleanup failed", extra={"fields": {"error": str(exc)}})
+
+    async def _loop(self) -> None:
+        while not self._stopping:
+            job = self.store.claim_next()
+            if job is None:
+                self._wake.clear()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._wake.wait(), 5.0)
+                continue
+            self._wake.set()  # another runner may take the next one
+            try:
+                await self._run(job)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # a bug here must fail the job, not the runner
+                log.exception("job runner error")
+                self._finish(job["id"], "failed", error=f"internal error: {exc}")
+
+    def _finish(self, job_id: str, status: str, **fields: Any) -> None:
+        self.store.finish(job_id, status, **fields)
+        self.completed[status] += 1
+        log.info("job finished", extra={"fields": {"job": job_id, "status": status, **{
+            k: v for k, v in fields.items() if k in ("error", "audio_seconds", "render_seconds")}}})
+
+    async def _run(self, job: dict[str, Any]) -> None:
+        job_id = job["id"]
+        scene = json.loads(job["scene"])
+        out = scene.get("output") or {}
+        subtype = out.get("subtype", "PCM_16")
+        channels = out.get("channels", 1)
+        rate = scene.get("sample_rate", 44100)
+        frames = round(job["duration"] * rate)
+        folder = self.store.job_dir(job_id)
+        folder.mkdir(parents=True, exist_ok=True)
+        part = folder / "audio.wav.part"
+        total = audio.wav_size(frames, subtype, channels)
+        payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
+                   "subtype": subtype, "channels": channels}
+        limit = self.settings.time_limit_s(job["duration"])
+        t0 = time.perf_counter()
+        stream: RenderStream | None = None
+        try:
+            stream = await self.pool.job_stream(payload, limit)
+            self._streams[job_id] = stream
+            if self.store.get(job_id)["status"] != "running":  # cancelled while it waited
+                return
+            written = await self._write(job_id, stream, part, audio.wav_header(
+                frames, rate, subtype, channels), total)
+            if written != total:
+                raise StreamAborted(f"the stream ended after {written} of {total} bytes")
+            final = folder / f"audio.{job['format']}"
+            await asyncio.to_thread(_finalize, part, final, job["format"], subtype)
+            labels_error = await asyncio.to_thread(_write_labels, scene,
+                                                   self.store.labels_path(job_id))
+            self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
+                         render_seconds=time.perf_counter() - t0, warnings=stream.warnings,
+                         labels=int(labels_error is None), labels_error=labels_error)
+        except PoolClosed:
+            self.store.requeue(job_id, count_attempt=False)
+        except (WorkerDied, StreamAborted) as exc:
+            if self._stopping:
+                return  # stop() has put it back in the queue
+            if self.store.get(job_id)["status"] == "cancelled":
+                return
+            if isinstance(exc, WorkerDied) and job["attempts"] < self.settings.job_max_attempts:
+                self.store.requeue(job_id, count_attempt=True)
+                self.completed["requeued"] += 1
+                self.wake()
+            else:
+                self._finish(job_id, "failed", error=str(exc))
+        except RenderFailed as exc:
+            reason = exc.message if exc.kind != "non_finite" else (
+                f"the simulation became unstable ({exc.message}); lower the forces or use "
+                "quality 'high'")
+            self._finish(job_id, "failed", error=reason)
+        except PoolError as exc:  # RenderTimeout
+            self._finish(job_id, "failed", error=str(exc))
+        except OSError as exc:  # a full disk, a folder gone
+            self._finish(job_id, "failed", error=f"could not write the result: {exc}")
+        finally:
+            self._streams.pop(job_id, None)
+            if stream is not None:
+                stream.close()
+            with contextlib.suppress(OSError):
+                part.unlink()
+
+    async def _write(self, job_id: str, stream: RenderStream, part: Path, header: bytes,
+                     total: int) -> int:
+        last = time.monotonic()
+        with open(part, "wb") as f:
+            f.write(header)
+            written = len(header)
+            async for chunk in stream.chunks():
+                f.write(chunk)
+                written += len(chunk)
+                if time.monotonic() - last > PROGRESS_INTERVAL_S:
+                    last = time.monotonic()
+                    self.store.set_progress(job_id, min(written / total, 0.999))
+            f.flush()
+            os.fsync(f.fileno())
+        return written
+
+
+def _finalize(part: Path, final: Path, fmt: str, subtype: str) -> None:
+    """The stream's WAV becomes the job's file, by a rename (converted first for FLAC/Ogg)."""
+    if fmt == "wav":
+        os.replace(part, final)
+        return
+    import soundfile as sf
+
+    x, rate = sf.read(part, dtype="float64", always_2d=False)
+    tmp = final.with_name(final.name + ".part")
+    tmp.write_bytes(audio.encode(x, rate, fmt, subtype, 1 if x.ndim == 1 else x.shape[1]))
+    os.replace(tmp, final)
+
+
+def _write_labels(scene: dict[str, Any], path: Path) -> str | None:
+    """JAMS labels of the scene (``engine.scene_labels``); the reason when there are none."""
+    import engine
+
+    tmp = path.with_name(path.name + ".part")
+    try:
+        labels = getattr(engine, "scene_labels", None)
+        if labels is None:  # before engine re-exports it
+            from engine.score import scene_labels as labels
+        labels(scene).save(str(tmp))
+    except Exception as exc:  # labels are an extra: the audio is still the job's result
+        return f"{type(exc).__name__}: {exc}"
+    os.replace(tmp, path)
+    return None

@@ -212,7 +212,8 @@ async def get_job(job_id: str, request: Request) -> dict[str, Any]:
     200: {"content": {t: {} for t in audio.MEDIA_TYPES.values()}},
     404: {"description": "no such job"}, 409: {"description": "the job is not done"}})
 async def get_audio(job_id: str, request: Request) -> FileResponse:
-    """The rendered audio (at the fixed gain, as ``/render/stream``), once the job is done."""
+    """The rendered audio, scaled and encoded as the scene's ``output`` asks (as ``/render``),
+    once the job is done."""
     job = _job_or_404(request, job_id)
     if job["status"] != "done":
         raise _NotReady(f"job {job_id} is {job['status']}, not done"

@@ -2,8 +2,9 @@
 
 Each job is a stream (``WorkerPool.job_stream``) whose blocks are written to
 ``results/ID/audio.wav.part`` as they arrive; progress is the share of the file written.  When the
-last block is in, the file is flushed, converted if the job asked for FLAC or Ogg, renamed into
-place, the labels are written the same way, and only then is the job ``done``.
+last block is in, the file is flushed, normalized (``output.normalize``, the default, as /render)
+or converted (FLAC, Ogg) block by block if the scene asks for it, renamed into place, the labels
+are written the same way, and only then is the job ``done``.
 
 At most ``Settings.jobs_at_once`` jobs render at once (by default every worker but one), so that
 long jobs never take every worker from ``/render``.  On shutdown the running jobs go back to the
@@ -130,15 +131,18 @@ class JobRunner:
         scene = json.loads(job["scene"])
         out = scene.get("output") or {}
         subtype = out.get("subtype", "PCM_16")
+        normalize = out.get("normalize", True)
+        # A file to be normalized or converted is streamed as float, then rewritten block-wise.
+        stream_subtype = "FLOAT" if normalize or job["format"] != "wav" else subtype
         channels = out.get("channels", 1)
         rate = scene.get("sample_rate", 44100)
         frames = round(job["duration"] * rate)
         folder = self.store.job_dir(job_id)
         folder.mkdir(parents=True, exist_ok=True)
         part = folder / "audio.wav.part"
-        total = audio.wav_size(frames, subtype, channels)
+        total = audio.wav_size(frames, stream_subtype, channels)
         payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
-                   "subtype": subtype, "channels": channels}
+                   "subtype": stream_subtype, "channels": channels}
         limit = self.settings.time_limit_s(job["duration"])
         t0 = time.perf_counter()
         stream: RenderStream | None = None
@@ -148,11 +152,12 @@ class JobRunner:
             if self.store.get(job_id)["status"] != "running":  # cancelled while it waited
                 return
             written = await self._write(job_id, stream, part, audio.wav_header(
-                frames, rate, subtype, channels), total)
+                frames, rate, stream_subtype, channels), total)
             if written != total:
                 raise StreamAborted(f"the stream ended after {written} of {total} bytes")
             final = folder / f"audio.{job['format']}"
-            await asyncio.to_thread(_finalize, part, final, job["format"], subtype)
+            await asyncio.to_thread(_finalize, part, final, job["format"], subtype, normalize,
+                                    normalize or job["format"] != "wav")
             labels_error = await asyncio.to_thread(_write_labels, scene,
                                                    self.store.labels_path(job_id))
             self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
@@ -204,16 +209,35 @@ class JobRunner:
         return written
 
 
-def _finalize(part: Path, final: Path, fmt: str, subtype: str) -> None:
-    """The stream's WAV becomes the job's file, by a rename (converted first for FLAC/Ogg)."""
-    if fmt == "wav":
+PEAK_DBFS = -1.0  # as engine.output: a normalized file peaks here
+_BLOCK = 1 << 16
+
+
+def _finalize(part: Path, final: Path, fmt: str, subtype: str, normalize: bool,
+              rewrite: bool) -> None:
+    """The stream's WAV becomes the job's file by a rename; when it must be normalized or
+    converted (FLAC, Ogg, another WAV subtype) it is rewritten block by block first, so that a
+    ten-minute job never holds its audio in memory."""
+    if not rewrite:
         os.replace(part, final)
         return
+    import numpy as np
     import soundfile as sf
 
-    x, rate = sf.read(part, dtype="float64", always_2d=False)
+    gain = 1.0
+    if normalize:
+        peak = 0.0
+        for block in sf.blocks(str(part), blocksize=_BLOCK, dtype="float32"):
+            peak = max(peak, float(np.max(np.abs(block))) if block.size else 0.0)
+        gain = 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0 else 1.0
+    info = sf.info(str(part))
+    out_subtype = {"wav": subtype, "flac": "PCM_16" if subtype == "PCM_16" else "PCM_24",
+                   "ogg": "VORBIS"}[fmt]
     tmp = final.with_name(final.name + ".part")
-    tmp.write_bytes(audio.encode(x, rate, fmt, subtype, 1 if x.ndim == 1 else x.shape[1]))
+    with sf.SoundFile(str(tmp), "w", samplerate=info.samplerate, channels=info.channels,
+                      format=fmt.upper(), subtype=out_subtype) as f:
+        for block in sf.blocks(str(part), blocksize=_BLOCK, dtype="float64"):
+            f.write(np.clip(block * gain, -1.0, 1.0))
     os.replace(tmp, final)
 
 

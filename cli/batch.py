@@ -96,8 +96,10 @@ def _labels(scene: Any):
     import engine
 
     f = getattr(engine, "scene_labels", None)
-    if f is None:
-        from engine.score import scene_labels as f
+    if f is None:  # before engine re-exports it
+        from engine import score
+
+        f = score.scene_labels
     return f(scene)
 
 

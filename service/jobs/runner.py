@@ -249,7 +249,9 @@ def _write_labels(scene: dict[str, Any], path: Path) -> str | None:
     try:
         labels = getattr(engine, "scene_labels", None)
         if labels is None:  # before engine re-exports it
-            from engine.score import scene_labels as labels
+            from engine import score
+
+            labels = score.scene_labels
         labels(scene).save(str(tmp))
     except Exception as exc:  # labels are an extra: the audio is still the job's result
         return f"{type(exc).__name__}: {exc}"

@@ -51,6 +51,7 @@ class JobRunner:
         self._wake = asyncio.Event()
         self._tasks: list[asyncio.Task] = []
         self._streams: dict[str, RenderStream] = {}
+        self._claimed: set[str] = set()  # jobs this runner has taken and not yet finished
         self._stopping = False
         self.completed: dict[str, int] = {"done": 0, "failed": 0, "cancelled": 0, "requeued": 0}
 
@@ -67,8 +68,9 @@ class JobRunner:
     async def stop(self) -> None:
         """Put the running jobs back in the queue and stop their renders."""
         self._stopping = True
-        for job_id, stream in list(self._streams.items()):
+        for job_id in list(self._claimed):  # rendering, or still waiting for a worker
             self.store.requeue(job_id, count_attempt=False)
+        for stream in list(self._streams.values()):
             stream.close()
         for t in self._tasks:
             t.cancel()
@@ -112,6 +114,7 @@ class JobRunner:
                     await asyncio.wait_for(self._wake.wait(), 5.0)
                 continue
             self._wake.set()  # another runner may take the next one
+            self._claimed.add(job["id"])
             try:
                 await self._run(job)
             except asyncio.CancelledError:
@@ -119,6 +122,9 @@ class JobRunner:
             except Exception as exc:  # a bug here must fail the job, not the runner
                 log.exception("job runner error")
                 self._finish(job["id"], "failed", error=f"internal error: {exc}")
+            finally:
+                if not self._stopping:
+                    self._claimed.discard(job["id"])
 
     def _finish(self, job_id: str, status: str, **fields: Any) -> None:
         self.store.finish(job_id, status, **fields)

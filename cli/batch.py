@@ -485,6 +485,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{parser.prog}: interrupted; run again to resume", file=sys.stderr)
         return 130
+    except Exception as exc:  # a cluster that went away, a disk that filled up under the manifest
+        print(f"{parser.prog}: error: {_one_line(exc)}; run again to resume", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

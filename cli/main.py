@@ -456,10 +456,10 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["batch"]:  # its own parser (cli.batch): many inputs, Dask options
-        from cli import batch
+    if "batch" in argv and all(a.startswith("-") for a in argv[:argv.index("batch")]):
+        from cli import batch  # its own parser: many inputs, Dask options
 
-        return batch.main(argv[1:])
+        return batch.main(argv[argv.index("batch") + 1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     prog = f"guitar-synth {args.command}"

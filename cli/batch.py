@@ -166,7 +166,8 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
         sf.write(tmp_audio, np.clip(x, -1.0, 1.0), sc.sample_rate, format=fmt.upper(),
                  subtype=subtype)
         if options.get("labels", True):
-            _labels(sc).save(str(tmp_labels))
+            with open(tmp_labels, "w", encoding="utf-8") as f:  # jams reads a name's suffix
+                _labels(sc).save(f)
             _replace_into(tmp_labels, labels_path)
             row["labels"] = str(labels_path.relative_to(out))
         _replace_into(tmp_audio, audio_path)

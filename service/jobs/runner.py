@@ -258,7 +258,8 @@ def _write_labels(scene: dict[str, Any], path: Path) -> str | None:
             from engine import score
 
             labels = score.scene_labels
-        labels(scene).save(str(tmp))
+        with open(tmp, "w", encoding="utf-8") as f:  # jams picks a format from a name's suffix
+            labels(scene).save(f)
     except Exception as exc:  # labels are an extra: the audio is still the job's result
         return f"{type(exc).__name__}: {exc}"
     os.replace(tmp, path)

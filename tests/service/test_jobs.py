@@ -36,7 +36,7 @@ def wait_for(get, job_id: str, statuses=("done", "failed", "cancelled"), timeout
     raise TimeoutError(f"job {job_id} still {job['status']}")
 
 
-def test_a_job_renders_the_stream_s_bytes_and_labels(jobs_app: AppHarness) -> None:
+def test_a_job_renders_the_stream_s_bytes_and_labels(jobs_app: AppHarness, tmp_path: Path) -> None:
     scene = chord_scene(0.3, output={"normalize": False})
     r = jobs_app.post("/jobs", json=scene)
     assert r.status_code == 202, r.text
@@ -119,6 +119,7 @@ def test_a_long_job_leaves_a_worker_to_render(jobs_app: AppHarness) -> None:
 
 def test_metrics(jobs_app: AppHarness) -> None:
     jobs_app.post("/render", json=chord_scene(0.2))
+    jobs_app.get("/jobs/some-id")
     text = jobs_app.get("/metrics").text
     for name in ("guitar_renders_total", "guitar_render_seconds_bucket", "guitar_jobs{",
                  "guitar_queue_depth", "guitar_worker_restarts_total", "guitar_workers_ready"):
@@ -126,7 +127,7 @@ def test_metrics(jobs_app: AppHarness) -> None:
     line = next(x for x in text.splitlines()
                 if x.startswith('guitar_renders_total{endpoint="/render",outcome="ok"}'))
     assert float(line.split()[-1]) >= 1
-    assert 'guitar_http_requests_total{method="GET",route="/jobs/{id}"' in text
+    assert 'guitar_http_requests_total{method="GET",route="/jobs/{id}",status="404"}' in text
 
 
 def test_retention_deletes_old_results(tmp_path: Path) -> None:

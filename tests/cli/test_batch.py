@@ -217,10 +217,20 @@ def test_a_worker_killed_mid_batch_loses_nothing(tmp_path: Path, cluster: Cluste
                                                               duration=[1.0, 1.5])),
          "-o", str(out), "--scheduler", cluster.address, "-q"],
         env=ENV, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    from dask.distributed import Client
+
     try:
-        deadline = time.monotonic() + 300
-        while not list((out / "audio").glob("*.wav")) and time.monotonic() < deadline:
-            time.sleep(0.1)  # the workers have warmed up and are rendering
+        with Client(cluster.address, timeout="10s") as watcher:
+            name = {w["name"]: a for a, w in watcher.scheduler_info()["workers"].items()}
+            victim_address = name["w0"]
+            deadline = time.monotonic() + 300
+            while time.monotonic() < deadline:  # rendering, with items of this batch in hand
+                if list((out / "audio").glob("*.wav")) and watcher.processing().get(
+                        victim_address):
+                    break
+                time.sleep(0.05)
+            in_hand = watcher.processing()[victim_address]
+        assert in_hand, "the worker to kill has no item"
         victim = cluster.workers[0]
         os.kill(victim.pid, signal.SIGKILL)
         victim.wait(10)

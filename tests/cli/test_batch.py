@@ -21,6 +21,7 @@ import pytest
 import soundfile as sf
 
 from cli import batch
+from engine.testing.scores import gp5_song
 
 ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join(
@@ -99,12 +100,14 @@ def test_local_batch_fails_bad_items_renders_the_rest_and_resumes(tmp_path: Path
         "duration": 0.4, "quality": "draft",
         "events": [{"type": "pluck", "time": 0.0, "string": 2, "force": 1.5}]}))
     (inputs / "broken.json").write_text('{"duration": 0.4, "events": [')  # cut off
+    (inputs / "tune.gp5").write_bytes(gp5_song([(3, 0), (2, 1)], tempo=240))  # 0.5 s
     (inputs / "broken.gp5").write_bytes(b"FICHIER GUITAR PRO v5.00 but nothing else")
     out = tmp_path / "out"
     r = cli(inputs, spec(tmp_path / "s.json"), "-o", out, "--workers", "1")
     assert r.returncode == 1, r.stderr[-3000:]  # some items failed
     rows = manifest(out)
-    assert set(rows) == {"scene", "broken", "broken-2", "t-000000", "t-000001", "t-000002"}
+    assert set(rows) == {"scene", "tune", "broken", "broken-2", "t-000000", "t-000001",
+                         "t-000002"}
     failed = {k: v for k, v in rows.items() if v["status"] != "done"}
     assert set(failed) == {"broken", "broken-2"}
     assert all(v["error"] for v in failed.values())
@@ -131,7 +134,7 @@ def test_local_batch_fails_bad_items_renders_the_rest_and_resumes(tmp_path: Path
     before = {k: v["render_seconds"] for k, v in rows.items()}
     r3 = cli(inputs, spec(tmp_path / "s.json"), "-o", out, "--workers", "1")
     assert r3.returncode == 1
-    assert "3 skipped as done before" in r3.stderr, r3.stderr[-2000:]
+    assert "4 skipped as done before" in r3.stderr, r3.stderr[-2000:]
     again = manifest(out)
     assert again["t-000001"]["status"] == "done"
     assert again["t-000001"]["render_seconds"] != before["t-000001"]

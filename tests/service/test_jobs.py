@@ -15,6 +15,7 @@ import pytest
 from conftest import AppHarness, UvicornServer
 from svc_helpers import chord_scene, decode, heavy_scene, same_bytes
 
+from engine.testing.scores import gp5_song
 from service.config import Settings
 
 
@@ -66,6 +67,20 @@ def test_flac_job(jobs_app: AppHarness) -> None:
     a = jobs_app.get(f"/jobs/{done['id']}/audio")
     x, rate, info = decode(a.content)
     assert info.format == "FLAC" and len(x) == round(0.2 * 44100)
+
+
+def test_a_score_job(jobs_app: AppHarness) -> None:
+    data = gp5_song([(3, 0), (2, 1), (1, 0), (2, 3)])  # four quarter notes at 120 bpm: 2 s
+    r = jobs_app.post("/jobs", files={"file": ("tune.gp5", data)},
+                      data={"options": '{"max_seconds": 1.5}', "output": '{"format": "flac"}'})
+    assert r.status_code == 202, r.text
+    done = wait_for(jobs_app.get, r.json()["id"])
+    assert done["status"] == "done" and done["format"] == "flac", done
+    x, rate, info = decode(jobs_app.get(done["audio_url"]).content)
+    assert info.format == "FLAC" and len(x) == round(1.5 * rate)
+    assert done["labels"], done["labels_error"]
+    r = jobs_app.post("/jobs", files={"file": ("tune.gp5", data)}, data={"options": '{"bpm": 1}'})
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "options"
 
 
 def test_unknown_job_is_404_everywhere(jobs_app: AppHarness) -> None:

@@ -9,7 +9,7 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq
 IS_ROOT = [ "$$(id -u)" = 0 ]
 
-.PHONY: install venv-support serve test lint browser docker-check docker-tools bench bench-service \
+.PHONY: install venv-support serve test lint browser docker-check docker-tools bench bench-service bench-batch \
         clean
 
 install: $(VENV)/.installed
@@ -60,6 +60,10 @@ bench: install
 # Latency, time to first byte and throughput of the service over real HTTP (uvicorn on a free port).
 bench-service: install
 	$(BIN)/python benchmarks/service_bench.py
+
+# guitar-synth batch on Dask: 1 and 2 local workers against one process, and a corpus projection.
+bench-batch: install
+	$(BIN)/python -m benchmarks.batch
 
 clean:
 	rm -rf $(VENV) .numba_cache .pytest_cache .ruff_cache

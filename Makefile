@@ -9,8 +9,8 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq
 IS_ROOT = [ "$$(id -u)" = 0 ]
 
-.PHONY: install venv-support serve test lint browser docker-check docker-tools bench bench-service bench-batch \
-        clean
+.PHONY: install venv-support serve test test-data lint browser docker-check docker-tools bench-tools bench \
+        bench-service bench-batch clean
 
 install: $(VENV)/.installed
 
@@ -40,7 +40,22 @@ lint: install
 	$(BIN)/ruff check .
 	$(BIN)/hadolint Dockerfile
 
-test: install browser lint
+# Third-party score files for tests/engine/score (never committed; .cache/ is git-ignored): the test
+# corpus in PyGuitarPro's sdist, and the MIDI test files in music21's and miditoolkit's sdists.
+# Only those packages are fetched as sources (--no-binary names them); their build tools as wheels.
+SCORE_CORPUS := .cache/score-corpus
+SCORE_SDISTS := PyGuitarPro==0.11 music21==9.1.0 miditoolkit==1.0.1
+
+test-data: $(SCORE_CORPUS)/.done
+
+$(SCORE_CORPUS)/.done: scripts/score_corpus.py | install
+	rm -rf $(SCORE_CORPUS) && mkdir -p $(SCORE_CORPUS)/sdist
+	$(BIN)/pip download -q --no-deps --no-binary PyGuitarPro,music21,miditoolkit \
+	  -d $(SCORE_CORPUS)/sdist $(SCORE_SDISTS)
+	$(BIN)/python scripts/score_corpus.py $(SCORE_CORPUS)
+	touch $@
+
+test: install browser lint test-data
 	$(BIN)/pytest -q
 
 # Builds the Docker image without a Docker engine (podman/buildah, chroot isolation) and checks
@@ -54,7 +69,15 @@ docker-tools:
 docker-check: docker-tools
 	scripts/docker-check
 
-bench: install
+# Debian's FluidSynth and General MIDI SoundFont: benchmarks/scores.py renders the same notes with
+# them to compare speed and what a pitch tracker hears.  Installed when we are root and missing;
+# without them that comparison is left out of the tables.
+bench-tools:
+	@{ command -v fluidsynth >/dev/null 2>&1 && [ -e /usr/share/sounds/sf2/FluidR3_GM.sf2 ]; } || \
+	  { $(IS_ROOT) && $(APT_INSTALL) fluidsynth fluid-soundfont-gm >/dev/null ; } || \
+	  echo "fluidsynth is not installed: benchmarks/scores.py will leave FluidSynth out"
+
+bench: install test-data bench-tools
 	$(BIN)/python -m benchmarks.run_all
 
 # Latency, time to first byte and throughput of the service over real HTTP (uvicorn on a free port).

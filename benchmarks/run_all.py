@@ -23,6 +23,7 @@ from benchmarks import (
     fret_modes,
     intonation,
     pareto,
+    scores,
     seating,
     skips,
     soak,
@@ -47,6 +48,8 @@ RUNS = [
     ("seating_nylon", seating.main, ["--preset", "nylon-classical", "--quality", "standard"]),
     ("pareto", pareto.main, []),
     ("soak", soak.main, ["--minutes", "3"]),
+    # last: it pins its process to one core
+    ("scores", scores.main, []),
 ]
 # outputs copied verbatim into docs/accuracy.md (marker name -> section title)
 # (fret_modes and seating print full grids to benchmarks/out/; docs/accuracy.md keeps their worst

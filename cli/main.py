@@ -1,6 +1,6 @@
 """guitar-synth: render scenes and scores to audio, turn scores into scenes, serve HTTP.
 
-    guitar-synth render song.gp5 -o song.flac --labels song.jams --tracks 0,2
+    guitar-synth render song.gp5 -o song.flac --labels song.jams --tracks 1,3
     guitar-synth scene tune.mid -o tune.json
     guitar-synth serve --port 8000
     guitar-synth batch songs/ dataset.yaml -o out/ [--scheduler tcp://host:8786]
@@ -9,7 +9,8 @@ Bad input (a missing, truncated or wrong-type file, an invalid scene, an unknown
 ends with one line on stderr naming the problem and exit status 2; an unexpected failure with one
 line and status 1 (``--debug`` shows the traceback).  The command knows the engine only by its
 public API (``engine.parse_scene``, ``engine.blocks``, ``engine.frame_count``,
-``engine.score.load_score``, ``engine.scene_labels``) and the service only as ``service.app:app``.
+``engine.score_to_scene``, ``engine.scene_labels``) and the service only as
+``service.app:app``.
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ def _positive_float(text: str) -> float:
 
 
 def _track_list(text: str) -> list[int | str]:
-    """``0,2`` or ``Lead,Bass``: score track indices (from 0) or names."""
+    """``1,3`` or ``Lead,Bass``: score track numbers (from 1) or names."""
     items = [t.strip() for t in text.split(",") if t.strip()]
     if not items:
         raise argparse.ArgumentTypeError("give track indices or names separated by commas")
@@ -66,8 +67,8 @@ def _track_list(text: str) -> list[int | str]:
 def _add_score_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("scores (Guitar Pro and MIDI input)")
     g.add_argument("--tracks", type=_track_list, metavar="LIST",
-                   help="the score's tracks to play, by index (from 0) or name, comma-separated "
-                        "(default: every pitched track)")
+                   help="the score's tracks to play, by number as the score numbers them (from "
+                        "1) or by name, comma-separated (default: every pitched track)")
     g.add_argument("--preset", metavar="NAME",
                    help="the preset of every track (default: from the score: General MIDI "
                         "program or Guitar Pro instrument); for a scene, its guitar's preset")
@@ -190,16 +191,25 @@ def _score_options(args: argparse.Namespace) -> dict[str, Any]:
     return opts
 
 
+_FLAGS = {"options.tracks": "--tracks", "options.presets": "--preset",
+          "options.tempo_scale": "--tempo-scale", "options.max_seconds": "--max-seconds"}
+
+
 def _read_score(p: Path, args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
-    from engine import score
+    import engine
 
     try:
-        result = score.load_score(p, **_score_options(args))
-    except score.ScoreError as e:
-        raise BadInput(f"{p}: {e}") from None
-    except (ValueError, TypeError) as e:  # an option the importer refuses
-        raise BadInput(f"{p}: {e}") from None
-    return result.scene, list(result.warnings)
+        result = engine.score_to_scene(p, **_score_options(args))
+    except engine.ScoreError as e:
+        msg = str(e)
+        for option, flag in _FLAGS.items():  # the importer names its options; here they are flags
+            msg = msg.replace(option, flag)
+        raise BadInput(f"{p}: {msg}") from None
+    except MemoryError:
+        raise BadInput(f"{p}: the score needs more memory than there is") from None
+    except Exception as e:  # a corrupt file reaching a path the importer's checks missed
+        raise BadInput(f"{p}: could not be read as a score ({type(e).__name__}: {e})") from None
+    return dict(result), list(getattr(result, "warnings", []))
 
 
 def _cut(scene: dict[str, Any], seconds: float) -> None:
@@ -362,7 +372,8 @@ def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
 
     rate = sc.sample_rate
     frames = engine.frame_count(sc)
-    parts = []
+    # written block by block into the output: a song holds no more than its audio
+    audio = np.zeros((frames, 2) if sc.output.channels == 2 else frames)
     t0 = time.perf_counter()
     with _progress(frames / rate, quiet) as bar:
         blocks = engine.blocks(sc)  # prepares the instruments: the bar says "preparing"
@@ -372,13 +383,12 @@ def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
         for block in blocks:
             if not np.all(np.isfinite(block)):
                 raise FloatingPointError("the audio holds non-finite samples")
-            parts.append(block)
+            audio[done:done + len(block)] = block
             done += len(block)
             elapsed = time.perf_counter() - t0
             bar.set_postfix_str(f"{done / rate / elapsed:.2f}x real time" if elapsed else "")
             bar.update(round(done / rate, 3) - bar.n)
     seconds = time.perf_counter() - t0
-    audio = np.concatenate(parts) if parts else np.zeros(0)
     if sc.output.normalize:  # blocks come at the fixed gain; normalize as engine.render does
         audio = engine.to_output_scale(audio / engine.FIXED_GAIN, True)
     return audio, seconds
@@ -395,10 +405,10 @@ def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> Non
     sf.write(path, np.clip(audio, -1.0, 1.0), rate, format=fmt.upper(), subtype=subtype)
 
 
-def write_labels(path: str, sc: Any) -> None:
+def write_labels(path: str, sc: Any, title: str = "") -> None:
     import engine
 
-    engine.scene_labels(sc).save(path)
+    engine.scene_labels(sc, title=title).save(path)
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -416,7 +426,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                        "use --quality high") from None
     write_audio(args.output, audio, sc.sample_rate, fmt, sc.output.subtype)
     if args.labels:
-        write_labels(args.labels, sc)
+        write_labels(args.labels, sc, Path(args.input).stem)
     if not args.quiet:
         audio_s = len(audio) / sc.sample_rate
         speed = f", {audio_s / seconds:.2f}x real time" if seconds > 0 else ""

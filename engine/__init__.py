@@ -55,6 +55,10 @@ _LAZY = {
     "tuned_tension": "string",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
+    # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)
+    "score_to_scene": "score",
+    "scene_labels": "score",
+    "ScoreError": "score",
 }
 
 __all__ = ["PRESETS", "Preset", "Scene", "frame_count", "get_preset", "parse_scene", *_LAZY]

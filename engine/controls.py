@@ -22,10 +22,10 @@ How each event acts on the physics
 * ``mute``: a palm near the bridge, a damper spread over ``PALM_WIDTH_M`` with R = amount * 0.8
   sqrt(T rho A): shorter decay, duller tone.
 * ``damp``: the player stops the string.  Any fretting finger lifts (relaxes: it stops pressing)
-  and a pad of flesh rests on the string where that finger was, or over fret ``DAMP_OPEN_FRET`` on
-  an open string (the fretting hand laid across it): a damper spread over ``DAMP_WIDTH_M`` with
-  R = ``DAMP_DAMPING`` sqrt(T rho A), a loss in the balance's Q like the palm's.  It stays until the
-  string's next event (of any type).  docs/engine.md gives the decay times it gives.
+  and the hand's fingertips rest on the string from where that finger was (or from over fret
+  ``DAMP_OPEN_FRET`` on an open string) towards the bridge: ``DAMP_FINGERS`` point dampers
+  ``DAMP_SPACING_M`` apart, each R = ``DAMP_DAMPING`` sqrt(T rho A), losses in the balance's Q.
+  They stay until the string's next event (of any type).  docs/engine.md gives the decay times.
 * ``bend``/``vibrato``: the tension T(t) = T0 * ratio(t), piecewise linear between breakpoints; the
   ratio for a pitch change is solved from the scheme's dispersion relation.  The grid is built for
   the highest tension the scene reaches (``max_tension_ratio``).
@@ -65,8 +65,14 @@ PALM_WIDTH_M = 0.02
 HARMONIC_DAMPING = 2.0  # x sqrt(T rho A)
 PALM_DAMPING = 0.8  # x sqrt(T rho A) at amount 1
 VIBRATO_POINTS_PER_CYCLE = 32
-DAMP_DAMPING = 2.0  # x sqrt(T rho A), spread over the pad
-DAMP_WIDTH_M = 0.015  # a fingertip pad laid along the string
+# A damp lays the relaxed fretting hand's four fingertips on the string, about a fret apart, from
+# where the fretting finger was towards the bridge: four point dampers, each of R = 1 x sqrt(T rho
+# A).  One touch absorbs at most half the energy of a wave passing it (at R = 2 sqrt(T rho A));
+# four in a row take most of it in one pass.  ``tests/engine/test_damp.py`` prints the time to
+# -60 dB of every string of the steel preset, open and fretted (docs/engine.md quotes them).
+DAMP_DAMPING = 1.0  # x sqrt(T rho A) per finger
+DAMP_FINGERS = 4
+DAMP_SPACING_M = 0.035
 DAMP_OPEN_FRET = 5  # where the fretting hand touches an open string
 
 # style -> (pulse length s, direction): a pick releases faster than a fingertip; a slap drives
@@ -253,8 +259,9 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             lift(on)
             off = step(events[j + 1].time) if j + 1 < len(events) else NEVER
             last = max(last, on if off == NEVER else off)
-            xs = x + np.linspace(-0.5, 0.5, 5) * DAMP_WIDTH_M
-            dampers.append((on, off, DAMP_DAMPING * impedance, [(float(xv), 0.2) for xv in xs]))
+            for k in range(DAMP_FINGERS):  # one pad per finger, towards the bridge
+                xk = min(x + k * DAMP_SPACING_M, 0.9 * length_m)
+                dampers.append((on, off, DAMP_DAMPING * impedance, [(xk, 1.0)]))
         elif isinstance(e, Bend):
             r = ratio_for_cents(100.0 * e.semitones)
             up = max(step(e.duration), 1)

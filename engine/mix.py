@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .effects import Chain
-from .guitar import Guitar, prepare as prepare_guitar
+from .guitar import Guitar
+from .guitar import prepare as prepare_guitar
 from .options import RenderOptions
 from .output import pan_gains
 from .scene import Scene, frame_count

@@ -248,10 +248,10 @@ class Strum(_Model):
 
 class Damp(_Model):
     """The player stops the string: the fretting finger relaxes onto it (or, on an open string, a
-    hand touches it) and the note dies, until the string's next event.  Modelled as a lossy pad
-    (``engine.controls.DAMP_DAMPING`` x sqrt(T rho A), ``DAMP_WIDTH_M`` wide) where the finger was,
-    or over fret ``DAMP_OPEN_FRET`` on an open string, with any fretting finger lifted; docs/engine.md
-    gives the decay times."""
+    hand touches it) and the note dies, until the string's next event.  Modelled as the relaxed
+    hand's fingertips resting on the string (``engine.controls.DAMP_*``: point dampers from where
+    the finger was, or from over fret 5 on an open string), any fretting finger lifted;
+    docs/engine.md gives the decay times (13-70 ms to -60 dB on the steel preset)."""
 
     type: Literal["damp"] = "damp"
     time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")

@@ -5,7 +5,8 @@ the grid its quality asks for (``string_model``, ``oversample_for``), the kernel
 (``engine.string``, ``engine.controls``), the state ``kernels.step_block`` advances, and the
 energy series of the discrete balance (paper sec. 6.1) when diagnostics are on.  It also owns the
 last skip of the render: a string whose motion has decayed below ``decay_velocity`` after its
-last event stops being computed.
+last event stops being computed, and one that has decayed so before its next event sleeps until
+then (a long song's strings are computed while they sound, not between their notes).
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from .options import Quality, RenderOptions
 from .output import Decimator
 from .presets import Preset
 from .string import StringModel, dispersion_cents, tension_ratio_for_cents, tune
+
+SLEEP_MIN_STEPS = 4096  # a string sleeps only through a longer stillness (not worth it below)
 
 
 def oversample_for(spec, length: float, rate: float, q: Quality, max_ratio: float = 1.0,
@@ -77,6 +80,8 @@ class Voice:
     energy_series: bool = False  # keep the per-step series (else running figures only)
     step: int = 0
     stopped: bool = False
+    asleep_until: int = 0  # no step before this is computed (the string is still, nothing acts)
+    steps_computed: int = 0
     energy_h: list = field(default_factory=list)
     energy_q: list = field(default_factory=list)
     energy_p: list = field(default_factory=list)
@@ -112,9 +117,14 @@ class Voice:
 
     def run(self, nsteps: int) -> np.ndarray:
         """Advance nsteps internal steps; return the pickup mix at the internal rate."""
-        if self.stopped or nsteps == 0:
+        if self.stopped or nsteps == 0 or self.step + nsteps <= self.asleep_until:
             self.step += nsteps
             return np.zeros(nsteps)
+        if self.step < self.asleep_until:  # wakes within this block
+            quiet = self.asleep_until - self.step
+            self.step = self.asleep_until
+            return np.concatenate((np.zeros(quiet), self.run(nsteps - quiet)))
+        self.steps_computed += nsteps
         out = np.zeros((len(self.pickup_gains), nsteps))
         d = self.diagnostics
         e_h = np.empty(nsteps if d else 0)
@@ -140,7 +150,32 @@ class Voice:
         mix = self.pickup_gains @ out
         if self.skip_decayed and not d and self.step > self.ctl.last_step:
             self._maybe_stop(out)
+        elif self.skip_decayed and not d:
+            self._maybe_sleep(out)
         return mix
+
+    def _next_change(self) -> int:
+        """The first step from now at which a control acts or changes (a pluck starts or ends, a
+        finger is put down, moves or lifts, a damper comes or goes, a tension breakpoint)."""
+        a = self.ctl.arrays
+        ends = (a.pl_start, a.pl_start + a.pl_len, a.fs_on, a.fs_rel, a.fs_ms, a.fs_me, a.dp_on,
+                a.dp_off, a.tb_step)
+        later = [int(x[x >= self.step].min()) for x in ends if np.any(x >= self.step)]
+        return min(later, default=NEVER)
+
+    def _maybe_sleep(self, out: np.ndarray) -> None:
+        # As _maybe_stop, until the next change: the string (and any finger resting on it) is
+        # still, so nothing would happen before then but the decay of motion below
+        # decay_velocity; the state is kept and the string resumes at that step.
+        wake = self._next_change()
+        if wake - self.step < SLEEP_MIN_STEPS:
+            return
+        st = self.state
+        active = st.f_state == kernels.ACTIVE
+        if np.any(self.ctl.arrays.fs_rel[active] < self.step):  # a finger lifting away
+            return
+        if self._still(out):
+            self.asleep_until = wake
 
     def _maybe_stop(self, out: np.ndarray) -> None:
         # Nothing will act on the string again (no event pending; a finger still on the string
@@ -150,12 +185,18 @@ class Voice:
         active = st.f_state == kernels.ACTIVE
         if np.any(self.ctl.arrays.fs_rel[active] < NEVER):
             return
+        if self._still(out):
+            self.stopped = True
+
+    def _still(self, out: np.ndarray) -> bool:
+        """Every node, every finger on the string and the pickups slower than decay_velocity."""
+        st = self.state
+        active = st.f_state == kernels.ACTIVE
         k = self.coefs.k
         vmax = np.max(np.abs(st.u - st.u1)) / k
         if np.any(active):
             vmax = max(vmax, float(np.max(np.abs(st.f_w[active] - st.f_w1[active]))) / k)
-        if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
-            self.stopped = True
+        return bool(vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity)
 
     def energy_error(self) -> float:
         """Largest relative energy-balance deviation (paper sec. 6.1):

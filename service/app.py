@@ -20,7 +20,7 @@ from .logs import setup_logging
 from .metrics import Metrics, MetricsMiddleware
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .pool import WorkerPool
-from .routes import health, metrics, pages, presets, render
+from .routes import health, metrics, pages, presets, render, score
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
 timed events: pluck, fret, tap and the articulations hammer-on, pull-off, slide, bend, vibrato,
@@ -68,8 +68,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(RequestContextMiddleware)
     errors.install(app, settings.retry_after_s)
     jobs.install(app)
-    for router in (pages.router, health.router, presets.router, render.router, jobs.router,
-                   metrics.router):
+    for router in (pages.router, health.router, presets.router, render.router, score.router,
+                   score.labels_router, jobs.router, metrics.router):
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=pages.STATIC_DIR), name="static")
     return app

@@ -44,6 +44,11 @@ class Settings(BaseSettings):
     max_body_bytes: int = Field(256 * 1024, ge=1024)
     max_duration_s: float = Field(30.0, gt=0.0, le=MAX_DURATION_S)
     max_events: int = Field(500, ge=1, le=MAX_EVENTS)
+    # A score plays many more notes per second than a hand-written scene: its own event limit
+    # (POST /render/score), still bounded by duration and the render's time limit.
+    max_score_events: int = Field(5000, ge=1, le=MAX_EVENTS)
+    score_import_time_limit_s: float = Field(
+        10.0, gt=0.0, description="wall time a worker may spend importing one score file")
     min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 

@@ -353,6 +353,22 @@ class WorkerPool:
         return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"],
                             meta["warnings"])
 
+    async def call(self, kind: str, payload: dict[str, Any], time_limit_s: float
+                   ) -> tuple[bytes, dict[str, Any]]:
+        """Run one job of another ``kind`` in a worker (``score``: import a score; ``labels``: a
+        scene's labels) under the same admission and deadline as a render: a hostile file is
+        handled by a worker that is killed at the deadline, never by the API process.  Returns
+        the worker's bytes and meta."""
+        self._admit()
+        try:
+            job = await self._dispatch(kind, payload, time_limit_s, on_finish=self._release)
+        except BaseException:
+            self._release()
+            raise
+        msg = await job.messages.get()
+        self._raise_for(msg, time_limit_s)
+        return msg[2], msg[3]
+
     async def stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
         """Start a streamed render; returns once the first block exists (or fails before)."""
         self._admit()

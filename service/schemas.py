@@ -68,6 +68,10 @@ class Limits(BaseModel):
     max_body_bytes: int
     max_duration_s: float
     max_events: int
+    max_score_events: int = Field(description="events the scene of an uploaded score may hold "
+                                              "(POST /render/score)")
+    score_formats: list[str] = Field(description="file suffixes POST /score/scene and "
+                                                 "/render/score accept")
     min_sample_rate: int
     max_sample_rate: int
     time_limit_base_s: float

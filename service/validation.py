@@ -86,21 +86,25 @@ def _error(field: str, kind: str, msg: str, value: Any, ctx: dict[str, Any]) -> 
             "ctx": ctx}
 
 
-def check_limits(scene: engine.Scene, settings: Settings) -> None:
-    """Raise a 422 for a valid scene that is outside this server's limits."""
+def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None = None) -> None:
+    """Raise a 422 for a valid scene that is outside this server's limits (``max_events``: a
+    limit other than ``settings.max_events``, e.g. a score's)."""
     errors = []
+    limit = settings.max_events if max_events is None else max_events
+    events = scene.event_count()  # over all tracks
     if scene.duration > settings.max_duration_s:
         errors.append(_error(
             "duration", "less_than_equal",
             f"Input should be less than or equal to {settings.max_duration_s:g} "
             "(service limit GUITAR_MAX_DURATION_S)", scene.duration,
             {"le": settings.max_duration_s}))
-    if len(scene.events) > settings.max_events:
+    if events > limit:
+        which = "GUITAR_MAX_EVENTS" if max_events is None else "GUITAR_MAX_SCORE_EVENTS"
         errors.append(_error(
-            "events", "too_long",
-            f"List should have at most {settings.max_events} items "
-            f"(service limit GUITAR_MAX_EVENTS), not {len(scene.events)}", len(scene.events),
-            {"max_length": settings.max_events}))
+            "events" if scene.tracks is None else "tracks", "too_long",
+            f"List should have at most {limit} items "
+            f"(service limit {which}, counted over all tracks), not {events}", events,
+            {"max_length": limit}))
     if not settings.min_sample_rate <= scene.sample_rate <= settings.max_sample_rate:
         errors.append(_error(
             "sample_rate", "range",

@@ -11,6 +11,10 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                                                                       one streamed block
                        ("end", job_id, meta) | ("cancelled", job_id)  stream finished / stopped
                        ("error", job_id, kind, message)               kind: non_finite|invalid|internal
+    parent -> worker   ("score", job_id, {"data": bytes, "filename": str, "options": dict})
+    worker -> parent   ("done", job_id, scene_json_bytes, {"warnings": [...], "seconds": s})
+    parent -> worker   ("labels", job_id, {"scene": dict})
+    worker -> parent   ("done", job_id, jams_json_bytes, {"seconds": s})
 
 Everything sent is plain data (bytes, floats, lists, dicts) so the parent never unpickles engine
 objects.  ``warnings`` (``engine.RenderResult.warnings``: what may not sound as the player means it)
@@ -20,6 +24,8 @@ and with the first streamed block (an empty list with the later ones).
 
 from __future__ import annotations
 
+import io
+import json
 import os
 import signal
 import time
@@ -62,10 +68,51 @@ def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
                 _render(conn, engine, job_id, msg[2])
             elif kind == "stream":
                 _stream(conn, engine, job_id, msg[2], block_frames)
+            elif kind == "score":
+                _score(conn, job_id, msg[2])
+            elif kind == "labels":
+                _labels(conn, job_id, msg[2])
         except (BrokenPipeError, ConnectionResetError):
             raise
         except Exception as exc:  # reported to the parent, which maps it to a status code
             conn.send(("error", job_id, *_classify(exc)))
+
+
+def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
+    """Import a score (``engine.score_to_scene``) from the uploaded bytes.  A file the importer
+    refuses (``ScoreError``) is the client's problem; so is one that trips the importer in any
+    other way (a hostile or corrupt file reaching a path its checks missed): both are ``invalid``
+    (422) with the reason, and the worker carries on."""
+    import engine
+
+    t0 = time.perf_counter()
+    source = io.BytesIO(payload["data"])
+    source.name = payload.get("filename") or ""  # the importer's messages name the file
+    try:
+        result = engine.score_to_scene(source, **payload["options"])
+    except engine.ScoreError as exc:
+        conn.send(("error", job_id, "invalid", str(exc)))
+        return
+    except MemoryError:
+        conn.send(("error", job_id, "invalid", "the score needs more memory than a worker has"))
+        return
+    except Exception as exc:
+        name = payload.get("filename") or "the file"
+        conn.send(("error", job_id, "invalid",
+                   f"{name} could not be read as a score ({type(exc).__name__}: {exc})"))
+        return
+    data = json.dumps(dict(result), allow_nan=False).encode()
+    conn.send(("done", job_id, data, {"warnings": list(getattr(result, "warnings", [])),
+                                      "seconds": time.perf_counter() - t0}))
+
+
+def _labels(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
+    """The scene's note labels as JAMS (``engine.scene_labels``), serialized as JSON."""
+    import engine
+
+    t0 = time.perf_counter()
+    jam = engine.scene_labels(payload["scene"])
+    conn.send(("done", job_id, jam.dumps().encode(), {"seconds": time.perf_counter() - t0}))
 
 
 def _classify(exc: Exception) -> tuple[str, str]:

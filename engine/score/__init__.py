@@ -138,6 +138,9 @@ def score_to_scene(source, **options) -> ScoreScene:
         scene, planned = midi.convert(data, options, warnings)
     else:
         raise ScoreError(f"options.format: {fmt!r} is not 'gp' or 'midi'")
+    if not planned:
+        raise ScoreError("the score has no notes to play" + (" in the chosen tracks"
+                                                              if options.get("tracks") else ""))
     if options.get("sample_rate"):
         scene["sample_rate"] = int(options["sample_rate"])
     if scene["duration"] > 3600.0:

@@ -108,11 +108,13 @@ class Planned:
     articulations: list[str] = field(default_factory=list)
     where: str = ""  # "bar 3, beat 2" (for warnings)
     position: float = 0.8  # pluck position x / L
+    repeat: bool = False  # a further attack of one score note (trill, tremolo picking)
 
     def report(self, names: list[str]) -> dict:
         return {"track": self.track, "track_name": names[self.track], "string": self.string,
                 "fret": self.fret, "time": _r(self.time), "end": _r(self.end),
-                "pitch": round(self.pitch, 4), "dead": self.dead, "articulations": list(self.articulations),
+                "pitch": round(self.pitch, 4), "dead": self.dead, "repeat": self.repeat,
+                "articulations": list(self.articulations),
                 "where": self.where}
 
 
@@ -204,9 +206,7 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
         ends_here = n.slide_out is not None or not (n.let_ring or legato_next)
         if ends_here and gap > GAP_FOR_DAMP_S:
             out.append({"type": "damp", "time": _r(end), "string": s})
-            free_from = end
-        else:
-            free_from = end if not n.let_ring else n.time
+        free_from = end  # the next fret goes down only once this note is over
         n.end = end
     return out
 

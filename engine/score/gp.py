@@ -24,7 +24,9 @@ What is kept and how (``../shared/API.md``, "Scores in"):
   a note of their own before (or on) the beat, joined to the main note by their transition; trill
   -> alternating hammer-ons and pull-offs; tremolo picking -> repeated plucks; strokes -> ``strum``;
   tapping/slapping/popping -> ``tap`` or the pluck's style.
-* What cannot be played (tremolo bar, fade-in, D.C./D.S./coda directions, bends beyond the
+* **Directions** (D.C., D.S., al Fine, al Coda, To Coda) are followed once each (see
+  ``playback_order``).
+* What cannot be played (tremolo bar, fade-in, a direction whose sign is missing, bends beyond the
   engine's range ...) is listed in the warnings, each naming bar, beat, track and effect.
 """
 
@@ -113,32 +115,85 @@ def parse_song(data: bytes):
         raise ScoreError(f"Guitar Pro file is truncated or corrupt: {msg}"[:300]) from None
 
 
-def playback_order(headers) -> list[int]:
+def _name(d) -> str | None:
+    return d.name if d is not None and d.name else None
+
+
+def playback_order(headers, skipped: list[str] | None = None) -> list[int]:
     """Measure indices in the order they are played: repeats (``repeatClose`` = times repeated)
-    and alternate endings (bit k of ``repeatAlternative`` = played on pass k+1) expanded."""
+    and alternate endings (bit k of ``repeatAlternative`` = played on pass k+1) expanded.  A
+    section starts at a repeat sign, after a finished repeat, or after its last ending.
+
+    Directions (Guitar Pro 5): at the end of a measure marked "Da Capo ..." or "Da Segno ..."
+    (once each) playing goes back to the start or to the Segno (Segno Segno) sign; from then on
+    repeats are not taken again and only the last of a run of endings is played; "... al Fine"
+    stops after the Fine measure, "... al Coda" ("al Double Coda") jumps from the measure marked
+    "Da Coda" ("Da Double Coda") to the Coda (Double Coda) sign.  Directions whose sign is
+    missing are listed in ``skipped``."""
     order: list[int] = []
-    i, start, passno, furthest = 0, 0, 0, -1
+    marks: dict[str, int] = {}
+    for k, h in enumerate(headers):
+        name = _name(h.direction)
+        if name is not None:
+            marks.setdefault(name, k)
+    i, start, passno, furthest, after_alt = 0, 0, 0, -1, False
+    jumped: str | None = None
+    taken: set[int] = set()
     n = len(headers)
     while i < n:
         h = headers[i]
-        if h.isRepeatOpen and i > furthest:
-            start, passno = i, 0
-        furthest = max(furthest, i)
         alt = h.repeatAlternative
-        if alt and not (alt >> passno) & 1:
-            if h.repeatClose > 0 and passno >= h.repeatClose:
-                start, passno = i + 1, 0
-            i += 1
+        if jumped is None:
+            if i > furthest and (h.isRepeatOpen or (after_alt and not alt)):
+                start, passno = i, 0
+            furthest = max(furthest, i)
+            after_alt = bool(alt)
+            if alt and not (alt >> passno) & 1:
+                i += 1
+                continue
+        elif alt and i + 1 < n and headers[i + 1].repeatAlternative:
+            i += 1  # after a D.C./D.S. only the last ending is played
             continue
         order.append(i)
         if len(order) > C.MAX_PLAYED_MEASURES:
             raise ScoreError(f"repeats expand to more than {C.MAX_PLAYED_MEASURES} measures")
-        if h.repeatClose > 0:
+        if jumped is None and h.repeatClose > 0:
             if passno < h.repeatClose:
                 passno += 1
                 i = start
                 continue
-            start, passno = i + 1, 0
+            start = i + 1
+            if not (i + 1 < n and headers[i + 1].repeatAlternative):
+                passno = 0
+        go = _name(h.fromDirection)
+        if jumped is not None:
+            if jumped.endswith("al Fine") and marks.get("Fine") == i:
+                break
+            for sign in ("Double Coda", "Coda"):
+                if go == f"Da {sign}" and jumped.endswith(f"al {sign}") and sign in marks:
+                    i = marks[sign]
+                    jumped += " (done)"
+                    break
+            else:
+                i += 1
+            continue
+        if go is not None and (go.startswith("Da Capo") or go.startswith("Da Segno")) \
+                and i not in taken:
+            taken.add(i)
+            if go.startswith("Da Capo"):
+                target = 0
+            else:
+                target = marks.get("Segno Segno" if go.startswith("Da Segno Segno") else "Segno")
+            wanted = next((s for s in ("Double Coda", "Coda", "Fine") if go.endswith(f"al {s}")),
+                          None)
+            if target is None or (wanted is not None and wanted not in marks):
+                if skipped is not None:
+                    skipped.append(f"bar {i + 1}: direction '{go}' not followed (its sign is "
+                                   "missing)")
+            else:
+                jumped = go
+                i = target
+                continue
         i += 1
     return order
 
@@ -251,14 +306,11 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
     tempo_scale = float(options.get("tempo_scale", 1.0))
     want = options.get("tracks")
     preset_opt = options.get("presets")
-    order = playback_order(song.measureHeaders)
+    skipped: list[str] = []
+    order = playback_order(song.measureHeaders, skipped)
     clock = _Clock(song, order, tempo_scale)
-    for m in sorted({m for m in range(len(song.measureHeaders))}):
-        h = song.measureHeaders[m]
-        for d in (h.direction, h.fromDirection):
-            if d is not None and d.name:
-                warnings.append(f"bar {m + 1}, beat 1, track all: direction '{d.name}' not "
-                                "followed (repeats are, D.C./D.S./coda jumps are not)")
+    warnings.extend(f"{w.split(':', 1)[0]}, beat 1, track all:{w.split(':', 1)[1]}"
+                    for w in skipped)
     tracks: list[_Track] = []
     scene_tracks: list[dict] = []
     planned: list[Planned] = []
@@ -272,7 +324,7 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
             continue
         n_strings = len(t.strings)
         if not 1 <= n_strings <= 12:
-            warnings.append(f"{label}: {n_strings} strings, left out")
+            warnings.append(f"bar 1, beat 1, {label}: {n_strings} strings, left out")
             continue
         program = t.channel.instrument
         preset = C.preset_for_program(program, n_strings)
@@ -288,8 +340,9 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
         tuning = [s.value + capo for s in sorted(t.strings, key=lambda s: s.number)]
         bad = [p for p in tuning if not 25.0 <= 440 * 2 ** ((p - 69) / 12) <= 1400.0]
         if bad:
-            warnings.append(f"{label}: tuning {[C.midi_name(p) for p in bad]} outside the "
-                            "strings' range 25..1400 Hz, left out")
+            names = [C.midi_name(p) for p in bad]
+            warnings.append(f"bar 1, beat 1, {label}: tuning {names} outside the strings' "
+                            "range 25..1400 Hz, left out")
             continue
         base_frets = _presets.get_preset(preset).frets
         tr = _Track(len(tracks), t.number, t.name or f"Track {t.number}", preset, tuning, base_frets)
@@ -303,8 +356,8 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
             guitar["frets"] = min(used, 24)
             tr.frets = guitar["frets"]
         if capo:
-            warnings.append(f"{label}: capo at fret {capo} played as strings tuned {capo} "
-                            "semitones up")
+            warnings.append(f"bar 1, beat 1, {label}: capo at fret {capo} played as strings "
+                            f"tuned {capo} semitones up")
         balance = getattr(t.channel, "balance", 64)
         volume = getattr(t.channel, "volume", 104)
         tracks.append(tr)
@@ -452,7 +505,7 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         else:
                             warnings.append(f"{w}: tapping an open string, plucked instead")
                     elif slap:
-                        p.articulations.append(slap[:-3] if slap.endswith("ing") else slap)
+                        p.articulations.append({"slapping": "slap", "popping": "pop"}[slap])
                     if eff.isHarmonic and not p.dead:
                         _harmonic(p, eff.harmonic, tr, s, fret, w, warnings)
                     if eff.vibrato or be.vibrato:
@@ -461,8 +514,6 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         p.articulations.append("vibrato")
                     if eff.isBend:
                         _bend(p, eff.bend.points, t0, end, w, warnings, "bend")
-                    for sl in eff.slides:
-                        _slide(p, sl.name, tr, w, warnings, pending_legato)
                     # legato from the previous note on this string (its hammer/slide flag)
                     leg = pending_legato.pop(s, None)
                     prev = last_on_string.get(s)
@@ -470,6 +521,8 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                             and p.attack == "pluck" and not p.dead:
                         kind = leg[0]
                         _legato(p, prev, kind, w, warnings)
+                    for sl in eff.slides:
+                        _slide(p, sl.name, tr, w, warnings, pending_legato)
                     if eff.hammer:
                         pending_legato[s] = ("hammer", p)
                     if eff.letRing:
@@ -583,9 +636,11 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
         else:
             bt = t0 + start * dur
             rise = max((peak_pos - start) * dur, 0.005)
-        # the engine returns over the rise time after ``release``: start back that much earlier
-        rel = (t0 + fall * dur if fall is not None else t1) - rise
-        rel = max(rel, bt + rise)
+        # the engine returns over the rise time after ``release``: start back that much earlier,
+        # and be back by the note's end, so that the string's next note starts unbent
+        rise = max(min(rise, (t1 - bt) / 2.0), 1e-3)
+        rel = t0 + fall * dur if fall is not None else t1 - rise
+        rel = max(min(rel, t1 - rise), bt + rise)
         p.bends.append((bt, round(peak, 4), rise, rel))
         if pre and p.attack in ("pluck", "strum"):
             p.pitch += peak
@@ -668,11 +723,11 @@ def _grace(p: Planned, g, tr, s, spt, w, warnings, planned) -> Planned | None:
         return None
     gd = spt * g.durationTime
     gd = min(gd, 0.5 * max(p.end - p.time, 1e-3), 0.12)
-    if g.isOnBeat:
+    if g.isOnBeat or p.time < gd:  # (before the first beat there is no time to steal)
         gt = p.time
         p.time = p.time + gd
     else:
-        gt = max(p.time - gd, 0.0)
+        gt = p.time - gd
     force = C.force_for_velocity(g.velocity)
     gn = Planned(p.track, s, fret, gt, p.time, force, float(tr.tuning[s - 1] + fret),
                  style=p.style, where=w, articulations=["grace"])
@@ -705,7 +760,7 @@ def _trill(p: Planned, trill, tr, s, spt, t0, t1, w, warnings) -> list[Planned]:
     while t < t1 - 0.25 * period and len(out) < 256:
         f = frets[k % 2]
         q = Planned(p.track, s, f, t, t1, p.force, float(tr.tuning[s - 1] + f), style=p.style,
-                    where=w, articulations=["trill"])
+                    where=w, articulations=["trill"], repeat=True)
         prev = out[-1]
         prev.end = t
         q.attack = "hammer_on" if f > prev.fret else "pull_off"
@@ -724,7 +779,8 @@ def _tremolo(p: Planned, trem, spt, t0, t1) -> list[Planned]:
     t = t0 + period
     while t < t1 - 0.25 * period and len(out) < 512:
         q = Planned(p.track, p.string, p.fret, t, t1, p.force, p.pitch, style=p.style,
-                    where=p.where, articulations=["tremolo_picking"], palm_mute=p.palm_mute)
+                    where=p.where, articulations=["tremolo_picking"], palm_mute=p.palm_mute,
+                    repeat=True)
         out[-1].end = t
         out[-1].let_ring = True  # the next pick stops it
         out.append(q)

@@ -7,7 +7,6 @@ worker is free, and its results kept until ``GUITAR_JOB_RETENTION_S`` has passed
 
 from __future__ import annotations
 
-import asyncio
 import json
 from typing import Any
 
@@ -19,11 +18,10 @@ from pydantic import BaseModel, Field, ValidationError
 import engine
 
 from .. import audio
+from ..routes.render import scene_payload
 from ..validation import reject_nonfinite_json
 
 router = APIRouter(tags=["jobs"])
-
-SCORE_OPTIONS = ("tracks", "presets", "tempo_scale", "max_seconds")
 
 
 class Job(BaseModel):
@@ -78,50 +76,38 @@ async def _scene_from_json(request: Request) -> engine.Scene:
         raise _errors_with_body(exc) from None
 
 
-def _json_field(form: Any, name: str) -> dict[str, Any]:
-    text = form.get(name)
-    if text is None:
-        return {}
-    try:
-        value = json.loads(text if isinstance(text, str) else text.decode())
-    except (ValueError, AttributeError):
-        raise _field_error(name, "json_invalid", f"{name}: not valid JSON", str(text)[:100]) from None
-    if not isinstance(value, dict):
-        raise _field_error(name, "dict_type", f"{name}: a JSON object, not {type(value).__name__}",
-                           value)
-    return value
-
-
 async def _scene_from_score(request: Request) -> engine.Scene:
-    """A multipart form as ``POST /render/score`` takes: ``file``, optional ``options`` and
-    ``output`` (JSON objects)."""
+    """A multipart form as ``POST /render/score`` takes (``file``, ``options``, ``output``), read
+    by the same code: the score is imported in a worker, never in this process."""
+    from ..routes import score as score_routes
+
+    s = request.state.settings
     form = await request.form()
     upload = form.get("file")
     if upload is None or isinstance(upload, str):
         raise _field_error("file", "missing", "file: the score file is required (a Guitar Pro "
                                               ".gp3/.gp4/.gp5 or MIDI .mid file)", None)
-    options = _json_field(form, "options")
-    unknown = sorted(set(options) - set(SCORE_OPTIONS))
-    if unknown:
-        raise _field_error("options", "extra_forbidden", f"options: unknown {unknown}; allowed: "
-                           f"{list(SCORE_OPTIONS)}", options)
-    output = _json_field(form, "output")
-    data = await upload.read()
-    from engine import score
-
-    try:
-        scene = await asyncio.to_thread(score.score_to_scene, data, **options)
-    except score.ScoreError as exc:
-        raise _field_error("file", "score_invalid", f"file: {exc}", upload.filename) from None
-    except (TypeError, ValueError) as exc:
-        raise _field_error("options", "value_error", f"options: {exc}", options) from None
-    scene = dict(scene)
-    if output:
-        scene["output"] = {**(scene.get("output") or {}), **output}
-    try:
-        return engine.Scene.model_validate(scene)
-    except ValidationError as exc:
-        raise _errors_with_body(exc) from None
+    text = {k: form.get(k) for k in ("options", "output")}
+    if any(v is not None and not isinstance(v, str) for v in text.values()):
+        raise _field_error("options", "string_type", "options and output are form fields of "
+                                                     "JSON text, not files", None)
+    opts = score_routes._options(text["options"])
+    out_fields = score_routes._output(text["output"])
+    data, name = await score_routes._upload(upload)
+    importer = score_routes._importer_options(opts)
+    asked = importer.get("max_seconds")
+    if asked is not None and asked > s.job_max_duration_s:
+        raise _field_error("options.max_seconds", "less_than_equal", f"options.max_seconds: at "
+                           f"most {s.job_max_duration_s:g} s for a job (GUITAR_JOB_MAX_DURATION_S)",
+                           asked)
+    # never import more than a job may render: a longer score is cut just past the limit and
+    # refused by the duration check, unless the client asked for its beginning
+    importer["max_seconds"] = asked if asked is not None else s.job_max_duration_s + 0.5
+    scene, _warnings = await score_routes._import(request, data, name, importer)
+    if opts.quality is not None:
+        scene["quality"] = opts.quality
+    scene["output"] = {**scene.get("output", {}), **out_fields}
+    return score_routes._validate(scene)
 
 
 def _check_job_limits(scene: engine.Scene, request: Request) -> None:
@@ -173,7 +159,7 @@ _SCENE_BODY = {"requestBody": {"required": True, "content": {
         "file": {"type": "string", "format": "binary",
                  "description": "Guitar Pro 3/4/5 or MIDI file"},
         "options": {"type": "string", "description": "JSON: tracks, presets, tempo_scale, "
-                                                     "max_seconds"},
+                                                     "max_seconds, sample_rate, quality"},
         "output": {"type": "string", "description": "JSON: the scene's output fields"}}}}}}}
 
 
@@ -197,7 +183,8 @@ async def create_job(request: Request) -> JSONResponse:
             return JSONResponse({"detail": f"{s.max_jobs} jobs are stored and none can be "
                                            "deleted yet (GUITAR_MAX_JOBS); try again later"},
                                 status_code=503, headers={"Retry-After": "60"})
-    job = jobs.store.create(scene.model_dump(mode="json"), scene.output.format, scene.duration)
+    # only the fields the client set, as /render sends them (render.scene_payload)
+    job = jobs.store.create(scene_payload(scene), scene.output.format, scene.duration)
     jobs.wake()
     return JSONResponse(_public(job), status_code=202, headers={"Location": f"/jobs/{job['id']}"})
 

@@ -27,6 +27,7 @@ from typing import Any
 from .. import audio
 from ..config import Settings
 from ..pool import (
+    PoolBusy,
     PoolClosed,
     PoolError,
     RenderFailed,
@@ -164,8 +165,7 @@ class JobRunner:
             final = folder / f"audio.{job['format']}"
             await asyncio.to_thread(_finalize, part, final, job["format"], subtype, normalize,
                                     normalize or job["format"] != "wav")
-            labels_error = await asyncio.to_thread(_write_labels, scene,
-                                                   self.store.labels_path(job_id))
+            labels_error = await self._labels(scene, self.store.labels_path(job_id))
             self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
                          render_seconds=time.perf_counter() - t0, warnings=stream.warnings,
                          labels=int(labels_error is None), labels_error=labels_error)
@@ -197,6 +197,27 @@ class JobRunner:
                 stream.close()
             with contextlib.suppress(OSError):
                 part.unlink()
+
+    async def _labels(self, scene: dict[str, Any], path: Path) -> str | None:
+        """The scene's JAMS labels, made in a worker (``engine.scene_labels``, as
+        ``POST /scene/labels``) and renamed into place; the reason when there are none (the
+        audio is still the job's result)."""
+        for _ in range(60):
+            try:
+                raw, _meta = await self.pool.call("labels", {"scene": scene},
+                                                  self.settings.score_import_time_limit_s)
+                break
+            except PoolBusy:  # /render traffic has every slot: the labels can wait
+                await asyncio.sleep(1.0)
+            except PoolClosed:
+                raise
+            except PoolError as exc:
+                return str(exc)
+        else:
+            return "no worker was free to make the labels"
+        tmp = path.with_name(path.name + ".part")
+        await asyncio.to_thread(_write_atomically, tmp, path, raw)
+        return None
 
     async def _write(self, job_id: str, stream: RenderStream, part: Path, header: bytes,
                      total: int) -> int:
@@ -247,20 +268,9 @@ def _finalize(part: Path, final: Path, fmt: str, subtype: str, normalize: bool,
     os.replace(tmp, final)
 
 
-def _write_labels(scene: dict[str, Any], path: Path) -> str | None:
-    """JAMS labels of the scene (``engine.scene_labels``); the reason when there are none."""
-    import engine
-
-    tmp = path.with_name(path.name + ".part")
-    try:
-        labels = getattr(engine, "scene_labels", None)
-        if labels is None:  # before engine re-exports it
-            from engine import score
-
-            labels = score.scene_labels
-        with open(tmp, "w", encoding="utf-8") as f:  # jams picks a format from a name's suffix
-            labels(scene).save(f)
-    except Exception as exc:  # labels are an extra: the audio is still the job's result
-        return f"{type(exc).__name__}: {exc}"
-    os.replace(tmp, path)
-    return None
+def _write_atomically(tmp: Path, final: Path, data: bytes) -> None:
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, final)

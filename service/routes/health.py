@@ -30,6 +30,8 @@ async def limits(request: Request) -> Limits:
         max_body_bytes=s.max_body_bytes,
         max_duration_s=s.max_duration_s,
         max_events=s.max_events,
+        max_score_events=s.max_score_events,
+        score_formats=["gp3", "gp4", "gp5", "mid", "midi"],
         min_sample_rate=s.min_sample_rate,
         max_sample_rate=s.max_sample_rate,
         time_limit_base_s=s.time_limit_base_s,

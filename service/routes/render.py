@@ -33,6 +33,13 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
 }
 
 
+def scene_payload(scene: engine.Scene) -> dict[str, Any]:
+    """The scene as the worker re-parses it: only the fields the client set (the rest are the
+    same defaults again).  A full dump of a scene with ``tracks`` would also carry the default
+    top-level ``guitar``, which the schema refuses beside ``tracks``."""
+    return scene.model_dump(mode="json", exclude_unset=True)
+
+
 def _seconds(x: float) -> str:
     return f"{x:.6f}"
 
@@ -77,7 +84,7 @@ async def render(
     check_limits(scene, settings)
     out = await pool.render(
         {
-            "scene": scene.model_dump(mode="json"),
+            "scene": scene_payload(scene),
             "diagnostics": scene.diagnostics,
             "sample_rate": scene.sample_rate,
             "format": scene.output.format,
@@ -142,7 +149,7 @@ async def render_stream(
     rate, subtype, channels = scene.sample_rate, scene.output.subtype, scene.output.channels
     frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
-    scene_json = scene.model_dump(mode="json")
+    scene_json = scene_payload(scene)
     scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them
     stream = await pool.stream(
         {"scene": scene_json, "frames": frames, "subtype": subtype, "channels": channels},

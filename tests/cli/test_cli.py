@@ -4,13 +4,23 @@ progress bar, and one line with exit status 2 for each kind of bad input."""
 from __future__ import annotations
 
 import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 import soundfile as sf
 
+from ..score_files import (
+    NOTES,
+    STANDARD_TUNING,
+    gp5_claiming_measures,
+    midi_with_notes,
+    small_gp5,
+    small_midi,
+    truncated_gp5,
+    truncated_midi,
+    zip_as_gp5,
+)
 from .helpers import one_error_line, run
 
 SCENE = {"duration": 0.3, "events": [
@@ -148,10 +158,10 @@ def test_usage_errors_are_one_line(tmp_path: Path) -> None:
                                                  "--max-seconds", "-3"))
 
 
-def truncated_gp5() -> bytes:
-    """The first bytes of a Guitar Pro 5 file (its version string) and nothing after."""
-    version = b"FICHIER GUITAR PRO v5.00"
-    return bytes([len(version)]) + version.ljust(30, b"\0") + b"\x05\x00\x00"
+def test_an_unknown_preset_for_a_score_names_the_flag(tmp_path: Path) -> None:
+    (tmp_path / "s.gp5").write_bytes(small_gp5())
+    line = one_error_line(run("scene", tmp_path / "s.gp5", "-o", "-", "--preset", "banjo"))
+    assert "--preset: unknown preset 'banjo'" in line
 
 
 def test_truncated_guitar_pro_file(tmp_path: Path) -> None:
@@ -161,13 +171,128 @@ def test_truncated_guitar_pro_file(tmp_path: Path) -> None:
 
 
 def test_zip_renamed_gp5(tmp_path: Path) -> None:
-    with zipfile.ZipFile(tmp_path / "z.gp5", "w") as z:
-        z.writestr("Content/score.gpif", "<GPIF/>")  # a Guitar Pro 7 file is a zip like this
+    (tmp_path / "z.gp5").write_bytes(zip_as_gp5())
     line = one_error_line(run("scene", tmp_path / "z.gp5", "-o", tmp_path / "x.json"))
-    assert "z.gp5" in line
+    assert "z.gp5" in line and "zip" in line
+
+
+@pytest.mark.parametrize("name,data,text", [
+    ("billion.gp5", gp5_claiming_measures(10**9), "declares 1000000000 measures"),
+    ("million.mid", midi_with_notes(10**6), "more than 100000 notes"),
+])
+def test_hostile_files(tmp_path: Path, name: str, data: bytes, text: str) -> None:
+    (tmp_path / name).write_bytes(data)
+    line = one_error_line(run("render", tmp_path / name, "-o", tmp_path / "x.wav", timeout=60))
+    assert name in line and text in line, line
 
 
 def test_truncated_midi_file(tmp_path: Path) -> None:
-    (tmp_path / "t.mid").write_bytes(b"MThd\x00\x00\x00\x06\x00\x01\x00\x02\x01\xe0MTrk\x00\x00")
+    (tmp_path / "t.mid").write_bytes(truncated_midi())
     line = one_error_line(run("scene", tmp_path / "t.mid", "-o", tmp_path / "x.json"))
     assert "t.mid" in line
+
+
+# ---- scores -----------------------------------------------------------------------------------
+
+
+def test_scene_of_a_guitar_pro_file(tmp_path: Path) -> None:
+    (tmp_path / "s.gp5").write_bytes(small_gp5())
+    r = run("scene", tmp_path / "s.gp5", "-o", tmp_path / "s.json", "--tracks", "2",
+            "--preset", "nylon-classical")
+    assert r.returncode == 0, r.stderr
+    scene = json.loads((tmp_path / "s.json").read_text())
+    assert [t["name"] for t in scene["tracks"]] == ["Track 2"]
+    assert scene["tracks"][0]["guitar"]["preset"] == "nylon-classical"
+    plucks = [(e["string"], e["time"]) for e in scene["tracks"][0]["events"]
+              if e["type"] == "pluck"]
+    assert [s for s, _ in plucks] == [s for s, _ in NOTES]  # the score's strings, in its order
+    assert [t for _, t in plucks] == pytest.approx([0.0, 0.5, 1.0, 1.5])  # quarters at 120 bpm
+
+
+def test_render_a_guitar_pro_file_with_labels(tmp_path: Path) -> None:
+    import jams
+
+    (tmp_path / "s.gp5").write_bytes(small_gp5(tracks=1))
+    r = run("render", tmp_path / "s.gp5", "-o", tmp_path / "s.wav", "--labels",
+            tmp_path / "s.jams", "--max-seconds", "2.2", "--quality", "draft")
+    assert r.returncode == 0, r.stderr
+    x, rate = sf.read(tmp_path / "s.wav")
+    assert len(x) == round(2.2 * rate) and np.all(np.isfinite(x)) and np.max(np.abs(x)) > 0.5
+    jam = jams.load(str(tmp_path / "s.jams"))
+    notes = sorted((o.time, o.value) for a in jam.search(namespace="note_midi") for o in a.data)
+    open_midi = dict(enumerate(STANDARD_TUNING, 1))
+    assert notes == [(pytest.approx(0.5 * i), open_midi[s] + f) for i, (s, f) in enumerate(NOTES)]
+
+
+def test_scene_of_a_midi_file_gets_strings_and_frets(tmp_path: Path) -> None:
+    (tmp_path / "tune.mid").write_bytes(small_midi((52, 55, 59, 64)))  # E3 G3 B3 E4
+    r = run("scene", tmp_path / "tune.mid", "-o", "-")
+    assert r.returncode == 0, r.stderr
+    scene = json.loads(r.stdout)
+    (track,) = scene["tracks"]
+    assert track["guitar"]["preset"] == "steel-acoustic"  # GM program 25
+    plucks = [e for e in track["events"] if e["type"] == "pluck"]
+    assert [e["time"] for e in plucks] == pytest.approx([0.0, 0.5, 1.0, 1.5])
+    held = {}  # the fret each string holds when it is plucked: open pitch + fret = the note
+    for e in sorted(track["events"], key=lambda e: (e["time"], e["type"] != "fret")):
+        if e["type"] == "fret":
+            held[e["string"]] = e["fret"]
+        elif e["type"] == "pluck":
+            e["pitch"] = STANDARD_TUNING[e["string"] - 1] + held.get(e["string"], 0)
+    assert [e["pitch"] for e in plucks] == [52, 55, 59, 64]
+
+
+def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
+    """`guitar-synth serve` is the service (GET /health, /limits with GUITAR_* settings)."""
+    import os
+    import signal
+    import socket
+    import subprocess
+    import time
+
+    import httpx
+
+    from .helpers import ROOT, command
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "GUITAR_MAX_EVENTS": "123"}
+    log = open(tmp_path / "serve.log", "wb")  # noqa: SIM115 - closed below
+    proc = subprocess.Popen([command(), "serve", "--port", str(port), "--workers", "1",
+                             "--log-level", "warning"], env=env, stdout=log,
+                            stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            assert proc.poll() is None, (tmp_path / "serve.log").read_text()[-2000:]
+            try:
+                if httpx.get(f"http://127.0.0.1:{port}/health", timeout=2).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "not healthy within 120 s"
+            time.sleep(0.2)
+        limits = httpx.get(f"http://127.0.0.1:{port}/limits", timeout=5).json()
+        assert limits["max_events"] == 123
+    finally:
+        os.kill(proc.pid, signal.SIGTERM)
+        # uvicorn shuts down (the pool's workers with it), then re-raises the signal it caught,
+        # as `uvicorn service.app:app` does
+        assert proc.wait(30) in (0, -signal.SIGTERM)
+        log.close()
+
+
+def test_the_command_knows_the_engine_by_its_public_names() -> None:
+    """cli/ imports ``engine`` itself, never a module inside it, and the service only by the
+    application's name (``service.app:app``, as uvicorn runs it)."""
+    import ast
+
+    from .helpers import ROOT
+
+    for path in (ROOT / "cli").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            for name in names:
+                assert not name.startswith(("engine.", "service")), (path.name, name)

@@ -80,7 +80,7 @@ def test_a_score_job(jobs_app: AppHarness) -> None:
     assert info.format == "FLAC" and len(x) == round(1.5 * rate)
     assert done["labels"], done["labels_error"]
     r = jobs_app.post("/jobs", files={"file": ("tune.gp5", data)}, data={"options": '{"bpm": 1}'})
-    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "options"
+    assert r.status_code == 422 and r.json()["detail"][0]["field"].startswith("options"), r.text
 
 
 def test_unknown_job_is_404_everywhere(jobs_app: AppHarness) -> None:

@@ -1,0 +1,291 @@
+"""Strings and frets for notes that come without them (MIDI): a Viterbi search over chord shapes.
+
+The notes are cut into *slices*: notes whose onsets lie within ``CHORD_S`` of each other sound as
+one chord.  Before the search, a note outside the instrument (below its lowest open string or above
+its highest fret) is moved by octaves into it, and a pitch repeated within one slice is played once;
+a slice with more notes than strings keeps its lowest and highest notes and those between spread
+most evenly.  Both are compromises, and are counted and reported.
+
+**Shapes.**  For each slice every assignment of its notes to (string, fret) is enumerated such that
+
+* every note has its own string (one note per string at a time),
+* the fretted notes span at most ``MAX_SPAN`` frets (max fret - min fret <= 5),
+* at most four fingers are needed: one per fretted note, except that the notes at the lowest fret
+  can share one finger as a barre.
+
+If no shape holds all notes, the fewest notes are left out that make one possible (each counted).
+
+**Cost** of a path of shapes (minimised exactly by dynamic programming, the state being the shape
+and the hand's position, which an all-open shape carries over from the shape before it):
+
+    sum over slices of   MOVE x |h_i - h_{i-1}|            the hand's move, in frets
+                       + SPAN x max(0, span_i - 3)          a stretch beyond four frets
+                       + FRETTED x (fretted notes_i)        an open string needs no finger
+                       + HEIGHT x h_i                       a slight preference for low positions
+                       + CUT x (notes still sounding from slice i-1 whose string slice i takes)
+                       + DROP x (notes left out of slice i)
+
+where h is the hand's position, the lowest fretted fret of the shape (unchanged over an all-open
+shape), with MOVE = 1, SPAN = 0.5, FRETTED = 0.1, HEIGHT = 0.03, CUT = 2 and DROP = 10.  After the
+search, a note still sounding when a later note takes its string is cut there (a compromise when
+more than ``CUT_GRACE_S`` is lost).
+
+``greedy`` is the baseline: each note of a slice, highest first, takes the lowest fret on a string
+still free in the slice, with no span or movement rule.  ``measure`` scores either the same way
+(``benchmarks/fingering.py`` prints both).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+CHORD_S = 0.02
+MAX_SPAN = 5
+MAX_FINGERS = 4
+MOVE, SPAN, FRETTED, HEIGHT, CUT, DROP = 1.0, 0.5, 0.1, 0.03, 2.0, 10.0
+CUT_GRACE_S = 0.05
+MAX_SHAPES = 24
+
+
+@dataclass
+class Fingered:
+    """The result for a list of notes (same order as given)."""
+
+    position: list  # (string, fret) or None (left out)
+    pitch: list[int]  # the pitch played (moved by octaves into range where needed)
+    end: list[float]  # the end, cut where a later note takes the string
+    moved: set[int] = field(default_factory=set)
+    dropped: set[int] = field(default_factory=set)
+    cut: set[int] = field(default_factory=set)
+    wide: set[int] = field(default_factory=set)  # notes of chords wider than MAX_SPAN (greedy)
+
+
+def _slices(times: list[float]) -> list[list[int]]:
+    order = sorted(range(len(times)), key=lambda i: times[i])
+    out: list[list[int]] = []
+    for i in order:
+        if out and times[i] - times[out[-1][0]] <= CHORD_S:
+            out[-1].append(i)
+        else:
+            out.append([i])
+    return out
+
+
+def _prepare(pitches, tuning, frets):
+    lo, hi = min(tuning), max(tuning) + frets
+    played, moved = [], set()
+    for i, p in enumerate(pitches):
+        q = p
+        while q < lo:
+            q += 12
+        while q > hi:
+            q -= 12
+        if q != p:
+            moved.add(i)
+        played.append(q)
+    return played, moved
+
+
+def _thin(idx: list[int], pitch: list[int], n_strings: int, dropped: set[int]) -> list[int]:
+    """One note per pitch, and at most ``n_strings`` notes: lowest, highest, the rest spread."""
+    seen, keep = {}, []
+    for i in sorted(idx, key=lambda i: pitch[i]):
+        if pitch[i] in seen:
+            dropped.add(i)
+        else:
+            seen[pitch[i]] = i
+            keep.append(i)
+    if len(keep) > n_strings:
+        picks = {round(k * (len(keep) - 1) / (n_strings - 1)) for k in range(n_strings)}
+        for k, i in enumerate(keep):
+            if k not in picks:
+                dropped.add(i)
+        keep = [i for k, i in enumerate(keep) if k in picks]
+    return keep
+
+
+def _fingers(frets: list[int]) -> int:
+    fretted = [f for f in frets if f > 0]
+    if not fretted:
+        return 0
+    low = min(fretted)
+    return len(fretted) - max(fretted.count(low) - 1, 0)
+
+
+def _shapes(notes: list[int], pitch, tuning, frets) -> list[tuple]:
+    """Shapes ((string, fret) per note, in ``notes`` order) that a hand can hold."""
+    out: list[tuple] = []
+    opts = [[(s + 1, pitch[i] - tuning[s]) for s in range(len(tuning))
+             if 0 <= pitch[i] - tuning[s] <= frets] for i in notes]
+
+    def rec(k, used, chosen, lo, hi):
+        if len(out) >= 4 * MAX_SHAPES:
+            return
+        if k == len(notes):
+            if _fingers([f for _, f in chosen]) <= MAX_FINGERS:
+                out.append(tuple(chosen))
+            return
+        for s, f in opts[k]:
+            if s in used:
+                continue
+            nlo, nhi = (min(lo, f), max(hi, f)) if f > 0 else (lo, hi)
+            if nhi - nlo > MAX_SPAN:
+                continue
+            rec(k + 1, used | {s}, chosen + [(s, f)], nlo, nhi)
+
+    rec(0, frozenset(), [], math.inf, -math.inf)
+    out.sort(key=_static)
+    return out[:MAX_SHAPES]
+
+
+def _hand(shape) -> int | None:
+    fretted = [f for _, f in shape if f > 0]
+    return min(fretted) if fretted else None
+
+
+def _static(shape) -> float:
+    fretted = [f for _, f in shape if f > 0]
+    if not fretted:
+        return 0.0
+    span = max(fretted) - min(fretted)
+    return SPAN * max(0, span - 3) + FRETTED * len(fretted) + HEIGHT * min(fretted)
+
+
+def _best_shapes(idx, pitch, tuning, frets, dropped):
+    """Shapes for the most notes of ``idx`` that any shape can hold; the others go to dropped."""
+    by_pitch = sorted(idx, key=lambda i: pitch[i])
+    prefer = by_pitch[1:-1] + by_pitch[-1:] + by_pitch[:1] if len(idx) > 1 else by_pitch
+    for k in range(0, len(idx)):
+        found = []
+        for gone in itertools.combinations(prefer, k):
+            keep = [i for i in idx if i not in gone]
+            sh = _shapes(keep, pitch, tuning, frets)
+            if sh:
+                found.append((keep, sh))
+            if k and len(found) >= 3:
+                break
+        if found:
+            keep, sh = min(found, key=lambda ks: _static(ks[1][0]))
+            dropped.update(i for i in idx if i not in keep)
+            return keep, sh
+    dropped.update(idx)
+    return [], [()]
+
+
+def viterbi(times, ends, pitches, tuning, frets) -> Fingered:
+    """Strings and frets for notes (onset ``times``, ``ends``, MIDI ``pitches``) on strings tuned
+    ``tuning`` (MIDI, string 1 first) with ``frets`` frets, by the cost in the module's docstring."""
+    pitch, moved = _prepare(pitches, tuning, frets)
+    dropped: set[int] = set()
+    slices = []
+    for idx in _slices(times):
+        keep = _thin(idx, pitch, len(tuning), dropped)
+        keep, shapes = _best_shapes(keep, pitch, tuning, frets, dropped)
+        slices.append((keep, shapes))
+    # DP over (shape index, hand position)
+    prev: dict[tuple[int, int | None], tuple[float, tuple | None]] = {}
+    back: list[dict] = []
+    for si, (keep, shapes) in enumerate(slices):
+        cur: dict[tuple[int, int | None], tuple[float, tuple | None]] = {}
+        t_on = times[keep[0]] if keep else None
+        for k, shape in enumerate(shapes):
+            h = _hand(shape)
+            local = _static(shape)
+            strings = {s for s, _ in shape}
+            if not prev:
+                cur[(k, h)] = (local, None)
+                continue
+            pkeep, pshapes = slices[si - 1]
+            for (pk, ph), (pc, _) in prev.items():
+                pshape = pshapes[pk]
+                move = abs(h - ph) if (h is not None and ph is not None) else 0.0
+                cut = 0
+                if t_on is not None:
+                    for (s, _f), i in zip(pshape, pkeep, strict=False):
+                        if s in strings and ends[i] > t_on + CUT_GRACE_S:
+                            cut += 1
+                c = pc + MOVE * move + local + CUT * cut
+                hh = h if h is not None else ph
+                key = (k, hh)
+                if key not in cur or c < cur[key][0]:
+                    cur[key] = (c, (pk, ph))
+        back.append(cur)
+        prev = cur
+    chosen = [0] * len(slices)
+    if back:
+        key = min(back[-1], key=lambda k: back[-1][k][0])
+        for si in range(len(slices) - 1, -1, -1):
+            chosen[si] = key[0]
+            bp = back[si][key][1]
+            if bp is None:
+                break
+            key = bp
+    position: list = [None] * len(pitches)
+    for si, (keep, shapes) in enumerate(slices):
+        for i, pos in zip(keep, shapes[chosen[si]], strict=False):
+            position[i] = pos
+    return _finish(times, ends, pitch, position, moved, dropped)
+
+
+def greedy(times, ends, pitches, tuning, frets) -> Fingered:
+    """The baseline: the lowest fret on a free string, note by note (highest note first)."""
+    pitch, moved = _prepare(pitches, tuning, frets)
+    dropped: set[int] = set()
+    position: list = [None] * len(pitches)
+    wide: set[int] = set()
+    for idx in _slices(times):
+        used: set[int] = set()
+        for i in sorted(idx, key=lambda i: -pitch[i]):
+            opts = [(pitch[i] - tuning[s], s + 1) for s in range(len(tuning))
+                    if s + 1 not in used and 0 <= pitch[i] - tuning[s] <= frets]
+            if not opts:
+                dropped.add(i)
+                continue
+            f, s = min(opts)
+            used.add(s)
+            position[i] = (s, f)
+        fretted = [position[i][1] for i in idx if position[i] and position[i][1] > 0]
+        if fretted and max(fretted) - min(fretted) > MAX_SPAN:
+            wide.update(i for i in idx if position[i])
+    out = _finish(times, ends, pitch, position, moved, dropped)
+    out.wide = wide
+    return out
+
+
+def _finish(times, ends, pitch, position, moved, dropped) -> Fingered:
+    end = list(ends)
+    cut: set[int] = set()
+    by_string: dict[int, list[int]] = {}
+    for i, pos in enumerate(position):
+        if pos is not None:
+            by_string.setdefault(pos[0], []).append(i)
+    for idx in by_string.values():
+        idx.sort(key=lambda i: times[i])
+        for a, b in itertools.pairwise(idx):
+            if end[a] > times[b]:
+                if end[a] - times[b] > CUT_GRACE_S:
+                    cut.add(a)
+                end[a] = times[b]
+    return Fingered(position, pitch, end, moved, dropped, cut)
+
+
+def measure(f: Fingered, times) -> dict:
+    """Mean fret movement of the hand per note (|change of the lowest fretted fret| between
+    consecutive slices that fret something), and the notes that needed a compromise (moved by an
+    octave, left out, cut short, or in a chord wider than ``MAX_SPAN``)."""
+    moves, last = 0.0, None
+    n = sum(1 for p in f.position if p is not None)
+    for idx in _slices(times):
+        fretted = [f.position[i][1] for i in idx if f.position[i] and f.position[i][1] > 0]
+        if not fretted:
+            continue
+        h = min(fretted)
+        if last is not None:
+            moves += abs(h - last)
+        last = h
+    comp = f.moved | f.dropped | f.cut | f.wide
+    return {"notes": len(times), "placed": n, "mean_move": moves / max(n, 1),
+            "compromises": len(comp), "moved": len(f.moved), "dropped": len(f.dropped),
+            "cut": len(f.cut), "wide": len(f.wide)}

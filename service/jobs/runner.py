@@ -1,7 +1,7 @@
 """The job runner: takes queued jobs from the store and renders them through the worker pool.
 
 Each job is a stream (``WorkerPool.job_stream``) whose blocks are written to
-``results/ID/audio.wav.part`` as they arrive; progress is the share of the file written.  When the
+``results/ID/stream.wav.part`` as they arrive; progress is the share of the file written.  When the
 last block is in, the file is flushed, normalized (``output.normalize``, the default, as /render)
 or converted (FLAC, Ogg) block by block if the scene asks for it, renamed into place, the labels
 are written the same way, and only then is the job ``done``.
@@ -146,7 +146,7 @@ class JobRunner:
         frames = round(job["duration"] * rate)
         folder = self.store.job_dir(job_id)
         folder.mkdir(parents=True, exist_ok=True)
-        part = folder / "audio.wav.part"
+        part = folder / "stream.wav.part"  # not audio.wav.part: that is where _finalize writes
         total = audio.wav_size(frames, stream_subtype, channels)
         payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
                    "subtype": stream_subtype, "channels": channels}

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import httpx
 import jams
+import numpy as np
 import pytest
 from conftest import AppHarness, UvicornServer
 from svc_helpers import chord_scene, decode, heavy_scene, same_bytes
@@ -58,6 +59,15 @@ def test_a_job_renders_the_stream_s_bytes_and_labels(jobs_app: AppHarness, tmp_p
         assert sum(len(n.data) for n in notes) >= 5  # five plucked strings and a tap
     else:
         pytest.fail(f"no labels: {done['labels_error']}")
+
+
+def test_a_normalized_wav_job_peaks_at_minus_1_dbfs(jobs_app: AppHarness) -> None:
+    r = jobs_app.post("/jobs", json=chord_scene(0.2, output={"subtype": "PCM_24"}))
+    done = wait_for(jobs_app.get, r.json()["id"])
+    assert done["status"] == "done", done
+    x, rate, info = decode(jobs_app.get(done["audio_url"]).content)
+    assert info.subtype == "PCM_24" and len(x) == round(0.2 * 44100)
+    assert 20 * np.log10(np.max(np.abs(x))) == pytest.approx(-1.0, abs=0.01)
 
 
 def test_flac_job(jobs_app: AppHarness) -> None:

@@ -250,3 +250,25 @@ def test_a_worker_killed_mid_batch_loses_nothing(tmp_path: Path, cluster: Cluste
     for v in rows.values():
         x, rate = sf.read(out / v["audio"])
         assert len(x) == round(v["audio_seconds"] * rate)
+
+
+def test_a_full_disk_fails_the_item_and_leaves_nothing_counted(tmp_path: Path, monkeypatch) -> None:
+    import errno
+
+    import soundfile
+
+    def full(path, *args, **kwargs):  # half a file, then the disk is full
+        Path(path).write_bytes(b"RIFF\x00\x00")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(soundfile, "write", full)
+    out = tmp_path / "out"
+    for sub in ("audio", "labels"):
+        (out / sub).mkdir(parents=True)
+    item = batch.Item(id="x", input="x.json", kind="drawn", scene={
+        "duration": 0.2, "quality": "draft",
+        "events": [{"type": "pluck", "time": 0.0, "string": 1}]})
+    row = batch.render_item(item, str(out), {"format": "wav", "labels": True})
+    assert row["status"] == "failed" and "No space left" in row["error"], row
+    assert not [p for p in out.rglob("*") if p.is_file()]  # no audio, no labels, no .part
+    assert not batch._is_done(row, item, out)

@@ -36,8 +36,39 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from engine.presets import PRESETS, note_frequency
-from engine.scene import MAX_DURATION_S, MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N
+import engine
+from engine import PRESETS
+
+
+def _maximum(node: dict) -> float:
+    """The ``maximum`` of a number field of the scene's JSON schema (an optional one: anyOf)."""
+    for option in [node, *node.get("anyOf", [])]:
+        if "maximum" in option:
+            return float(option["maximum"])
+    raise KeyError("maximum")
+
+
+# The scene schema's own limits (the command knows the engine by its public names only).
+_SCHEMA = engine.Scene.model_json_schema()
+MAX_DURATION_S = _maximum(_SCHEMA["properties"]["duration"])
+MAX_PLUCK_FORCE_N = _maximum(_SCHEMA["$defs"]["Pluck"]["properties"]["force"])
+MAX_FINGER_FORCE_N = _maximum(_SCHEMA["$defs"]["Fret"]["properties"]["force"])
+_NAMES = ("C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B")
+_FLATS = {"Db": "C#", "Eb": "D#", "Gb": "F#", "Ab": "G#", "Bb": "A#"}
+
+
+def note_midi(note: str) -> int:
+    """MIDI number of a note name in scientific pitch (E2 = 40, A4 = 69)."""
+    text = note.strip()
+    written = text[:2] if len(text) > 2 and text[1] in "#b" else text[:1]
+    name = _FLATS.get(written, written)
+    try:
+        octave = int(text[len(written):])
+    except ValueError:
+        octave = None
+    if name not in _NAMES or octave is None:
+        raise ValueError(f"{note!r} is not a note name like E2")
+    return _NAMES.index(name) + 12 * (octave + 1)
 
 ARTICULATIONS = ("hammer_on", "pull_off", "slide", "bend", "vibrato", "harmonic", "mute")
 NAMED_TUNINGS = ("standard", "drop-d", "half-step-down")
@@ -118,10 +149,7 @@ class Spec(BaseModel):
                                      "notes")
             else:
                 for note in t:
-                    try:
-                        f = note_frequency(note)
-                    except Exception:
-                        raise ValueError(f"{note!r} is not a note name like E2") from None
+                    f = 440.0 * 2 ** ((note_midi(note) - 69) / 12)
                     if not 25.0 <= f <= 1400.0:
                         raise ValueError(f"{note} = {f:.1f} Hz outside 25..1400 Hz")
         return v
@@ -200,12 +228,8 @@ def _tuning(name: str | list[str], preset: str) -> list[str] | None:
     return notes
 
 
-_NAMES = ("C", "C#", "D", "D#", "E", "F", "F#", "G", "G#", "A", "A#", "B")
-
-
 def _shift(note: str, semitones: int) -> str:
-    f = note_frequency(note) * 2 ** (semitones / 12)
-    midi = round(69 + 12 * np.log2(f / 440.0))
+    midi = note_midi(note) + semitones
     return f"{_NAMES[midi % 12]}{midi // 12 - 1}"
 
 

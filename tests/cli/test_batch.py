@@ -56,6 +56,7 @@ def manifest(out: Path) -> dict[str, dict]:
     ({"pluck_force_n": [0.5, 1e6]}, ["dataset.pluck_force_n", "within"]),
     ({"presets": ["banjo"]}, ["dataset.presets", "banjo"]),
     ({"count": 0}, ["dataset.count"]),
+    ({"tunings": [["E2", "H3"]]}, ["dataset.tunings", "H3"]),
 ])
 def test_bad_spec_is_one_line_and_exit_2(tmp_path: Path, capsys, fields, words) -> None:
     code = batch.main([str(spec(tmp_path / "s.json", **fields)), "-o", str(tmp_path / "out")])

@@ -10,7 +10,7 @@ APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get insta
 IS_ROOT = [ "$$(id -u)" = 0 ]
 
 .PHONY: install venv-support serve test test-data lint browser docker-check docker-tools bench-tools bench \
-        bench-service bench-live clean
+        bench-service bench-live bench-batch clean
 
 install: $(VENV)/.installed
 
@@ -87,6 +87,10 @@ bench-service: install
 # Live play over a websocket: latency, underruns, sessions per core (about four minutes).
 bench-live: install
 	$(BIN)/python benchmarks/live.py
+
+# guitar-synth batch on Dask: 1 and 2 local workers against one process, and a corpus projection.
+bench-batch: install
+	$(BIN)/python -m benchmarks.batch
 
 clean:
 	rm -rf $(VENV) .numba_cache .pytest_cache .ruff_cache

@@ -3,6 +3,7 @@
     guitar-synth render song.gp5 -o song.flac --labels song.jams --tracks 1,3
     guitar-synth scene tune.mid -o tune.json
     guitar-synth serve --port 8000
+    guitar-synth batch songs/ dataset.yaml -o out/ [--scheduler tcp://host:8786]
 
 Bad input (a missing, truncated or wrong-type file, an invalid scene, an unknown output suffix)
 ends with one line on stderr naming the problem and exit status 2; an unexpected failure with one
@@ -112,6 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_score_options(r)
     _add_render_options(r)
     r.set_defaults(func=cmd_render)
+
+    sub.add_parser("batch", help="render many scenes, scores or a dataset spec on Dask, with "
+                                 "a manifest (guitar-synth batch --help)", add_help=False)
 
     s = sub.add_parser("scene", help="write the scene a score becomes, as JSON",
                        description="Turn a Guitar Pro or MIDI file into a scene (JSON): to read, "
@@ -461,6 +465,11 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "batch" in argv and all(a.startswith("-") for a in argv[:argv.index("batch")]):
+        from cli import batch  # its own parser: many inputs, Dask options
+
+        return batch.main(argv[argv.index("batch") + 1:])
     parser = build_parser()
     args = parser.parse_args(argv)
     prog = f"guitar-synth {args.command}"

@@ -14,13 +14,14 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
-from . import errors
+from . import errors, jobs
 from .config import Settings
 from .live import LivePool
 from .logs import setup_logging
+from .metrics import Metrics, MetricsMiddleware
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .pool import WorkerPool
-from .routes import health, live, pages, presets, render, score
+from .routes import health, live, metrics, pages, presets, render, score
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
 timed events: pluck, fret, tap and the articulations hammer-on, pull-off, slide, bend, vibrato,
@@ -33,26 +34,47 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     setup_logging(settings.log_level)
 
+    counters = Metrics()
+
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[dict]:
         pool = WorkerPool(settings)
         await pool.start()  # workers warm up in the background; /health tells when they are
         live_pool = LivePool(settings)  # WS /live: processes of their own (service/live.py)
         await live_pool.start()
+        store = jobs.Store(settings.data_dir)
+        runner = jobs.JobRunner(store, pool, settings)
+        await runner.start()  # jobs a crash cut off are queued again
+
+        def state() -> dict:
+            s = pool.status()
+            # renders admitted but not yet on a worker (job streams hold workers, not slots)
+            waiting = max(0, s["in_flight"] - (s["busy"] - runner.running))
+            return {**s, "queue_depth": waiting, "jobs": store.counts(),
+                    "jobs_requeued": runner.completed["requeued"]}
+
+        counters.watch(state)
         try:
-            yield {"pool": pool, "settings": settings, "live": live_pool}
+            yield {"pool": pool, "settings": settings, "live": live_pool, "jobs": runner,
+                   "metrics": counters}
         finally:
+            # Uvicorn has let the requests in flight finish; running jobs go back to the queue
+            # before the workers stop, so that the next start runs them again.
+            await runner.stop()
             await live_pool.close()
             await pool.close()
+            store.close()
 
     app = FastAPI(title="Guitar synthesis service", version="1.0.0", description=DESCRIPTION,
                   lifespan=lifespan)
     # Added innermost first: the request-id/access-log layer also sees 413s.
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
+    app.add_middleware(MetricsMiddleware, metrics=counters)
     app.add_middleware(RequestContextMiddleware)
     errors.install(app, settings.retry_after_s)
+    jobs.install(app)
     for router in (pages.router, health.router, presets.router, render.router, score.router,
-                   score.labels_router, live.router):
+                   score.labels_router, live.router, jobs.router, metrics.router):
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=pages.STATIC_DIR), name="static")
     return app

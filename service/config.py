@@ -80,11 +80,30 @@ class Settings(BaseSettings):
     # Logging
     log_level: str = Field("INFO", description="level of the service's JSON logs")
 
+    # Jobs (service/jobs/): long renders stored in SQLite under data_dir
+    data_dir: str = Field("./data", description="directory of the job database and results")
+    job_max_duration_s: float = Field(600.0, gt=0.0, le=MAX_DURATION_S,
+                                      description="longest scene a job may render, s")
+    job_max_events: int = Field(MAX_EVENTS, ge=1, le=MAX_EVENTS,
+                                description="most events in a job's scene")
+    job_concurrency: int = Field(0, ge=0, le=64,
+                                 description="jobs rendering at once (0: workers - 1, at least 1)")
+    job_retention_s: float = Field(7 * 24 * 3600.0, gt=0.0,
+                                   description="finished jobs and their results are deleted after")
+    max_jobs: int = Field(1000, ge=1, description="jobs kept; the oldest finished go first")
+    job_max_attempts: int = Field(3, ge=1, le=100,
+                                  description="runs of a job cut off by a restart or a dead worker")
+
     @model_validator(mode="after")
     def _ranges(self) -> Settings:
         if self.min_sample_rate > self.max_sample_rate:
             raise ValueError("min_sample_rate must not exceed max_sample_rate")
         return self
+
+    @property
+    def jobs_at_once(self) -> int:
+        """Jobs rendering at once: one worker is left to /render unless there is only one."""
+        return self.job_concurrency or max(1, self.workers - 1)
 
     def time_limit_s(self, duration_s: float) -> float:
         """Wall-time budget of one render of ``duration_s`` seconds of audio."""

@@ -396,6 +396,32 @@ class WorkerPool:
         self.loop.call_later(_CANCEL_GRACE_S, self._on_deadline, job,
                              "cancelled stream still running")
 
+    # ---- jobs of service.jobs ---------------------------------------------------------------
+
+    async def job_stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
+        """A streamed render for the job runner (``service.jobs``), whose blocks it writes to a
+        file.  It takes no admission slot of ``/render``: the runner keeps its own queue (in
+        SQLite) and bounds how many jobs run at once, so that /render always has a worker.  It
+        waits for a free worker as long as it takes (a /render waiting at the same time is
+        served in turn: the idle queue is first come, first served)."""
+        job: _Job | None = None
+        try:
+            while True:
+                if self._closing:
+                    raise PoolClosed("the server is shutting down")
+                try:
+                    job = await self._dispatch("stream", payload, time_limit_s)
+                    break
+                except PoolBusy:
+                    continue  # no worker free within queue_timeout_s: keep waiting
+            first = await job.messages.get()
+            self._raise_for(first, time_limit_s)
+        except BaseException:
+            if job is not None:
+                self._cancel(job)
+            raise
+        return _JobStream(self, job, first, time_limit_s)
+
 
 class StreamAborted(Exception):
     """A stream failed after its header was sent: the connection must be closed short."""
@@ -440,3 +466,13 @@ class RenderStream:
         self._closed = True
         self._pool._cancel(self._job)
         self._pool._release()
+
+
+class _JobStream(RenderStream):
+    """A job's stream: it holds no admission slot, so closing it only stops the render."""
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self._pool._cancel(self._job)

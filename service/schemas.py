@@ -78,3 +78,5 @@ class Limits(BaseModel):
     time_limit_per_audio_s: float
     stream_formats: list[str]
     formats: list[str]
+    job_max_duration_s: float = Field(description="longest scene a job (POST /jobs) may render")
+    job_max_events: int

@@ -421,6 +421,8 @@ function showWarnings(header) {
   list.hidden = warnings.length === 0;
 }
 
+let renderLimit = Infinity;
+
 async function render() {
   clearErrors();
   showWarnings(null);
@@ -430,9 +432,26 @@ async function render() {
   $("#status").textContent = "Rendering…";
   $("#spectrogram").dataset.drawn = "0";
   try {
-    const r = await fetch("/render", {
-      method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(scene),
-    });
+    let r;
+    if (scene.duration > renderLimit) {  // too long for one request: a job (static/jobs.js)
+      const job = await renderJob(scene, (text) => { $("#status").textContent = text; });
+      if (job.ok) {
+        showWarnings(job.warnings.length ? JSON.stringify(job.warnings) : null);
+        await showResult(job.blob, scene, job.seconds, scene.duration / job.seconds);
+        $("#status").textContent = `Rendered ${scene.duration} s as a job in ${job.seconds.toFixed(2)} s.`;
+        return;
+      }
+      if (job.response === undefined) {
+        $("#general-error").textContent = job.error;
+        $("#status").textContent = "Not rendered.";
+        return;
+      }
+      r = job.response;  // refused (4xx): shown below like /render's answer
+    } else {
+      r = await fetch("/render", {
+        method: "POST", headers: { "content-type": "application/json" }, body: JSON.stringify(scene),
+      });
+    }
     if (!r.ok) {
       const body = await r.json().catch(() => ({ detail: r.statusText }));
       if (Array.isArray(body.detail)) showErrors(body.detail);
@@ -582,7 +601,8 @@ async function main() {
     await loadPresets();
     loadExample(await loadExamples());
     const limits = await (await fetch("/limits")).json();
-    $("#duration").max = limits.max_duration_s;
+    renderLimit = limits.max_duration_s;  // longer scenes are rendered as jobs
+    $("#duration").max = limits.job_max_duration_s ?? limits.max_duration_s;
   } catch (err) {
     $("#general-error").textContent = `Could not reach the service: ${err}`;
   }

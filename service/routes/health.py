@@ -38,4 +38,6 @@ async def limits(request: Request) -> Limits:
         time_limit_per_audio_s=s.time_limit_per_audio_s,
         stream_formats=["wav"],
         formats=["wav", "flac", "ogg"],
+        job_max_duration_s=s.job_max_duration_s,
+        job_max_events=s.job_max_events,
     )

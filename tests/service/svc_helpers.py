@@ -60,3 +60,4 @@ def brief(r: Any) -> str:
     if r.headers.get("content-type", "").startswith("application/json"):
         return f"{r.status_code} {r.text[:500]}"
     return f"{r.status_code} {r.headers.get('content-type')} {len(r.content)} bytes"
+

@@ -1,0 +1,242 @@
+"""POST /jobs, GET /jobs/{id}, GET /jobs/{id}/audio, GET /jobs/{id}/labels, DELETE /jobs/{id}.
+
+A job is a render that outlives its request: the scene (JSON, or a score uploaded as a multipart
+form) is checked and stored at once (202 with a ``Location``), rendered by ``JobRunner`` when a
+worker is free, and its results kept until ``GUITAR_JOB_RETENTION_S`` has passed.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from fastapi import APIRouter, Request, Response
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, JSONResponse
+from pydantic import BaseModel, Field, ValidationError
+
+import engine
+
+from .. import audio
+from ..routes.render import scene_payload
+from ..validation import reject_nonfinite_json
+
+router = APIRouter(tags=["jobs"])
+
+
+class Job(BaseModel):
+    id: str
+    status: str = Field(description="queued, running, done, failed or cancelled")
+    progress: float = Field(description="share of the audio rendered, 0..1")
+    error: str | None = Field(None, description="why the job failed")
+    created: float = Field(description="Unix time")
+    started: float | None = None
+    finished: float | None = None
+    attempts: int = Field(description="runs started (a restart or a dead worker re-runs a job)")
+    duration: float = Field(description="seconds of audio asked for")
+    format: str
+    audio_seconds: float | None = None
+    render_seconds: float | None = Field(None, description="wall time of the run that finished")
+    warnings: list[str] = Field(default_factory=list)
+    labels: bool = Field(description="whether GET /jobs/{id}/labels has a JAMS file")
+    labels_error: str | None = None
+    audio_url: str
+    labels_url: str
+
+
+def _public(job: dict[str, Any]) -> dict[str, Any]:
+    out = {k: job[k] for k in Job.model_fields if k in job}
+    out["warnings"] = json.loads(job["warnings"])
+    out["labels"] = bool(job["labels"])
+    out["audio_url"] = f"/jobs/{job['id']}/audio"
+    out["labels_url"] = f"/jobs/{job['id']}/labels"
+    return Job(**out).model_dump()
+
+
+def _errors_with_body(exc: ValidationError, prefix: tuple = ("body",)) -> RequestValidationError:
+    errors = []
+    for e in exc.errors():
+        e = dict(e)
+        e["loc"] = (*prefix, *e.get("loc", ()))
+        errors.append(e)
+    return RequestValidationError(errors)
+
+
+def _field_error(field: str, kind: str, msg: str, value: Any) -> RequestValidationError:
+    return RequestValidationError([{"type": kind, "loc": ("body", *field.split(".")),
+                                    "msg": msg, "input": value}])
+
+
+async def _scene_from_json(request: Request) -> engine.Scene:
+    await reject_nonfinite_json(request)
+    body = await request.body()
+    try:
+        return engine.Scene.model_validate_json(body)
+    except ValidationError as exc:
+        raise _errors_with_body(exc) from None
+
+
+async def _scene_from_score(request: Request) -> engine.Scene:
+    """A multipart form as ``POST /render/score`` takes (``file``, ``options``, ``output``), read
+    by the same code: the score is imported in a worker, never in this process."""
+    from ..routes import score as score_routes
+
+    s = request.state.settings
+    form = await request.form()
+    upload = form.get("file")
+    if upload is None or isinstance(upload, str):
+        raise _field_error("file", "missing", "file: the score file is required (a Guitar Pro "
+                                              ".gp3/.gp4/.gp5 or MIDI .mid file)", None)
+    text = {k: form.get(k) for k in ("options", "output")}
+    if any(v is not None and not isinstance(v, str) for v in text.values()):
+        raise _field_error("options", "string_type", "options and output are form fields of "
+                                                     "JSON text, not files", None)
+    opts = score_routes._options(text["options"])
+    out_fields = score_routes._output(text["output"])
+    data, name = await score_routes._upload(upload)
+    importer = score_routes._importer_options(opts)
+    asked = importer.get("max_seconds")
+    if asked is not None and asked > s.job_max_duration_s:
+        raise _field_error("options.max_seconds", "less_than_equal", f"options.max_seconds: at "
+                           f"most {s.job_max_duration_s:g} s for a job (GUITAR_JOB_MAX_DURATION_S)",
+                           asked)
+    # never import more than a job may render: a longer score is cut just past the limit and
+    # refused by the duration check, unless the client asked for its beginning
+    importer["max_seconds"] = asked if asked is not None else s.job_max_duration_s + 0.5
+    scene, _warnings = await score_routes._import(request, data, name, importer)
+    if opts.quality is not None:
+        scene["quality"] = opts.quality
+    scene["output"] = {**scene.get("output", {}), **out_fields}
+    return score_routes._validate(scene)
+
+
+def _check_job_limits(scene: engine.Scene, request: Request) -> None:
+    s = request.state.settings
+    if scene.duration > s.job_max_duration_s:
+        raise _field_error("duration", "less_than_equal", f"duration: at most "
+                           f"{s.job_max_duration_s:g} s for a job (GUITAR_JOB_MAX_DURATION_S)",
+                           scene.duration)
+    if scene.event_count() > s.job_max_events:
+        raise _field_error("events", "too_long", f"events: at most {s.job_max_events} for a job "
+                           f"(GUITAR_JOB_MAX_EVENTS), not {scene.event_count()}",
+                           scene.event_count())
+    if not s.min_sample_rate <= scene.sample_rate <= s.max_sample_rate:
+        raise _field_error("sample_rate", "range", f"sample_rate: between {s.min_sample_rate} and "
+                           f"{s.max_sample_rate} Hz (GUITAR_MIN_SAMPLE_RATE, "
+                           "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate)
+
+
+def _job_or_404(request: Request, job_id: str) -> dict[str, Any]:
+    job = request.state.jobs.store.get(job_id)
+    if job is None:
+        raise _NotFound(f"no job {job_id!r} (unknown, or deleted after "
+                        "GUITAR_JOB_RETENTION_S)")
+    return job
+
+
+class _NotFound(Exception):
+    pass
+
+
+class _NotReady(Exception):
+    pass
+
+
+def install(app: Any) -> None:
+    async def not_found(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=404)
+
+    async def not_ready(request: Request, exc: Exception) -> JSONResponse:
+        return JSONResponse({"detail": str(exc)}, status_code=409)
+
+    app.add_exception_handler(_NotFound, not_found)
+    app.add_exception_handler(_NotReady, not_ready)
+
+
+_SCENE_BODY = {"requestBody": {"required": True, "content": {
+    "application/json": {"schema": {"$ref": "#/components/schemas/Scene"}},
+    "multipart/form-data": {"schema": {"type": "object", "required": ["file"], "properties": {
+        "file": {"type": "string", "format": "binary",
+                 "description": "Guitar Pro 3/4/5 or MIDI file"},
+        "options": {"type": "string", "description": "JSON: tracks, presets, tempo_scale, "
+                                                     "max_seconds, sample_rate, quality"},
+        "output": {"type": "string", "description": "JSON: the scene's output fields"}}}}}}}
+
+
+@router.post("/jobs", status_code=202, response_model=Job, openapi_extra=_SCENE_BODY,
+             responses={422: {"description": "invalid scene or score, or outside the job limits"},
+                        503: {"description": f"{'GUITAR_MAX_JOBS'} jobs stored, none finished "
+                                              "to make room"}})
+async def create_job(request: Request) -> JSONResponse:
+    """Queue a render: a scene as JSON, or a score as a multipart form (``file``, ``options``,
+    ``output``, as ``POST /render/score``).  Answers 202 with the job and its ``Location``."""
+    jobs = request.state.jobs
+    if request.headers.get("content-type", "").startswith("multipart/form-data"):
+        scene = await _scene_from_score(request)
+    else:
+        scene = await _scene_from_json(request)
+    _check_job_limits(scene, request)
+    s = request.state.settings
+    if jobs.store.total() >= s.max_jobs:
+        jobs.cleanup()
+        if jobs.store.total() >= s.max_jobs:
+            return JSONResponse({"detail": f"{s.max_jobs} jobs are stored and none can be "
+                                           "deleted yet (GUITAR_MAX_JOBS); try again later"},
+                                status_code=503, headers={"Retry-After": "60"})
+    # only the fields the client set, as /render sends them (render.scene_payload)
+    job = jobs.store.create(scene_payload(scene), scene.output.format, scene.duration)
+    jobs.wake()
+    return JSONResponse(_public(job), status_code=202, headers={"Location": f"/jobs/{job['id']}"})
+
+
+@router.get("/jobs/{job_id}", response_model=Job, responses={404: {"description": "no such job"}})
+async def get_job(job_id: str, request: Request) -> dict[str, Any]:
+    """The job's status, progress (0..1) and, when it failed, the reason."""
+    return _public(_job_or_404(request, job_id))
+
+
+@router.get("/jobs/{job_id}/audio", response_class=FileResponse, responses={
+    200: {"content": {t: {} for t in audio.MEDIA_TYPES.values()}},
+    404: {"description": "no such job"}, 409: {"description": "the job is not done"}})
+async def get_audio(job_id: str, request: Request) -> FileResponse:
+    """The rendered audio, scaled and encoded as the scene's ``output`` asks (as ``/render``),
+    once the job is done."""
+    job = _job_or_404(request, job_id)
+    if job["status"] != "done":
+        raise _NotReady(f"job {job_id} is {job['status']}, not done"
+                        + (f": {job['error']}" if job["error"] else ""))
+    return FileResponse(request.state.jobs.store.audio_path(job),
+                        media_type=audio.MEDIA_TYPES[job["format"]],
+                        filename=f"{job_id}.{job['format']}")
+
+
+@router.get("/jobs/{job_id}/labels", response_class=FileResponse, responses={
+    200: {"content": {"application/json": {}}, "description": "JAMS, GuitarSet's layout"},
+    404: {"description": "no such job, or no labels"}, 409: {"description": "not done"}})
+async def get_labels(job_id: str, request: Request) -> FileResponse:
+    """The scene's note labels as a JAMS file, once the job is done."""
+    job = _job_or_404(request, job_id)
+    if job["status"] != "done":
+        raise _NotReady(f"job {job_id} is {job['status']}, not done")
+    if not job["labels"]:
+        raise _NotFound(f"job {job_id} has no labels: {job['labels_error']}")
+    return FileResponse(request.state.jobs.store.labels_path(job_id),
+                        media_type="application/json", filename=f"{job_id}.jams")
+
+
+@router.delete("/jobs/{job_id}", responses={
+    200: {"model": Job, "description": "a queued or running job, now cancelled"},
+    204: {"description": "a finished job, deleted with its results"},
+    404: {"description": "no such job"}})
+async def delete_job(job_id: str, request: Request) -> Response:
+    """Cancel a queued or running job (200, the job now ``cancelled``); delete a finished one
+    and its results (204)."""
+    jobs = request.state.jobs
+    before = jobs.store.cancel(job_id)
+    if before is None:
+        _job_or_404(request, job_id)
+    if before in ("queued", "running"):
+        jobs.cancel(job_id)
+        return JSONResponse(_public(_job_or_404(request, job_id)))
+    jobs.store.delete(job_id)
+    return Response(status_code=204)

@@ -1,0 +1,276 @@
+"""The job runner: takes queued jobs from the store and renders them through the worker pool.
+
+Each job is a stream (``WorkerPool.job_stream``) whose blocks are written to
+``results/ID/stream.wav.part`` as they arrive; progress is the share of the file written.  When the
+last block is in, the file is flushed, normalized (``output.normalize``, the default, as /render)
+or converted (FLAC, Ogg) block by block if the scene asks for it, renamed into place, the labels
+are written the same way, and only then is the job ``done``.
+
+At most ``Settings.jobs_at_once`` jobs render at once (by default every worker but one), so that
+long jobs never take every worker from ``/render``.  On shutdown the running jobs go back to the
+queue (their attempt not counted); if the process is killed instead, ``Store.recover`` queues them
+again at the next start.  Either way a job is re-run from its start: a render is deterministic, so
+the result is the same.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from .. import audio
+from ..config import Settings
+from ..pool import (
+    PoolBusy,
+    PoolClosed,
+    PoolError,
+    RenderFailed,
+    RenderStream,
+    StreamAborted,
+    WorkerDied,
+    WorkerPool,
+)
+from .store import Store
+
+log = logging.getLogger("service.jobs")
+
+PROGRESS_INTERVAL_S = 0.25  # how often a running job's progress is written to the database
+CLEANUP_INTERVAL_S = 60.0
+
+
+class JobRunner:
+    def __init__(self, store: Store, pool: WorkerPool, settings: Settings):
+        self.store = store
+        self.pool = pool
+        self.settings = settings
+        self._wake = asyncio.Event()
+        self._tasks: list[asyncio.Task] = []
+        self._streams: dict[str, RenderStream] = {}
+        self._claimed: set[str] = set()  # jobs this runner has taken and not yet finished
+        self._stopping = False
+        self.completed: dict[str, int] = {"done": 0, "failed": 0, "cancelled": 0, "requeued": 0}
+
+    async def start(self) -> None:
+        requeued, failed = self.store.recover(self.settings.job_max_attempts)
+        if requeued or failed:
+            log.warning("jobs cut off by the last shutdown",
+                        extra={"fields": {"requeued": requeued, "failed": failed}})
+        self.cleanup()
+        for i in range(self.settings.jobs_at_once):
+            self._tasks.append(asyncio.create_task(self._loop(), name=f"job-runner-{i}"))
+        self._tasks.append(asyncio.create_task(self._cleanup_loop(), name="job-cleanup"))
+
+    async def stop(self) -> None:
+        """Put the running jobs back in the queue and stop their renders."""
+        self._stopping = True
+        for job_id in list(self._claimed):  # rendering, or still waiting for a worker
+            self.store.requeue(job_id, count_attempt=False)
+        for stream in list(self._streams.values()):
+            stream.close()
+        for t in self._tasks:
+            t.cancel()
+        for t in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await t
+        self._tasks.clear()
+
+    def wake(self) -> None:
+        self._wake.set()
+
+    def cancel(self, job_id: str) -> None:
+        """Stop a running job's render (its status is already ``cancelled`` in the store)."""
+        stream = self._streams.get(job_id)
+        if stream is not None:
+            stream.close()
+
+    @property
+    def running(self) -> int:
+        return len(self._streams)
+
+    def cleanup(self) -> None:
+        gone = self.store.cleanup(self.settings.job_retention_s, self.settings.max_jobs)
+        if gone:
+            log.info("old jobs deleted", extra={"fields": {"jobs": len(gone)}})
+
+    async def _cleanup_loop(self) -> None:
+        while True:
+            await asyncio.sleep(CLEANUP_INTERVAL_S)
+            try:
+                self.cleanup()
+            except Exception as exc:  # a full disk must not stop the service
+                log.error("job cleanup failed", extra={"fields": {"error": str(exc)}})
+
+    async def _loop(self) -> None:
+        while not self._stopping:
+            job = self.store.claim_next()
+            if job is None:
+                self._wake.clear()
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._wake.wait(), 5.0)
+                continue
+            self._wake.set()  # another runner may take the next one
+            self._claimed.add(job["id"])
+            try:
+                await self._run(job)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # a bug here must fail the job, not the runner
+                log.exception("job runner error")
+                self._finish(job["id"], "failed", error=f"internal error: {exc}")
+            finally:
+                if not self._stopping:
+                    self._claimed.discard(job["id"])
+
+    def _finish(self, job_id: str, status: str, **fields: Any) -> None:
+        self.store.finish(job_id, status, **fields)
+        self.completed[status] += 1
+        log.info("job finished", extra={"fields": {"job": job_id, "status": status, **{
+            k: v for k, v in fields.items() if k in ("error", "audio_seconds", "render_seconds")}}})
+
+    async def _run(self, job: dict[str, Any]) -> None:
+        job_id = job["id"]
+        scene = json.loads(job["scene"])
+        out = scene.get("output") or {}
+        subtype = out.get("subtype", "PCM_16")
+        normalize = out.get("normalize", True)
+        # A file to be normalized or converted is streamed as float, then rewritten block-wise.
+        stream_subtype = "FLOAT" if normalize or job["format"] != "wav" else subtype
+        channels = out.get("channels", 1)
+        rate = scene.get("sample_rate", 44100)
+        frames = round(job["duration"] * rate)
+        folder = self.store.job_dir(job_id)
+        folder.mkdir(parents=True, exist_ok=True)
+        part = folder / "stream.wav.part"  # not audio.wav.part: that is where _finalize writes
+        total = audio.wav_size(frames, stream_subtype, channels)
+        payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
+                   "subtype": stream_subtype, "channels": channels}
+        limit = self.settings.time_limit_s(job["duration"])
+        t0 = time.perf_counter()
+        stream: RenderStream | None = None
+        try:
+            stream = await self.pool.job_stream(payload, limit)
+            self._streams[job_id] = stream
+            if self.store.get(job_id)["status"] != "running":  # cancelled while it waited
+                return
+            written = await self._write(job_id, stream, part, audio.wav_header(
+                frames, rate, stream_subtype, channels), total)
+            if written != total:
+                raise StreamAborted(f"the stream ended after {written} of {total} bytes")
+            final = folder / f"audio.{job['format']}"
+            await asyncio.to_thread(_finalize, part, final, job["format"], subtype, normalize,
+                                    normalize or job["format"] != "wav")
+            labels_error = await self._labels(scene, self.store.labels_path(job_id))
+            self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
+                         render_seconds=time.perf_counter() - t0, warnings=stream.warnings,
+                         labels=int(labels_error is None), labels_error=labels_error)
+        except PoolClosed:
+            self.store.requeue(job_id, count_attempt=False)
+        except (WorkerDied, StreamAborted) as exc:
+            if self._stopping:
+                return  # stop() has put it back in the queue
+            if self.store.get(job_id)["status"] == "cancelled":
+                return
+            if isinstance(exc, WorkerDied) and job["attempts"] < self.settings.job_max_attempts:
+                self.store.requeue(job_id, count_attempt=True)
+                self.completed["requeued"] += 1
+                self.wake()
+            else:
+                self._finish(job_id, "failed", error=str(exc))
+        except RenderFailed as exc:
+            reason = exc.message if exc.kind != "non_finite" else (
+                f"the simulation became unstable ({exc.message}); lower the forces or use "
+                "quality 'high'")
+            self._finish(job_id, "failed", error=reason)
+        except PoolError as exc:  # RenderTimeout
+            self._finish(job_id, "failed", error=str(exc))
+        except OSError as exc:  # a full disk, a folder gone
+            self._finish(job_id, "failed", error=f"could not write the result: {exc}")
+        finally:
+            self._streams.pop(job_id, None)
+            if stream is not None:
+                stream.close()
+            with contextlib.suppress(OSError):
+                part.unlink()
+
+    async def _labels(self, scene: dict[str, Any], path: Path) -> str | None:
+        """The scene's JAMS labels, made in a worker (``engine.scene_labels``, as
+        ``POST /scene/labels``) and renamed into place; the reason when there are none (the
+        audio is still the job's result)."""
+        for _ in range(60):
+            try:
+                raw, _meta = await self.pool.call("labels", {"scene": scene},
+                                                  self.settings.score_import_time_limit_s)
+                break
+            except PoolBusy:  # /render traffic has every slot: the labels can wait
+                await asyncio.sleep(1.0)
+            except PoolClosed:
+                raise
+            except PoolError as exc:
+                return str(exc)
+        else:
+            return "no worker was free to make the labels"
+        tmp = path.with_name(path.name + ".part")
+        await asyncio.to_thread(_write_atomically, tmp, path, raw)
+        return None
+
+    async def _write(self, job_id: str, stream: RenderStream, part: Path, header: bytes,
+                     total: int) -> int:
+        last = time.monotonic()
+        with open(part, "wb") as f:
+            f.write(header)
+            written = len(header)
+            async for chunk in stream.chunks():
+                f.write(chunk)
+                written += len(chunk)
+                if time.monotonic() - last > PROGRESS_INTERVAL_S:
+                    last = time.monotonic()
+                    self.store.set_progress(job_id, min(written / total, 0.999))
+            f.flush()
+            os.fsync(f.fileno())
+        return written
+
+
+PEAK_DBFS = -1.0  # as engine.output: a normalized file peaks here
+_BLOCK = 1 << 16
+
+
+def _finalize(part: Path, final: Path, fmt: str, subtype: str, normalize: bool,
+              rewrite: bool) -> None:
+    """The stream's WAV becomes the job's file by a rename; when it must be normalized or
+    converted (FLAC, Ogg, another WAV subtype) it is rewritten block by block first, so that a
+    ten-minute job never holds its audio in memory."""
+    if not rewrite:
+        os.replace(part, final)
+        return
+    import numpy as np
+    import soundfile as sf
+
+    gain = 1.0
+    if normalize:
+        peak = 0.0
+        for block in sf.blocks(str(part), blocksize=_BLOCK, dtype="float32"):
+            peak = max(peak, float(np.max(np.abs(block))) if block.size else 0.0)
+        gain = 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0 else 1.0
+    info = sf.info(str(part))
+    out_subtype = {"wav": subtype, "flac": "PCM_16" if subtype == "PCM_16" else "PCM_24",
+                   "ogg": "VORBIS"}[fmt]
+    tmp = final.with_name(final.name + ".part")
+    with sf.SoundFile(str(tmp), "w", samplerate=info.samplerate, channels=info.channels,
+                      format=fmt.upper(), subtype=out_subtype) as f:
+        for block in sf.blocks(str(part), blocksize=_BLOCK, dtype="float64"):
+            f.write(np.clip(block * gain, -1.0, 1.0))
+    os.replace(tmp, final)
+
+
+def _write_atomically(tmp: Path, final: Path, data: bytes) -> None:
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, final)

@@ -1,0 +1,127 @@
+"""GET /metrics: the service's counters in Prometheus' text format (``prometheus_client``).
+
+Counted as requests end (``MetricsMiddleware``): requests by route and status, renders by endpoint
+and outcome, render wall time and audio seconds.  Read when scraped (``_StateCollector``): jobs by
+status, the pool's queue depth, busy and ready workers, worker restarts.  Each app has a registry
+of its own, so several apps in one process (tests) do not share counters.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from prometheus_client import CONTENT_TYPE_LATEST, CollectorRegistry, Counter, Histogram
+from prometheus_client import generate_latest as _generate
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
+from prometheus_client.registry import Collector
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+RENDER_PATHS = frozenset({"/render", "/render/stream", "/render/score"})
+_KNOWN = frozenset({"/", "/health", "/limits", "/presets", "/metrics", "/jobs", "/docs",
+                    "/openapi.json", *RENDER_PATHS})
+_JOB_PATH = re.compile(r"^/jobs/[^/]+(/audio|/labels)?$")
+
+
+def route_label(path: str) -> str:
+    """A bounded set of labels: job ids and unknown paths are not labels of their own."""
+    if path in _KNOWN:
+        return path
+    m = _JOB_PATH.match(path)
+    if m:
+        return "/jobs/{id}" + (m.group(1) or "")
+    if path.startswith("/static/"):
+        return "/static"
+    return "other"
+
+
+class Metrics:
+    def __init__(self) -> None:
+        self.registry = CollectorRegistry()
+        self.requests = Counter("guitar_http_requests", "HTTP requests answered",
+                                ["route", "method", "status"], registry=self.registry)
+        self.renders = Counter("guitar_renders", "renders by endpoint and outcome (ok: 2xx)",
+                               ["endpoint", "outcome"], registry=self.registry)
+        self.render_seconds = Histogram(
+            "guitar_render_seconds", "wall time of successful renders, s", ["endpoint"],
+            buckets=(0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 300.0),
+            registry=self.registry)
+        self.audio_seconds = Counter("guitar_audio_seconds", "seconds of audio rendered",
+                                     ["endpoint"], registry=self.registry)
+
+    def watch(self, state: Callable[[], dict[str, Any]]) -> None:
+        """Report ``state()`` (the pool's and the job store's figures) at every scrape."""
+        self.registry.register(_StateCollector(state))
+
+    def observe(self, route: str, method: str, status: int, info: dict[str, Any]) -> None:
+        self.requests.labels(route, method, str(status)).inc()
+        if route in RENDER_PATHS and method == "POST":
+            ok = 200 <= status < 300 and not info.get("error")
+            self.renders.labels(route, "ok" if ok else str(status)).inc()
+            if ok and info.get("render_seconds") is not None:
+                self.render_seconds.labels(route).observe(info["render_seconds"])
+            if ok and info.get("audio_seconds") is not None:
+                self.audio_seconds.labels(route).inc(info["audio_seconds"])
+
+    def exposition(self) -> tuple[bytes, str]:
+        return _generate(self.registry), CONTENT_TYPE_LATEST
+
+
+class _StateCollector(Collector):
+    def __init__(self, state: Callable[[], dict[str, Any]]):
+        self.state = state
+
+    def collect(self) -> Iterator[Any]:
+        s = self.state()
+        if not s:
+            return
+        jobs = GaugeMetricFamily("guitar_jobs", "jobs stored, by status", labels=["status"])
+        for status, n in s["jobs"].items():
+            jobs.add_metric([status], n)
+        yield jobs
+        yield GaugeMetricFamily("guitar_queue_depth", "renders admitted and waiting for a worker "
+                                "(/render and /render/stream)", value=s["queue_depth"])
+        yield GaugeMetricFamily("guitar_jobs_queue_depth", "jobs waiting for the job runner",
+                                value=s["jobs"].get("queued", 0))
+        yield GaugeMetricFamily("guitar_workers", "render worker processes configured",
+                                value=s["workers"])
+        yield GaugeMetricFamily("guitar_workers_ready", "workers warmed up and alive",
+                                value=s["workers_ready"])
+        yield GaugeMetricFamily("guitar_workers_busy", "workers rendering now", value=s["busy"])
+        yield CounterMetricFamily("guitar_worker_restarts", "workers replaced since start "
+                                  "(killed at a time limit, crashed)", value=s["replaced"])
+        yield CounterMetricFamily("guitar_jobs_requeued", "job runs cut off by a dead worker "
+                                  "and queued again", value=s["jobs_requeued"])
+
+
+class MetricsMiddleware:
+    """Counts every HTTP request when its response has been sent (a stream: its last byte)."""
+
+    def __init__(self, app: ASGIApp, metrics: Metrics):
+        self.app = app
+        self.metrics = metrics
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        status = {"code": 500}
+
+        async def send_wrapper(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                status["code"] = message["status"]
+            await send(message)
+
+        error = False
+        try:
+            await self.app(scope, receive, send_wrapper)
+        except BaseException:
+            error = True
+            raise
+        finally:
+            state = scope.get("state") or {}
+            self.metrics.observe(route_label(scope.get("path", "")), scope.get("method", ""),
+                                 status["code"], {"render_seconds": state.get("render_seconds"),
+                                                  "audio_seconds": state.get("audio_seconds"),
+                                                  "error": error})

@@ -56,6 +56,10 @@ def string_model(preset: Preset, string: int, events: list, rate: float, q: Qual
     q_string = q if fingered else replace(q, max_h_m=math.inf)
     return (*oversample_for(spec, length, rate, q_string, rmax, comp), rmax)
 
+# The decay skip tests a string every this many output frames (on the global step grid, whatever
+# the block size): the samples a render gives do not depend on its blocks.
+DECAY_CHECK_FRAMES = 1024
+
 
 @dataclass
 class Voice:
@@ -76,6 +80,7 @@ class Voice:
     tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
     step: int = 0
     stopped: bool = False
+    _decay_peak: float = 0.0  # largest |pickup output| since the last decay check
     energy_h: list = field(default_factory=list)
     energy_q: list = field(default_factory=list)
     energy_p: list = field(default_factory=list)
@@ -106,10 +111,37 @@ class Voice:
         return self.state.u1
 
     def run(self, nsteps: int) -> np.ndarray:
-        """Advance nsteps internal steps; return the pickup mix at the internal rate."""
+        """Advance nsteps internal steps; return the pickup mix at the internal rate.
+
+        With the decay skip on, the steps are run in pieces that end on the global step grid of
+        ``DECAY_CHECK_FRAMES`` output frames, and the string is tested for decay only there: so
+        where it stops does not depend on how the caller cuts the render into blocks (a stream's
+        blocks and a whole render give the same samples)."""
         if self.stopped or nsteps == 0:
             self.step += nsteps
             return np.zeros(nsteps)
+        d = self.diagnostics
+        if not self.skip_decayed or d:
+            return self.pickup_gains @ self._steps(nsteps)
+        period = DECAY_CHECK_FRAMES * self.oversample
+        mix = np.zeros(nsteps)
+        done = 0
+        while done < nsteps and not self.stopped:
+            n = min(nsteps - done, period - self.step % period)
+            out = self._steps(n)
+            mix[done:done + n] = self.pickup_gains @ out
+            done += n
+            if out.size:
+                self._decay_peak = max(self._decay_peak, float(np.max(np.abs(out))))
+            if self.step % period == 0:
+                if self.step > self.ctl.last_step:
+                    self._maybe_stop(self._decay_peak)
+                self._decay_peak = 0.0
+        self.step += nsteps - done  # stopped: the rest is silence
+        return mix
+
+    def _steps(self, nsteps: int) -> np.ndarray:
+        """Run the kernel for nsteps steps; the output of each pickup at the internal rate."""
         out = np.zeros((len(self.pickup_gains), nsteps))
         d = self.diagnostics
         e_h = np.empty(nsteps if d else 0)
@@ -127,12 +159,9 @@ class Voice:
             self.energy_h.append(e_h)
             self.energy_q.append(e_q)
             self.energy_p.append(e_p)
-        mix = self.pickup_gains @ out
-        if self.skip_decayed and not d and self.step > self.ctl.last_step:
-            self._maybe_stop(out)
-        return mix
+        return out
 
-    def _maybe_stop(self, out: np.ndarray) -> None:
+    def _maybe_stop(self, peak: float) -> None:
         # Nothing will act on the string again (no event pending; a finger still on the string
         # holds still), so stop once every node, every finger and the pickups move slower than
         # decay_velocity.  A finger with a release still to come keeps the string running.
@@ -144,7 +173,7 @@ class Voice:
         vmax = np.max(np.abs(st.u - st.u1)) / k
         if np.any(active):
             vmax = max(vmax, float(np.max(np.abs(st.f_w[active] - st.f_w1[active]))) / k)
-        if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
+        if vmax < self.decay_velocity and peak < self.decay_velocity:
             self.stopped = True
 
     def energy_error(self) -> float:

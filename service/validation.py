@@ -1,9 +1,10 @@
 """What the service checks on top of the engine's scene schema.
 
 * Strict JSON: Python's ``json`` (which FastAPI uses) accepts the non-standard tokens ``NaN``,
-  ``Infinity`` and ``-Infinity``.  The engine's schema refuses non-finite floats, but a token in a
-  string-typed field would reach it as text, so the tokens are refused here, before validation,
-  with the location of each.
+  ``Infinity`` and ``-Infinity``, turns a literal such as ``1e309`` into infinity and refuses an
+  integer of 4,300 digits or more with no location.  These are refused here, before validation,
+  with the location of each (a 422 naming the field), as are integer literals of more than
+  ``MAX_INT_DIGITS`` digits.
 * Service limits (``Settings``): duration, number of events, sample rate.  They are reported in the
   same shape as pydantic's own errors, so a client handles one format.
 """
@@ -11,6 +12,7 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Coroutine, Iterator
 from typing import Any
 
@@ -24,10 +26,33 @@ from .config import Settings
 
 
 class _NonFinite:
-    """Stands in for a NaN/Infinity token while the body is scanned."""
+    """Stands in for a NaN/Infinity token (or a number literal out of range) while the body is
+    scanned; ``why`` ends the message."""
 
-    def __init__(self, token: str):
+    def __init__(self, token: str, why: str = "numbers must be finite"):
         self.token = token
+        self.why = why
+
+
+# Integer literals longer than this are out of range for every field (the longest a schema field
+# takes has 9 digits); Python's int() refuses 4,300 digits and more with a bare ValueError.
+MAX_INT_DIGITS = 100
+
+
+def _parse_float(text: str) -> Any:
+    x = float(text)
+    if math.isfinite(x):
+        return x
+    shown = text if len(text) <= 40 else text[:37] + "..."
+    return _NonFinite(shown, "the literal overflows a double (about 1.8e308); numbers must be finite")
+
+
+def _parse_int(text: str) -> Any:
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        return _NonFinite(f"an integer of {digits} digits",
+                          f"integer literals have at most {MAX_INT_DIGITS} digits")
+    return int(text)
 
 
 def _nonfinite_locations(data: Any) -> Iterator[tuple[tuple[str | int, ...], str]]:
@@ -36,7 +61,7 @@ def _nonfinite_locations(data: Any) -> Iterator[tuple[tuple[str | int, ...], str
     while stack:
         loc, value = stack.pop()
         if isinstance(value, _NonFinite):
-            yield loc, value.token
+            yield loc, value
         elif isinstance(value, dict):
             stack.extend(((*loc, k), v) for k, v in value.items())
         elif isinstance(value, list):
@@ -48,7 +73,8 @@ async def reject_nonfinite_json(request: Request) -> None:
     if not body:
         return
     try:
-        data = json.loads(body, parse_constant=_NonFinite)
+        data = json.loads(body, parse_constant=_NonFinite, parse_float=_parse_float,
+                          parse_int=_parse_int)
     except RecursionError:
         raise RequestValidationError([{
             "type": "json_invalid", "loc": ("body",), "msg": "JSON nested too deeply",
@@ -59,10 +85,10 @@ async def reject_nonfinite_json(request: Request) -> None:
         {
             "type": "finite_number",
             "loc": ("body", *loc),
-            "msg": f"{token} is not valid JSON: numbers must be finite",
-            "input": token,
+            "msg": f"{bad.token} is not valid here: {bad.why}",
+            "input": bad.token,
         }
-        for loc, token in sorted(_nonfinite_locations(data), key=lambda x: str(x[0]))
+        for loc, bad in sorted(_nonfinite_locations(data), key=lambda x: str(x[0]))
     ]
     if errors:
         raise RequestValidationError(errors)

@@ -12,8 +12,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 # low to high, as engine/__init__.py lists them; a module may import only those before it
-ORDER = ["config", "presets", "scene", "kernels", "string", "controls", "intonation", "options",
-         "output", "voice", "playability", "guitar", "rendering", "precompile"]
+ORDER = ["config", "presets", "scene", "grid", "cost", "kernels", "string", "controls",
+         "intonation", "options", "output", "voice", "playability", "guitar", "rendering",
+         "precompile"]
 
 
 def _engine_imports(path: Path) -> set[str]:
@@ -64,6 +65,8 @@ def test_kernels_know_nothing_above_them():
 def test_validating_a_scene_loads_no_numerics():
     code = ("import sys, engine; engine.parse_scene({'duration': 1.0, 'events': ["
             "{'type': 'pluck', 'time': 0, 'string': 1}]}); "
+            "engine.estimate_cost({'duration': 1.0, 'events': ["
+            "{'type': 'fret', 'time': 0, 'string': 1, 'fret': 3}]}); "
             "print(sorted(m for m in ('numba', 'scipy', 'engine.kernels') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                          check=True)

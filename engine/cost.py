@@ -2,15 +2,18 @@
 refuses a request by it (the HTTP service does, before a worker takes the scene).
 
 The work of a render is the time step of every simulated string: for each string with an event,
-(internal steps) x (grid nodes + a fixed per-step share), where the internal steps are
-duration x sample_rate x the string's oversampling factor.  The factor and the node count are
+(internal steps) x (grid nodes + a fixed per-step share, larger with a finger on the string),
+where the internal steps are duration x sample_rate x the string's oversampling factor.  The factor and the node count are
 worked out as ``engine.voice.string_model`` does, from the same stability bound (``engine.grid``),
 without tuning the string on its grid (the tuning moves the node count by a few per cent, which
 ``GRID_MARGIN`` covers: ``tests/engine/test_cost.py`` checks the bounds against ``prepare``) and
 without importing the kernels, so a process that only validates scenes can call it.
 
-The estimate is an upper bound in one respect: a string whose motion has decayed stops being
-computed (``engine.voice``), which the estimate does not foresee.
+Not in the estimate: a string whose motion has decayed stops being computed (``engine.voice``),
+which makes a render cheaper than estimated; and the set-up of a scene, whose largest part is the
+fret calibration of draft and standard quality (``engine.intonation``: a few static solves per
+stopped fret and string, bounded by strings x frets, whatever the duration).
+``benchmarks/cost.py`` prints both, set-up and stepping, against the estimate.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ MIN_NODES = 4  # ``engine.string.MIN_NODES``
 # decimator), in nodes' worth: measured by ``benchmarks/cost.py`` (a draft string of 30 nodes
 # costs about as much per step as 30 + this many).
 STEP_OVERHEAD_NODES = 40
+# ... and of a string with a finger on it (contacts with the finger and the frets), on top
+FINGER_STEP_NODES = 150
 # The tuned grid can have a few per cent fewer nodes than the stability bound at the physical
 # stiffness gives (the dispersion compensation raises the stiffness, which coarsens it), and so
 # need the next factor up: the estimate asks for this much finer a spacing, so that it never counts
@@ -46,6 +51,7 @@ class StringCost:
     string: int
     oversample: int
     nodes: int
+    fingered: bool
 
 
 @dataclass(frozen=True)
@@ -117,7 +123,7 @@ def string_cost(preset: Preset, string: int, events: list, rate: float, quality:
         nodes = max(int(length / hmin), MIN_NODES)
         if not fingered or length / nodes <= GRID_MARGIN * max_h:
             break
-    return StringCost(string, os_, nodes)
+    return StringCost(string, os_, nodes, fingered)
 
 
 def estimate_cost(scene: Scene | dict) -> Cost:
@@ -128,5 +134,7 @@ def estimate_cost(scene: Scene | dict) -> Cost:
     rate = float(sc.sample_rate)
     strings = tuple(string_cost(preset, s, evs, rate, sc.quality)
                     for s, evs in sorted(_strings_used(sc, n).items()))
-    per_second = sum(rate * c.oversample * (c.nodes + STEP_OVERHEAD_NODES) for c in strings)
+    per_second = sum(rate * c.oversample * (c.nodes + STEP_OVERHEAD_NODES
+                                            + (FINGER_STEP_NODES if c.fingered else 0))
+                     for c in strings)
     return Cost(per_second * sc.duration, per_second, strings, expanded_event_count(sc, n))

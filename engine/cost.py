@@ -2,12 +2,13 @@
 refuses a request by it (the HTTP service does, before a worker takes the scene).
 
 The work of a render is the time step of every simulated string: for each string with an event,
-(internal steps) x (grid nodes + a fixed per-step share, larger with a finger on the string),
-where the internal steps are duration x sample_rate x the string's oversampling factor.  The factor and the node count are
-worked out as ``engine.voice.string_model`` does, from the same stability bound (``engine.grid``),
-without tuning the string on its grid (the tuning moves the node count by a few per cent, which
-``GRID_MARGIN`` covers: ``tests/engine/test_cost.py`` checks the bounds against ``prepare``) and
-without importing the kernels, so a process that only validates scenes can call it.
+(internal steps) x (grid nodes + a fixed per-step share, larger with a finger on the string), where
+the internal steps are duration x sample_rate x the string's oversampling factor. The factor and
+the node count are worked out as ``engine.voice.string_model`` does, from the same stability bound
+(``engine.grid``), without tuning the string on its grid (the tuning moves the node count by a few
+per cent, which ``GRID_MARGIN`` covers: ``tests/engine/test_cost.py`` checks the bounds against
+``prepare``) and without importing the kernels, so a process that only validates scenes can call
+it.
 
 Not in the estimate: a string whose motion has decayed stops being computed (``engine.voice``),
 which makes a render cheaper than estimated; and the set-up of a scene, whose largest part is the

@@ -10,6 +10,7 @@
 | render past its time limit             | 504    | the worker was killed and replaced              |
 | worker process died mid-render         | 502    | the upstream (the worker) failed; it is replaced|
 | unexpected engine exception            | 500    | a bug to fix, logged with its message           |
+| client gone while its render waited/ran| (499)  | logged only: the render is cancelled            |
 """
 
 from __future__ import annotations
@@ -22,11 +23,11 @@ from typing import Any
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 
 import engine
 
-from .pool import PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
+from .pool import ClientGone, PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
 
 log = logging.getLogger("service.errors")
 
@@ -147,6 +148,11 @@ def install(app: FastAPI, retry_after_s: int) -> None:
             "request_id": getattr(request.state, "request_id", None), "error": exc.message}})
         return _message(500, f"the engine failed on this scene: {exc.message}")
 
+    async def gone(request: Request, exc: Exception) -> Response:
+        # nobody reads this answer; 499 (nginx's "client closed request") marks it in the logs
+        return Response(status_code=499)
+
+    app.add_exception_handler(ClientGone, gone)
     app.add_exception_handler(PoolBusy, busy)
     app.add_exception_handler(PoolClosed, busy)
     app.add_exception_handler(RenderTimeout, timeout)

@@ -112,8 +112,9 @@ def _error(field: str, kind: str, msg: str, value: Any, ctx: dict[str, Any]) -> 
             "ctx": ctx}
 
 
-def check_limits(scene: engine.Scene, settings: Settings) -> None:
-    """Raise a 422 for a valid scene that is outside this server's limits."""
+def check_limits(scene: engine.Scene, settings: Settings) -> float:
+    """Raise a 422 for a valid scene that is outside this server's limits, its estimated cost
+    included; return the estimated seconds of its render (``engine.estimate_cost``)."""
     errors = []
     if scene.duration > settings.max_duration_s:
         errors.append(_error(
@@ -134,8 +135,31 @@ def check_limits(scene: engine.Scene, settings: Settings) -> None:
             f"{settings.max_sample_rate} Hz (service limits GUITAR_MIN_SAMPLE_RATE, "
             "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate,
             {"ge": settings.min_sample_rate, "le": settings.max_sample_rate}))
+    if not errors:
+        expanded = engine.expanded_event_count(scene)
+        if expanded > settings.max_expanded_events:
+            errors.append(_error(
+                "events", "too_long",
+                f"the events expand to {expanded} single-string events (a strum counts once per "
+                "string it plucks, a mute with no string once per string); at most "
+                f"{settings.max_expanded_events} (service limit GUITAR_MAX_EXPANDED_EVENTS)",
+                expanded, {"max_length": settings.max_expanded_events}))
     if errors:
         raise RequestValidationError(errors)
+    cost = engine.estimate_cost(scene)
+    seconds = settings.estimated_seconds(cost.work)
+    if seconds > settings.max_render_s:
+        most = settings.max_render_s * settings.work_per_second / cost.per_second
+        raise RequestValidationError([_error(
+            "duration", "render_cost",
+            f"this scene would take about {seconds:.0f} s to render ({len(cost.strings)} strings "
+            f"simulated at quality {scene.quality!r} and {scene.sample_rate} Hz cost about "
+            f"{cost.per_second / settings.work_per_second:.2f} s per second of audio); the "
+            f"server renders at most {settings.max_render_s:g} s per request (GUITAR_MAX_RENDER_S):"
+            f" at these settings the duration must be at most {most:.2f} s, or lower the quality, "
+            "the sample rate or the strings played", scene.duration,
+            {"le": round(most, 3), "estimated_s": round(seconds, 1)})])
+    return seconds
 
 
 def check_streamable(scene: engine.Scene) -> None:

@@ -19,10 +19,12 @@ from typing import Any
 from fastapi import Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
+from starlette.requests import ClientDisconnect
 
 import engine
 
 from .config import Settings
+from .pool import ClientGone
 
 
 class _NonFinite:
@@ -101,7 +103,10 @@ class StrictJSONRoute(APIRoute):
         handler = super().get_route_handler()
 
         async def strict_handler(request: Request) -> Response:
-            await reject_nonfinite_json(request)
+            try:
+                await reject_nonfinite_json(request)
+            except ClientDisconnect:
+                raise ClientGone() from None  # left while sending its body: nobody to answer
             return await handler(request)
 
         return strict_handler

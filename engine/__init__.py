@@ -5,9 +5,10 @@
     >>> audio = engine.render({"duration": 1.0, "events": [{"type": "pluck", "time": 0, "string": 1}]})
 
 Also: ``blocks`` (the same audio block by block, at the fixed gain), ``frame_count`` (its length,
-before rendering), ``tuned_tension`` (a preset string's tension) and ``warmup`` (load or compile
-every numba kernel once per process); ``Session`` plays a guitar live, event by event, block by
-block (``engine.live``).
+before rendering), ``estimate_cost`` (the work of a render, known from the scene alone),
+``tuned_tension`` (a preset string's tension) and ``warmup`` (load or compile every numba kernel
+once per process); ``Session`` plays a guitar live, event by event, block by block
+(``engine.live``).
 
 Layers, each knowing only those below it (docs/architecture.md draws them):
 
@@ -16,6 +17,8 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     scene        the validated input: tracks, events, output, quality, limits (pydantic; knows
                  presets, effect_specs)
     live_events  live play messages: a session's opening and its events without time (schema)
+    grid         the scheme's loss coefficients and stability bound       (plain arithmetic)
+    cost         what a scene will cost to render, before anything is built (knows scene, grid)
     kernels      the numba time-step loop of one string
     string       one string's grid, coefficients, tuning and geometry (knows kernels, presets)
     controls     events -> one string's control arrays                 (knows scene, kernels)
@@ -61,6 +64,8 @@ _LAZY = {
     "render_result": "rendering",
     "blocks": "rendering",
     "scene_warnings": "playability",
+    "estimate_cost": "cost",
+    "expanded_event_count": "cost",
     "tuned_tension": "string",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",

@@ -15,17 +15,22 @@ How each event acts on the physics
   is.  A ``slide`` moves the finger's position x_FG continuously (the paper's sec. 2.5 allows x_FG to
   vary in time); the string crosses the frets under it.  ``pull_off`` lifts the finger on ``fret``
   and plucks the string at the finger with ``force`` as it leaves.  A lifted finger is pulled up with
-  its pressing force and leaves the model once it is ``Coefs.fg_lift`` above the string.
+  its pressing force and leaves the model once it is ``Coefs.fg_lift`` above the string.  At most
+  ``MAX_FINGERS`` fingers are on one string: a hammer-on beyond them lifts the oldest.
 * ``harmonic``: a light touch, modelled as a point damper R (d/dt) u(x) with R matched to the
   string's wave impedance 2 sqrt(T rho A) (the value that absorbs most of a wave passing the point),
   with no pressing force: modes with a node at the touch point pass, the others are damped.
 * ``mute``: a palm near the bridge, a damper spread over ``PALM_WIDTH_M`` with R = amount * 0.8
-  sqrt(T rho A): shorter decay, duller tone.
+  sqrt(T rho A): shorter decay, duller tone.  One palm rests on a string at a time: a later mute
+  on the string replaces one still resting (its position and amount take over at its time), and
+  likewise a later harmonic touch replaces an earlier one.  So the contacts acting at once, each a
+  column of the kernel's small solve, stay few however many events a scene sends.
 * ``damp``: the player stops the string.  Any fretting finger lifts (relaxes: it stops pressing)
   and the hand's fingertips rest on the string from where that finger was (or from over fret
   ``DAMP_OPEN_FRET`` on an open string) towards the bridge: ``DAMP_FINGERS`` point dampers
   ``DAMP_SPACING_M`` apart, each R = ``DAMP_DAMPING`` sqrt(T rho A), losses in the balance's Q.
-  They stay until the string's next event (of any type).  docs/engine.md gives the decay times.
+  They stay until the string's next event (of any type); a second damp before then replaces the
+  first.  docs/engine.md gives the decay times.
 * ``bend``/``vibrato``: the tension T(t) = T0 * ratio(t), piecewise linear between breakpoints; the
   ratio for a pitch change is solved from the scheme's dispersion relation.  The grid is built for
   the highest tension the scene reaches (``max_tension_ratio``).
@@ -61,6 +66,7 @@ FINGER_EVENTS = ("fret", "tap", "hammer_on", "slide")
 FINGER_BEHIND = 0.3  # of the spacing between fret q-1 and fret q
 TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
 NEVER = np.iinfo(np.int64).max // 4
+MAX_FINGERS = 4  # fingers of the fretting hand on one string at once (hammer-ons add them)
 PALM_WIDTH_M = 0.02
 HARMONIC_DAMPING = 2.0  # x sqrt(T rho A)
 PALM_DAMPING = 0.8  # x sqrt(T rho A) at amount 1
@@ -190,11 +196,14 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
         return finger_x_m(preset, fret) + shifts.get(fret, 0.0)
 
     def step(t: float) -> int:
-        return int(round(t * rate))
+        # a time past the render's end is as good as never (the schema bounds times and releases;
+        # this keeps every step count inside the kernels' int64 arithmetic whatever the rate)
+        return min(int(round(t * rate)), NEVER)
 
     plucks: list[tuple] = []
     slots: list[dict] = []
-    dampers: list[tuple] = []
+    palms: list[list] = []  # [on, off, R, points] of each mute
+    touches: list[list] = []  # ... and of each harmonic touch
     bends: list[tuple[int, float]] = []
     last = 0
 
@@ -210,6 +219,15 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             if s["rel"] > at and (only is None or s is only):
                 s["rel"] = at
 
+    def end_touch(dampers: list[list], at: int) -> None:
+        # one palm (one touching finger) per string: a later one replaces an earlier one still
+        # resting, from its start on (stacked contacts would each add a column to the kernel's
+        # small solve, whose cost grows with the cube of their number)
+        for d in dampers:
+            if d[1] > at:
+                d[1] = at
+
+    damps: list[list] = []  # the relaxed hand's pads (``damp``), until the string's next event
     for j, e in enumerate(events):
         on = step(e.time)
         last = max(last, on)
@@ -219,6 +237,10 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
         elif isinstance(e, Fret | Tap | Slide):  # HammerOn is a Tap that keeps other fingers
             if not isinstance(e, HammerOn):
                 lift(on)
+            else:  # a hand has MAX_FINGERS fingers: a hammer-on beyond them lifts the oldest
+                down = [s for s in slots if s["on"] <= on < s["rel"]]
+                for s in down[: max(0, len(down) - MAX_FINGERS + 1)]:
+                    s["rel"] = on
             if isinstance(e, Fret) and e.fret == 0:
                 continue
             rel = step(e.release) if e.release is not None else NEVER
@@ -245,23 +267,26 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             x = preset.fret_x_m(e.fret) if e.fret is not None else e.position * length_m
             off = step(e.release) if e.release is not None else NEVER
             last = max(last, on if off == NEVER else off)
-            dampers.append((on, off, HARMONIC_DAMPING * impedance, [(x, 1.0)]))
+            end_touch(touches, on)
+            touches.append([on, off, HARMONIC_DAMPING * impedance, [(x, 1.0)]])
         elif isinstance(e, Mute):
             off = step(e.release) if e.release is not None else NEVER
             last = max(last, on if off == NEVER else off)
             centre = e.position * length_m
             xs = centre + np.linspace(-0.5, 0.5, 5) * PALM_WIDTH_M
-            dampers.append((on, off, e.amount * PALM_DAMPING * impedance,
-                            [(float(xv), 0.2) for xv in xs]))
+            end_touch(palms, on)
+            palms.append([on, off, e.amount * PALM_DAMPING * impedance,
+                          [(float(xv), 0.2) for xv in xs]])
         elif isinstance(e, Damp):
             held = [s for s in slots if s["on"] <= on < s["rel"]]
             x = held[-1]["x1"] if held else finger_at(DAMP_OPEN_FRET)
             lift(on)
             off = step(events[j + 1].time) if j + 1 < len(events) else NEVER
             last = max(last, on if off == NEVER else off)
+            end_touch(damps, on)  # a second damp before the next event replaces the first
             for k in range(DAMP_FINGERS):  # one pad per finger, towards the bridge
                 xk = min(x + k * DAMP_SPACING_M, 0.9 * length_m)
-                dampers.append((on, off, DAMP_DAMPING * impedance, [(xk, 1.0)]))
+                damps.append([on, off, DAMP_DAMPING * impedance, [(xk, 1.0)]])
         elif isinstance(e, Bend):
             r = ratio_for_cents(100.0 * e.semitones)
             up = max(step(e.duration), 1)
@@ -283,6 +308,8 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
     fingers = tuple(FingerMotion(s["v0"], s["force"], s["gap"],
                                  abs(s["x1"] - s["x0"]) * rate / max(s["me"] - s["ms"], 1))
                     for s in slots)
+    # a replaced-at-once one never acts
+    dampers = [d for d in palms + touches + damps if d[1] > d[0]]
     return StringControls(_arrays(plucks, slots, dampers, bends, h, n), last,
                           _peak_total_force(plucks), fingers)
 

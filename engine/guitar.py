@@ -38,7 +38,7 @@ from .controls import events_on, stopped_frets, string_controls
 from .intonation import fret_shifts, press_force
 from .options import GAMMA_RULES, QUALITY, RenderOptions
 from .output import Body, Decimator, default_pan, pan_gains
-from .playability import finger_warnings
+from .playability import finger_warnings, pull_off_warnings
 from .presets import Preset
 from .scene import Scene, frame_count
 from .string import (
@@ -96,8 +96,11 @@ class Guitar:
         """``scene_warnings`` of the scene, on the grids its voices were built on (every string
         with a finger on it has a voice)."""
         n = self.preset.n_strings
-        out = [w for v in self.voices for w in finger_warnings(
-            self.preset, v.index, events_on(self.scene, n, v.index), v.model, v.tension_ratio)]
+        out = []
+        for v in self.voices:
+            events = events_on(self.scene, n, v.index)
+            out += finger_warnings(self.preset, v.index, events, v.model, v.tension_ratio)
+            out += pull_off_warnings(v.index, events)
         return [text for _, _, text in sorted(out)]
 
 

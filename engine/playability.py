@@ -1,18 +1,21 @@
 """What a scene asks for that may not sound as a player would mean it.
 
-Today: a finger pressing with less than ``intonation.SEAT_MARGIN`` times the force at which its
-string rests on the fret at all (``benchmarks/seating.py`` measured that such notes do not hold:
-the finger pushes the string down without stopping it, and the note sounds dead or buzzes).  The
+A ``pull_off`` that finds no finger on its fret (it is silent), and a finger pressing with less
+than ``intonation.SEAT_MARGIN`` times the force at which its string rests on the fret at all
+(``benchmarks/seating.py`` measured that such notes do not hold: the finger pushes the string down
+without stopping it, and the note sounds dead or buzzes).  The
 messages go back to the user with the audio (``X-Render-Warnings``, ``RenderResult.warnings``).
 """
 
 from __future__ import annotations
 
-from .controls import FINGER_EVENTS, events_on, frets_pressed
+import math
+
+from .controls import FINGER_EVENTS, MAX_FINGERS, events_on, frets_pressed
 from .intonation import SEAT_MARGIN, seating_force
 from .options import QUALITY, RenderOptions
 from .presets import Preset
-from .scene import Scene, Slide
+from .scene import Fret, HammerOn, PullOff, Scene, Slide, Tap
 from .string import StringModel
 from .voice import string_model
 
@@ -41,6 +44,40 @@ def finger_warnings(preset: Preset, string: int, events: list, model: StringMode
     return out
 
 
+def pull_off_warnings(string: int, events: list) -> list[tuple[float, int, str]]:
+    """(time, string, message) of each ``pull_off`` in ``events`` (one string's, in time order)
+    that finds no finger on its fret: it lifts nothing and plucks nothing, so it is silent.  The
+    fingers are followed as ``engine.controls.string_controls`` places and lifts them (a fret, tap
+    or slide replaces the finger on the string, a hammer-on adds one up to ``MAX_FINGERS``, a
+    release or a pull-off lifts one)."""
+    fingers: list[list[float]] = []  # [fret, on, release]
+    out = []
+    for e in events:
+        if isinstance(e, Fret | Tap | Slide):
+            if not isinstance(e, HammerOn):
+                for f in fingers:
+                    f[2] = min(f[2], e.time)
+            else:
+                down = [f for f in fingers if f[1] <= e.time < f[2]]
+                for f in down[: max(0, len(down) - MAX_FINGERS + 1)]:
+                    f[2] = e.time
+            if isinstance(e, Fret) and e.fret == 0:
+                continue
+            fret = e.to_fret if isinstance(e, Slide) else e.fret
+            rel = e.release if e.release is not None else math.inf
+            fingers.append([fret, e.time, rel])
+        elif isinstance(e, PullOff):
+            held = [f for f in fingers if f[0] == e.fret and f[1] <= e.time < f[2]]
+            if held:
+                held[-1][2] = e.time
+            else:
+                out.append((e.time, string, f"string {string}: the pull-off at {e.time:g} s finds "
+                                            f"no finger on fret {e.fret} (no fret, tap, hammer-on "
+                                            "or slide holds it then): it lifts nothing and plays "
+                                            "nothing"))
+    return out
+
+
 def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[str]:
     """What the scene asks for that may not sound as a player would mean it: a finger pressing
     with less than ``SEAT_MARGIN`` times the force at which its string rests on the fret at all
@@ -59,6 +96,7 @@ def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[s
         out = []
         for i in range(1, preset.n_strings + 1):
             events = events_on(single, preset.n_strings, i)
+            out += pull_off_warnings(i, events)
             if any(e.type in FINGER_EVENTS and e.force is not None for e in events):
                 _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q, opts)
                 out += finger_warnings(preset, i, events, model, ratio)

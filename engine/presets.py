@@ -30,6 +30,7 @@ Sources and reasoning
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -52,10 +53,11 @@ def note_frequency(name: str) -> float:
     while rest and rest[0] in "#b":
         semis += 1 if rest[0] == "#" else -1
         rest = rest[1:]
-    try:
-        octave = int(rest)
-    except ValueError as exc:
-        raise ValueError(f"not a note name: {name!r}") from exc
+    # an octave of one or two digits (-9..99): "E99999" is not a pitch, and 2 ** huge overflows
+    if not re.fullmatch(r"-?\d{1,2}", rest):
+        raise ValueError(f"not a note name: {name!r} (a letter A-G, optional # or b, and an "
+                         "octave of one or two digits, e.g. 'E2', 'F#3', 'Bb4')")
+    octave = int(rest)
     return 440.0 * 2.0 ** ((semis + 12 * (octave - 4)) / 12.0)
 
 

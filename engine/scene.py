@@ -27,17 +27,33 @@ MAX_BEND_SEMITONES = 3.0  # the grid is made stable for the highest tension a sc
 MAX_VIBRATO_CENTS = 100.0  # a string must keep a positive tension this far below its pitch
 SAMPLE_RATE_MIN = 22050
 SAMPLE_RATE_MAX = 96000
+# The latest ``release`` any event may give, s: far past any scene's end (a release after the end
+# is the same as none), and small enough that every time becomes a step count the kernels' int64
+# arithmetic holds at any internal rate.
+MAX_RELEASE_S = 1e6
+MAX_STRINGS = 12  # the most strings a guitar (preset or overrides) may have
+FLAC_RATE_MAX_ANY = 65535  # FLAC frame headers carry any rate up to this; above, multiples of 10
+MAX_NAME_CHARS = 64
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    # strict: JSON types are meant as written (true is not a number, 1.0 is not a string number
+    # and "44100" is not a rate); a Python caller passes int and float (numpy scalars: .item()).
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+
+Release = Annotated[float | None, Field(gt=0.0, le=MAX_RELEASE_S,
+                                        description="time the finger lifts, s")]
+Time = Annotated[float, Field(ge=0.0, le=MAX_DURATION_S,
+                              description="start time, s (>= 0, < duration)")]
+NoteName = Annotated[str, Field(max_length=8)]
 
 
 Position = Annotated[float, Field(gt=0.0, lt=1.0, description="x / L: 0 at the nut, 1 at the bridge")]
 
 
 class _Event(_Model):
-    time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")
+    time: Time
     string: int = Field(ge=1, le=MAX_STRINGS, description="1 = highest string")
 
 
@@ -83,7 +99,7 @@ class Fret(_Event):
         description="pressing force, N (default: the preset's, or 1.35 times the seating force "
                     "where the string needs more to rest on the fret)",
     )
-    release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
+    release: Release = None
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{"type": "fret", "time": 0.0, "string": 5, "fret": 3}]}
@@ -103,7 +119,7 @@ class Tap(_Event):
     velocity: float = Field(
         1.0, gt=0.0, le=MAX_TAP_VELOCITY_M_S, description="speed towards the fretboard, m/s"
     )
-    release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
+    release: Release = None
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{"type": "tap", "time": 0.0, "string": 3, "fret": 7}]}
@@ -149,7 +165,7 @@ class Slide(_Event):
         description="pressing force, N (default: the preset's, or 1.35 times the seating force "
                     "where the string needs more to rest on the fret)",
     )
-    release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
+    release: Release = None
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{"type": "slide", "time": 0.5, "string": 3,
@@ -164,7 +180,8 @@ class Bend(_Event):
     type: Literal["bend"] = "bend"
     semitones: float = Field(gt=0.0, le=MAX_BEND_SEMITONES, description="pitch rise")
     duration: float = Field(0.15, gt=0.0, le=10.0, description="rise (and return) time, s")
-    release: float | None = Field(None, gt=0.0, description="time the bend starts back, s")
+    release: float | None = Field(None, gt=0.0, le=MAX_RELEASE_S,
+                                  description="time the bend starts back, s")
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{"type": "bend", "time": 0.3, "string": 2,
@@ -193,7 +210,7 @@ class Harmonic(_Event):
     type: Literal["harmonic"] = "harmonic"
     fret: int | None = Field(None, ge=1, le=24, description="touch over this fret")
     position: float | None = Field(None, gt=0.02, lt=0.98, description="or at x / L")
-    release: float | None = Field(None, gt=0.0, description="time the finger lifts, s")
+    release: Release = None
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{"type": "harmonic", "time": 0.0, "string": 1,
@@ -211,11 +228,12 @@ class Mute(_Model):
     """A palm resting near the bridge: lossy contact over a few centimetres."""
 
     type: Literal["mute"] = "mute"
-    time: float = Field(ge=0.0, description="start time, s (>= 0, < duration)")
+    time: Time
     string: int | None = Field(None, ge=1, le=MAX_STRINGS, description="omit to mute every string")
     position: float = Field(0.96, ge=0.7, le=0.99, description="palm centre, x / L")
     amount: float = Field(0.7, ge=0.0, le=1.0, description="0 barely touching .. 1 firm")
-    release: float | None = Field(None, gt=0.0, description="time the palm lifts, s")
+    release: float | None = Field(None, gt=0.0, le=MAX_RELEASE_S,
+                                  description="time the palm lifts, s")
 
     model_config = ConfigDict(
         json_schema_extra={"examples": [{"type": "mute", "time": 0.0, "amount": 0.8}]}
@@ -226,8 +244,9 @@ class Strum(_Model):
     """Plucks across ``strings`` (default all), low to high for ``down``, spread over ``spread``."""
 
     type: Literal["strum"] = "strum"
-    time: float = Field(ge=0.0, description="first pluck, s (>= 0, < duration)")
-    strings: list[int] | None = Field(None, description="default: all strings")
+    time: float = Field(ge=0.0, le=MAX_DURATION_S, description="first pluck, s (>= 0, < duration)")
+    strings: list[int] | None = Field(None, max_length=MAX_STRINGS,
+                                      description="default: all strings; each at most once")
     direction: Literal["down", "up"] = "down"
     spread: float = Field(0.03, ge=0.0, le=1.0, description="first to last pluck, s")
     force: float = Field(2.0, gt=0.0, le=MAX_PLUCK_FORCE_N, description="peak force, N")
@@ -241,8 +260,10 @@ class Strum(_Model):
     @field_validator("strings")
     @classmethod
     def _strings(cls, v: list[int] | None) -> list[int] | None:
-        if v is not None and (not v or any(not 1 <= s <= 12 for s in v)):
-            raise ValueError("strings: a non-empty list of string numbers 1..12")
+        if v is not None and (not v or any(not 1 <= s <= MAX_STRINGS for s in v)):
+            raise ValueError(f"strings: a non-empty list of string numbers 1..{MAX_STRINGS}")
+        if v is not None and len(set(v)) != len(v):
+            raise ValueError("strings: each string at most once")
         return v
 
 
@@ -273,7 +294,7 @@ class StringOverride(_Model):
     """Per-string physical overrides of a preset; omitted fields keep the preset's value."""
 
     string: int = Field(ge=1, le=MAX_STRINGS)
-    note: str | None = Field(None, description="open-string pitch, e.g. 'D2'")
+    note: NoteName | None = Field(None, description="open-string pitch, e.g. 'D2'")
     radius_m: float | None = Field(None, ge=5e-5, le=2e-3)
     density_kg_m3: float | None = Field(None, ge=500.0, le=25000.0)
     youngs_modulus_pa: float | None = Field(None, ge=1e8, le=4e11)
@@ -295,15 +316,16 @@ class StringOverride(_Model):
 
 
 class Guitar(_Model):
-    preset: str = Field(DEFAULT_PRESET, description=f"one of {sorted(PRESETS)}")
-    tuning: list[str] | None = Field(
+    preset: str = Field(DEFAULT_PRESET, max_length=MAX_NAME_CHARS,
+                        description=f"one of {sorted(PRESETS)}")
+    tuning: list[NoteName] | None = Field(
         None, min_length=1, max_length=MAX_STRINGS,
         description="open-string notes, string 1 first (e.g. ['D4','B3','G3','D3','G2','D2']); more "
                     "notes than the preset has strings add strings on the low side, built like the "
                     "preset's lowest (engine.presets.extend_preset); fewer keep the preset's "
                     "strings nearest in pitch (engine.presets.fit_strings)"
     )
-    strings: list[StringOverride] = Field(default_factory=list)
+    strings: list[StringOverride] = Field(default_factory=list, max_length=MAX_STRINGS)
     frets: int | None = Field(None, ge=1, le=24, description="number of frets")
     action_nut_m: float | None = Field(None, ge=1e-4, le=3e-3)
     action_12th_m: float | None = Field(None, ge=3e-4, le=8e-3)
@@ -343,9 +365,11 @@ class Output(_Model):
         None, min_length=1, max_length=4,
         description="several pickups mixed (overrides pickup_position)",
     )
-    channels: Literal[1, 2] = Field(1, description="2: stereo, each string panned")
+    # an int in 1..2 rather than Literal[1, 2], which would take true and 2.0 for 1 and 2
+    channels: int = Field(1, ge=1, le=2, description="1: mono; 2: stereo, each string panned")
     pan: list[float] | None = Field(
-        None, description="per string, -1 left .. 1 right (default: low strings left)"
+        None, max_length=MAX_STRINGS,
+        description="per string, -1 left .. 1 right (default: low strings left)"
     )
     body: Literal["none", "acoustic", "classical"] | None = Field(
         None, description="body response (default: the preset's)"
@@ -430,6 +454,16 @@ class Scene(_Model):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scene:
+        if round(self.duration * self.sample_rate) < 1:
+            raise ValueError(f"duration: {self.duration:g} s is shorter than one sample at "
+                             f"{self.sample_rate} Hz (at least {1.0 / self.sample_rate:.3g} s)")
+        if (self.output.format == "flac" and self.sample_rate > FLAC_RATE_MAX_ANY
+                and self.sample_rate % 10):
+            raise ValueError(
+                f"sample_rate: FLAC carries rates above {FLAC_RATE_MAX_ANY} Hz in steps of 10 Hz "
+                f"only; {self.sample_rate} is not one (allowed for flac: "
+                f"{SAMPLE_RATE_MIN}..{FLAC_RATE_MAX_ANY}, or a multiple of 10 up to "
+                f"{SAMPLE_RATE_MAX}; wav and ogg take any rate)")
         if self.tracks is None:
             _check_instrument(self.guitar, self.events, self.duration, "", self.output.pan)
             return self

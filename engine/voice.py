@@ -25,6 +25,9 @@ from .presets import Preset
 from .scene import MAX_BEND_SEMITONES
 from .string import StringModel, dispersion_cents, tension_ratio_for_cents, tune
 
+# The decay skip tests a string every this many output frames (on the global step grid, whatever
+# the block size): the samples a render gives do not depend on its blocks.
+DECAY_CHECK_FRAMES = 1024
 SLEEP_MIN_STEPS = 4096  # a string sleeps only through a longer stillness (not worth it below)
 
 
@@ -88,6 +91,7 @@ class Voice:
     stopped: bool = False
     asleep_until: int = 0  # no step before this is computed (the string is still, nothing acts)
     steps_computed: int = 0
+    _decay_peak: float = 0.0  # largest |pickup output| since the last decay check
     energy_h: list = field(default_factory=list)
     energy_q: list = field(default_factory=list)
     energy_p: list = field(default_factory=list)
@@ -122,7 +126,13 @@ class Voice:
         return self.state.u1
 
     def run(self, nsteps: int) -> np.ndarray:
-        """Advance nsteps internal steps; return the pickup mix at the internal rate."""
+        """Advance nsteps internal steps; return the pickup mix at the internal rate.
+
+        With the decay skip on, the steps are run in pieces that end on the global step grid of
+        ``DECAY_CHECK_FRAMES`` output frames, and the string is tested for decay (to stop, or to
+        sleep until its next control change) only there: so where it stops or sleeps does not
+        depend on how the caller cuts the render into blocks (a stream's blocks and a whole render
+        give the same samples)."""
         if self.stopped or nsteps == 0 or self.step + nsteps <= self.asleep_until:
             self.step += nsteps
             return np.zeros(nsteps)
@@ -130,6 +140,34 @@ class Voice:
             quiet = self.asleep_until - self.step
             self.step = self.asleep_until
             return np.concatenate((np.zeros(quiet), self.run(nsteps - quiet)))
+        d = self.diagnostics
+        if not self.skip_decayed or d:
+            return self.pickup_gains @ self._steps(nsteps)
+        period = DECAY_CHECK_FRAMES * self.oversample
+        mix = np.zeros(nsteps)
+        done = 0
+        while done < nsteps and not self.stopped and self.step >= self.asleep_until:
+            n = min(nsteps - done, period - self.step % period)
+            out = self._steps(n)
+            mix[done:done + n] = self.pickup_gains @ out
+            done += n
+            if out.size:
+                self._decay_peak = max(self._decay_peak, float(np.max(np.abs(out))))
+            if self.step % period == 0:
+                if self.step > self.ctl.last_step:
+                    self._maybe_stop(self._decay_peak)
+                else:
+                    self._maybe_sleep(self._decay_peak)
+                self._decay_peak = 0.0
+        rest = nsteps - done
+        if rest and not self.stopped and self.step < self.asleep_until:
+            mix[done:] = self.run(rest)  # asleep: silence until it wakes, then on
+        else:
+            self.step += rest  # stopped: the rest is silence
+        return mix
+
+    def _steps(self, nsteps: int) -> np.ndarray:
+        """Run the kernel for nsteps steps; the output of each pickup at the internal rate."""
         self.steps_computed += nsteps
         out = np.zeros((len(self.pickup_gains), nsteps))
         d = self.diagnostics
@@ -153,12 +191,7 @@ class Voice:
                 self.energy_h.append(e_h)
                 self.energy_q.append(e_q)
                 self.energy_p.append(e_p)
-        mix = self.pickup_gains @ out
-        if self.skip_decayed and not d and self.step > self.ctl.last_step:
-            self._maybe_stop(out)
-        elif self.skip_decayed and not d:
-            self._maybe_sleep(out)
-        return mix
+        return out
 
     def _next_change(self) -> int:
         """The first step from now at which a control acts or changes (a pluck starts or ends, a
@@ -169,7 +202,7 @@ class Voice:
         later = [int(x[x >= self.step].min()) for x in ends if np.any(x >= self.step)]
         return min(later, default=NEVER)
 
-    def _maybe_sleep(self, out: np.ndarray) -> None:
+    def _maybe_sleep(self, peak: float) -> None:
         # As _maybe_stop, until the next change: the string (and any finger resting on it) is
         # still, so nothing would happen before then but the decay of motion below
         # decay_velocity; the state is kept and the string resumes at that step.
@@ -180,10 +213,10 @@ class Voice:
         active = st.f_state == kernels.ACTIVE
         if np.any(self.ctl.arrays.fs_rel[active] < self.step):  # a finger lifting away
             return
-        if self._still(out):
+        if self._still(peak):
             self.asleep_until = wake
 
-    def _maybe_stop(self, out: np.ndarray) -> None:
+    def _maybe_stop(self, peak: float) -> None:
         # Nothing will act on the string again (no event pending; a finger still on the string
         # holds still), so stop once every node, every finger and the pickups move slower than
         # decay_velocity.  A finger with a release still to come keeps the string running.
@@ -191,18 +224,19 @@ class Voice:
         active = st.f_state == kernels.ACTIVE
         if np.any(self.ctl.arrays.fs_rel[active] < NEVER):
             return
-        if self._still(out):
+        if self._still(peak):
             self.stopped = True
 
-    def _still(self, out: np.ndarray) -> bool:
-        """Every node, every finger on the string and the pickups slower than decay_velocity."""
+    def _still(self, peak: float) -> bool:
+        """Every node, every finger on the string and the pickups (their largest output since the
+        last check: ``peak``) slower than decay_velocity."""
         st = self.state
         active = st.f_state == kernels.ACTIVE
         k = self.coefs.k
         vmax = np.max(np.abs(st.u - st.u1)) / k
         if np.any(active):
             vmax = max(vmax, float(np.max(np.abs(st.f_w[active] - st.f_w1[active]))) / k)
-        return bool(vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity)
+        return bool(vmax < self.decay_velocity and peak < self.decay_velocity)
 
     def energy_error(self) -> float:
         """Largest relative energy-balance deviation (paper sec. 6.1):

@@ -36,9 +36,33 @@ class Settings(BaseSettings):
     mp_context: str = Field("spawn", pattern="^(spawn|forkserver)$",
                             description="multiprocessing start method of the workers")
 
-    # Time limit of one render: base + per_audio_second * duration (seconds of wall time)
+    # Time limit of one render (seconds of wall time): the smaller of
+    #   base + per_audio_second * duration   and   base + per_estimated * estimated seconds
     time_limit_base_s: float = Field(10.0, gt=0.0)
     time_limit_per_audio_s: float = Field(5.0, ge=0.0)
+    time_limit_per_estimated_s: float = Field(
+        4.0, ge=1.0, description="time limit per second of the render's cost estimate")
+
+    # Cost: engine.estimate_cost(scene).work / work_per_second = the estimated seconds of a render
+    work_per_second: float = Field(
+        1.5e8, gt=0.0, description="the engine's stepping throughput, work units per second "
+                                   "(benchmarks/cost.py prints it for this machine)")
+    max_render_s: float = Field(
+        60.0, gt=0.0, description="budget: a scene estimated to take longer is refused (422)")
+    heavy_render_s: float = Field(
+        5.0, gt=0.0, description="a render estimated to take longer is heavy: it may use only "
+                                 "heavy_workers workers, so the others stay free for small ones")
+    heavy_workers: int | None = Field(
+        None, ge=1, description="workers heavy renders may hold at once (default: all but one)")
+    heavy_queue_size: int = Field(
+        2, ge=0, description="heavy renders that may wait for a heavy slot; more get 503")
+
+    # Liveness of the workers
+    heartbeat_s: float = Field(1.0, gt=0.0, description="how often a worker says it is alive")
+    heartbeat_timeout_s: float = Field(
+        15.0, gt=0.0, description="a worker silent this long is hung: killed and replaced")
+    disconnect_poll_s: float = Field(
+        0.25, gt=0.0, description="how often a waiting render checks that its client is there")
 
     # Request limits (tighter than, or equal to, the engine's schema limits)
     max_body_bytes: int = Field(256 * 1024, ge=1024)
@@ -49,6 +73,8 @@ class Settings(BaseSettings):
     max_score_events: int = Field(5000, ge=1, le=MAX_EVENTS)
     score_import_time_limit_s: float = Field(
         10.0, gt=0.0, description="wall time a worker may spend importing one score file")
+    max_expanded_events: int = Field(
+        3000, ge=1, description="events once strums and string-less mutes count once per string")
     min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 
@@ -105,6 +131,17 @@ class Settings(BaseSettings):
         """Jobs rendering at once: one worker is left to /render unless there is only one."""
         return self.job_concurrency or max(1, self.workers - 1)
 
-    def time_limit_s(self, duration_s: float) -> float:
-        """Wall-time budget of one render of ``duration_s`` seconds of audio."""
-        return self.time_limit_base_s + self.time_limit_per_audio_s * duration_s
+    def time_limit_s(self, duration_s: float, estimated_s: float | None = None) -> float:
+        """Wall-time budget of one render of ``duration_s`` seconds of audio whose cost estimate
+        is ``estimated_s`` seconds: the estimate makes it proportional to the work, so that a
+        render far slower than its estimate is stopped long before the per-audio-second cap."""
+        cap = self.time_limit_base_s + self.time_limit_per_audio_s * duration_s
+        if estimated_s is None:
+            return cap
+        return min(cap, self.time_limit_base_s + self.time_limit_per_estimated_s * estimated_s)
+
+    def estimated_seconds(self, work: float) -> float:
+        return work / self.work_per_second
+
+    def heavy_slots(self) -> int:
+        return self.heavy_workers or max(1, self.workers - 1)

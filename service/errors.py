@@ -10,22 +10,24 @@
 | render past its time limit             | 504    | the worker was killed and replaced              |
 | worker process died mid-render         | 502    | the upstream (the worker) failed; it is replaced|
 | unexpected engine exception            | 500    | a bug to fix, logged with its message           |
+| client gone while its render waited/ran| (499)  | logged only: the render is cancelled            |
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import re
 from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.responses import JSONResponse, Response
 
 import engine
 
-from .pool import PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
+from .pool import ClientGone, PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
 
 log = logging.getLogger("service.errors")
 
@@ -41,6 +43,33 @@ def _event_tags() -> frozenset[str]:
 
 
 _EVENT_TAGS = _event_tags()
+
+
+def safe_json(value: Any) -> Any:
+    """``value`` made writable as strict JSON: non-finite floats become their text (``"inf"``) and
+    strings lose what UTF-8 cannot carry (a lone surrogate such as ``"\\ud800"``, which a JSON body
+    may hold and an error message may echo, becomes its escape).  Every error body goes through
+    it, so echoing the input can never break the answer."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else repr(value)
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            return value.encode("utf-8", "backslashreplace").decode("utf-8")
+        return value
+    if isinstance(value, dict):
+        return {safe_json(k): safe_json(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [safe_json(v) for v in value]
+    return value
+
+
+class SafeJSONResponse(JSONResponse):
+    """A JSON response whose content is passed through ``safe_json`` first."""
+
+    def render(self, content: Any) -> bytes:
+        return super().render(safe_json(content))
 
 
 def field_path(loc: tuple | list, msg: str) -> str:
@@ -85,15 +114,15 @@ def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
             item.pop("input", None)  # the whole scene: no need to echo it back
         item.pop("url", None)
         out.append(item)
-    return jsonable_encoder(out)
+    return safe_json(jsonable_encoder(out))
 
 
 async def validation_error(request: Request, exc: RequestValidationError) -> JSONResponse:
-    return JSONResponse({"detail": _detail(list(exc.errors()))}, status_code=422)
+    return SafeJSONResponse({"detail": _detail(list(exc.errors()))}, status_code=422)
 
 
 def _message(status: int, message: str, headers: dict[str, str] | None = None) -> JSONResponse:
-    return JSONResponse({"detail": message}, status_code=status, headers=headers)
+    return SafeJSONResponse({"detail": message}, status_code=status, headers=headers)
 
 
 def install(app: FastAPI, retry_after_s: int) -> None:
@@ -119,6 +148,11 @@ def install(app: FastAPI, retry_after_s: int) -> None:
             "request_id": getattr(request.state, "request_id", None), "error": exc.message}})
         return _message(500, f"the engine failed on this scene: {exc.message}")
 
+    async def gone(request: Request, exc: Exception) -> Response:
+        # nobody reads this answer; 499 (nginx's "client closed request") marks it in the logs
+        return Response(status_code=499)
+
+    app.add_exception_handler(ClientGone, gone)
     app.add_exception_handler(PoolBusy, busy)
     app.add_exception_handler(PoolClosed, busy)
     app.add_exception_handler(RenderTimeout, timeout)

@@ -11,8 +11,16 @@ message to the event loop (``call_soon_threadsafe``); all pool state is touched 
 A worker's death shows up as end-of-file on its pipe, whatever killed it.
 
 Admission: at most ``workers + queue_size`` renders are in flight (running or waiting); more are
-refused at once (``PoolBusy`` -> 503 with Retry-After).  Each job has a deadline armed when it is
-dispatched; past it the worker is killed (``RenderTimeout`` -> 504) and replaced.
+refused at once (``PoolBusy`` -> 503 with Retry-After).  A heavy render (its cost estimate above
+``heavy_render_s``) also needs one of ``heavy_slots`` (all workers but one by default) and may
+wait for one only in a queue of its own (``heavy_queue_size``): two maximal renders cannot hold
+every worker while small renders wait.  Each job has a deadline armed when it is dispatched; past
+it the worker is killed (``RenderTimeout`` -> 504) and replaced.
+
+Liveness: every worker sends a heartbeat each ``heartbeat_s`` from a thread of its own (it beats
+while the main thread renders); a worker not heard from for ``_STALE_BEATS`` periods is not
+counted ready, and one silent for ``heartbeat_timeout_s`` (stopped, deadlocked) is killed and
+replaced by the watchdog, with its job answered as a worker death (502).
 """
 
 from __future__ import annotations
@@ -35,6 +43,8 @@ log = logging.getLogger("service.pool")
 _TERMINAL = frozenset({"done", "end", "cancelled", "error"})
 _CANCEL_GRACE_S = 5.0  # a cancelled stream's worker that has not stopped by then is killed
 _RESPAWN_BACKOFF_MAX_S = 30.0
+_START_GRACE_S = 60.0  # a new worker process may take this long to send its first heartbeat
+_STALE_BEATS = 3.0  # a ready worker silent for this many heartbeat periods is not counted ready
 
 
 class PoolError(Exception):
@@ -84,6 +94,8 @@ class _Job:
     timer: asyncio.TimerHandle | None = None
     finished: bool = False
     on_finish: Callable[[], None] | None = None  # frees the admission slot of a render
+    heavy: bool = False
+    cleanup: list[Callable[[], None]] = field(default_factory=list)  # e.g. frees a heavy slot
 
 
 class _Worker:
@@ -95,7 +107,8 @@ class _Worker:
         parent_conn, child_conn = ctx.Pipe(duplex=True)
         self.proc = ctx.Process(
             target=worker_module.main,
-            args=(child_conn, pool.settings.warmup, pool.settings.stream_block_frames),
+            args=(child_conn, pool.settings.warmup, pool.settings.stream_block_frames,
+                  pool.settings.heartbeat_s),
             name=f"render-worker-{number}",
             daemon=True,  # never outlive the server, even if its shutdown is skipped
         )
@@ -103,6 +116,9 @@ class _Worker:
         child_conn.close()  # so that the worker's death closes the pipe for the reader
         self.conn = parent_conn
         self.started = time.monotonic()
+        self.last_seen = self.started  # any message, heartbeats included (set by the reader)
+        self.heard = False  # a first message came (the process is up and its heartbeat runs)
+        self.warmed = False  # said "ready" once (``ready`` goes False when it is being killed)
         self.ready = False
         self.alive = True
         self.job: _Job | None = None
@@ -122,6 +138,10 @@ class _Worker:
                 msg = self.conn.recv()
             except (EOFError, OSError):
                 break
+            self.last_seen = time.monotonic()
+            self.heard = True
+            if msg[0] == "beat":
+                continue
             try:
                 loop.call_soon_threadsafe(self.pool._on_message, self, msg)
             except RuntimeError:  # the loop is closed: the server is gone
@@ -137,7 +157,17 @@ class _Worker:
 
     def kill(self) -> None:
         if self.proc.is_alive():
-            self.proc.kill()
+            self.proc.kill()  # SIGKILL: also ends a stopped (SIGSTOP) process
+
+    def silent_for(self) -> float:
+        return time.monotonic() - self.last_seen
+
+    def hung(self, timeout_s: float) -> bool:
+        """Silent for ``timeout_s`` since its last message; a process not heard from yet (Python
+        starting, imports) gets ``_START_GRACE_S`` first."""
+        if not self.heard:
+            return self.silent_for() > max(timeout_s, _START_GRACE_S)
+        return self.silent_for() > timeout_s
 
 
 class WorkerPool:
@@ -156,6 +186,12 @@ class WorkerPool:
         self._closing = False
         self._failed_starts = 0
         self.replaced = 0
+        self.hung = 0
+        self.heavy_slots = settings.heavy_slots()
+        self.heavy_capacity = self.heavy_slots + settings.heavy_queue_size
+        self._heavy_running = asyncio.Semaphore(self.heavy_slots)
+        self._heavy_in_flight = 0
+        self._watchdog: asyncio.Task | None = None
 
     # ---- life cycle -------------------------------------------------------------------------
 
@@ -164,9 +200,12 @@ class WorkerPool:
         self.loop = asyncio.get_running_loop()
         for _ in range(self.size):
             self._spawn()
+        self._watchdog = self.loop.create_task(self._watch())
 
     async def close(self, timeout_s: float = 5.0) -> None:
         self._closing = True
+        if self._watchdog is not None:
+            self._watchdog.cancel()
         for w in self._workers:
             try:
                 w.send(None)
@@ -185,19 +224,49 @@ class WorkerPool:
         self._workers.append(w)
         log.info("worker started", extra={"fields": {"worker": w.number, "pid": w.pid}})
 
+    def _responsive(self, w: _Worker) -> bool:
+        """Ready, and heard from lately (a stopped or hung worker stops its heartbeats)."""
+        return w.alive and w.ready and w.silent_for() < _STALE_BEATS * self.settings.heartbeat_s
+
     @property
     def ready(self) -> bool:
-        return self._warm and any(w.ready for w in self._workers)
+        """A worker can take a render now (``/health/ready``)."""
+        return self._warm and any(self._responsive(w) for w in self._workers)
+
+    @property
+    def healthy(self) -> bool:
+        """Warmed up once and some worker process is alive: ready, a replacement warming up, or
+        a hung one about to be replaced.  The pool heals itself (the watchdog kills what hangs,
+        an exit is replaced at once), so a replacement in progress is no failure (``/health``);
+        no process at all (replacements failing to start, in back-off) is."""
+        return self._warm and not self._closing and any(w.alive for w in self._workers)
 
     def status(self) -> dict[str, Any]:
         return {
             "workers": self.size,
-            "workers_ready": sum(w.ready for w in self._workers),
+            "workers_ready": sum(self._responsive(w) for w in self._workers),
             "busy": sum(w.job is not None for w in self._workers),
             "in_flight": self._in_flight,
             "capacity": self.capacity,
             "replaced": self.replaced,
+            "heavy_in_flight": self._heavy_in_flight,
+            "heavy_capacity": self.heavy_capacity,
+            "hung": self.hung,
         }
+
+    async def _watch(self) -> None:
+        """Kill a worker that has sent nothing (not even a heartbeat) for heartbeat_timeout_s:
+        stopped, deadlocked or stuck where no thread runs.  Its exit then replaces it."""
+        period = min(self.settings.heartbeat_s, self.settings.heartbeat_timeout_s / 4)
+        while not self._closing:
+            await asyncio.sleep(period)
+            for w in list(self._workers):
+                if w.alive and w.hung(self.settings.heartbeat_timeout_s):
+                    self.hung += 1
+                    log.warning("worker hung (no heartbeat); killing it", extra={"fields": {
+                        "worker": w.number, "pid": w.pid, "silent_s": round(w.silent_for(), 1)}})
+                    w.ready = False
+                    w.kill()
 
     def pids(self) -> list[int]:
         return [w.pid for w in self._workers if w.alive]
@@ -210,7 +279,7 @@ class WorkerPool:
     def _on_message(self, w: _Worker, msg: tuple) -> None:
         kind = msg[0]
         if kind == "ready":
-            w.ready = True
+            w.ready = w.warmed = True
             self._failed_starts = 0
             log.info("worker ready", extra={"fields": {
                 "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
@@ -230,7 +299,7 @@ class WorkerPool:
                 self._idle.put_nowait(w)
 
     def _on_exit(self, w: _Worker, exitcode: int | None) -> None:
-        was_ready = w.ready
+        was_ready = w.warmed
         w.alive = False
         w.ready = False
         if w in self._workers:
@@ -254,7 +323,10 @@ class WorkerPool:
         if not was_ready and w.jobs_done == 0 and time.monotonic() - w.started < 60.0:
             self._failed_starts += 1
             delay = min(_RESPAWN_BACKOFF_MAX_S, 0.5 * 2 ** (self._failed_starts - 1))
-        self.loop.call_later(delay, self._respawn)
+        if delay:
+            self.loop.call_later(delay, self._respawn)
+        else:
+            self._respawn()  # at once: /health never sees the pool with a worker missing
 
     def _respawn(self) -> None:
         if not self._closing and len(self._workers) < self.size:
@@ -271,6 +343,8 @@ class WorkerPool:
             job.timer = None
         if job.on_finish is not None:
             job.on_finish()
+        for f in job.cleanup:
+            f()
 
     def _on_deadline(self, job: _Job, reason: str = "render past its time limit") -> None:
         w = job.worker
@@ -281,21 +355,37 @@ class WorkerPool:
         job.messages.put_nowait(("timeout", job.id))
         self._finish(job)
         w.job = None  # its exit is then a plain replacement
+        w.ready = False  # not ready from now, not from when its exit is seen
         w.kill()
 
-    def _admit(self) -> None:
+    def _admit(self, heavy: bool = False) -> Callable[[], None]:
+        """Take an admission slot (and a heavy one for a heavy render); returns its release."""
         if self._closing:
             raise PoolClosed("the server is shutting down")
         if self._in_flight >= self.capacity:
             raise PoolBusy(f"all {self.size} render workers are busy and the queue "
                            f"({self.settings.queue_size}) is full")
+        if heavy and self._heavy_in_flight >= self.heavy_capacity:
+            raise PoolBusy(
+                f"this render is heavy (estimated over {self.settings.heavy_render_s:g} s) and "
+                f"the {self.heavy_slots} worker(s) for heavy renders and their queue "
+                f"({self.settings.heavy_queue_size}) are full; smaller renders are still served")
         self._in_flight += 1
+        self._heavy_in_flight += heavy
+        released = False
 
-    def _release(self) -> None:
-        self._in_flight -= 1
+        def release() -> None:
+            nonlocal released
+            if not released:
+                released = True
+                self._in_flight -= 1
+                self._heavy_in_flight -= heavy
 
-    async def _acquire(self) -> _Worker:
-        deadline = self.loop.time() + self.settings.queue_timeout_s
+        return release
+
+    async def _acquire(self, deadline: float | None = None) -> _Worker:
+        if deadline is None:
+            deadline = self.loop.time() + self.settings.queue_timeout_s
         while True:
             remaining = deadline - self.loop.time()
             try:
@@ -307,24 +397,48 @@ class WorkerPool:
                        if ready < self.size and not self._warm else "")
                 raise PoolBusy(f"no render worker became free within "
                                f"{self.settings.queue_timeout_s:g} s{why}") from None
-            if w.alive and w.ready and w.job is None:
+            if self._responsive(w) and w.job is None:
                 return w
+            if w.alive and w.ready and w.job is None:  # silent for now: look again later
+                self.loop.call_later(self.settings.heartbeat_s, self._requeue, w)
+
+    def _requeue(self, w: _Worker) -> None:
+        if w.alive and w.ready and w.job is None and not self._closing:
+            self._idle.put_nowait(w)
 
     async def _dispatch(self, kind: str, payload: dict[str, Any], time_limit_s: float,
-                        on_finish: Callable[[], None] | None = None) -> _Job:
-        """Hand a job to an idle worker and arm its deadline."""
-        while True:
-            w = await self._acquire()
-            job = _Job(next(self._job_ids), kind, on_finish=on_finish)
-            job.worker = w
-            w.job = job
+                        on_finish: Callable[[], None] | None = None,
+                        heavy: bool = False) -> _Job:
+        """Hand a job to an idle worker and arm its deadline.  A heavy job first waits for one
+        of the ``heavy_slots`` (fewer than the workers), so small renders always find one."""
+        deadline = self.loop.time() + self.settings.queue_timeout_s
+        if heavy:
             try:
-                w.send((kind, job.id, payload))
-            except OSError:
-                w.job = None  # died between being idle and now; its exit replaces it
-                continue
-            job.timer = self.loop.call_later(time_limit_s, self._on_deadline, job)
-            return job
+                await asyncio.wait_for(self._heavy_running.acquire(),
+                                       max(deadline - self.loop.time(), 0.0))
+            except TimeoutError:
+                raise PoolBusy(f"no worker for heavy renders became free within "
+                               f"{self.settings.queue_timeout_s:g} s") from None
+        try:
+            while True:
+                w = await self._acquire(deadline)
+                job = _Job(next(self._job_ids), kind, on_finish=on_finish, heavy=heavy)
+                if heavy:
+                    job.cleanup.append(self._heavy_running.release)
+                job.worker = w
+                w.job = job
+                try:
+                    w.send((kind, job.id, payload))
+                except OSError:
+                    w.job = None  # died between being idle and now; its exit replaces it
+                    job.cleanup.clear()
+                    continue
+                job.timer = self.loop.call_later(time_limit_s, self._on_deadline, job)
+                return job
+        except BaseException:
+            if heavy:
+                self._heavy_running.release()
+            raise
 
     @staticmethod
     def _raise_for(msg: tuple, time_limit_s: float) -> None:
@@ -338,16 +452,25 @@ class WorkerPool:
         if kind == "error":
             raise RenderFailed(msg[2], msg[3])
 
-    async def render(self, payload: dict[str, Any], time_limit_s: float) -> RenderOutput:
-        """Render a whole scene in a worker; ``payload`` is what ``worker._render`` reads."""
-        self._admit()
+    async def render(self, payload: dict[str, Any], time_limit_s: float,
+                     heavy: bool = False) -> RenderOutput:
+        """Render a whole scene in a worker; ``payload`` is what ``worker._render`` reads.
+        Cancelled (the client went away): a render still waiting costs nothing more; a heavy one
+        running is stopped (its worker killed and replaced); a small one runs out, holding its
+        slot until its worker is done."""
+        release = self._admit(heavy)
         try:
-            # The slot is held until the worker is done, even if this request goes away first.
-            job = await self._dispatch("render", payload, time_limit_s, on_finish=self._release)
+            job = await self._dispatch("render", payload, time_limit_s, on_finish=release,
+                                       heavy=heavy)
         except BaseException:
-            self._release()
+            release()
             raise
-        msg = await job.messages.get()
+        try:
+            msg = await job.messages.get()
+        except asyncio.CancelledError:
+            if heavy:
+                self._on_deadline(job, "client gone during a heavy render")
+            raise
         self._raise_for(msg, time_limit_s)
         meta = msg[3]
         return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"],
@@ -359,30 +482,31 @@ class WorkerPool:
         scene's labels) under the same admission and deadline as a render: a hostile file is
         handled by a worker that is killed at the deadline, never by the API process.  Returns
         the worker's bytes and meta."""
-        self._admit()
+        release = self._admit()
         try:
-            job = await self._dispatch(kind, payload, time_limit_s, on_finish=self._release)
+            job = await self._dispatch(kind, payload, time_limit_s, on_finish=release)
         except BaseException:
-            self._release()
+            release()
             raise
         msg = await job.messages.get()
         self._raise_for(msg, time_limit_s)
         return msg[2], msg[3]
 
-    async def stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
+    async def stream(self, payload: dict[str, Any], time_limit_s: float,
+                     heavy: bool = False) -> RenderStream:
         """Start a streamed render; returns once the first block exists (or fails before)."""
-        self._admit()
+        release = self._admit(heavy)
         job: _Job | None = None
         try:
-            job = await self._dispatch("stream", payload, time_limit_s)
+            job = await self._dispatch("stream", payload, time_limit_s, heavy=heavy)
             first = await job.messages.get()
             self._raise_for(first, time_limit_s)
         except BaseException:
             if job is not None:
                 self._cancel(job)  # e.g. the client left before the first block
-            self._release()
+            release()
             raise
-        return RenderStream(self, job, first, time_limit_s)
+        return RenderStream(self, job, first, time_limit_s, release)
 
     def _cancel(self, job: _Job) -> None:
         w = job.worker
@@ -420,7 +544,12 @@ class WorkerPool:
             if job is not None:
                 self._cancel(job)
             raise
-        return _JobStream(self, job, first, time_limit_s)
+        # it holds no admission slot: closing it only stops the render
+        return RenderStream(self, job, first, time_limit_s, release=lambda: None)
+
+
+class ClientGone(Exception):
+    """The client disconnected while its render waited or ran: nobody to answer."""
 
 
 class StreamAborted(Exception):
@@ -430,8 +559,10 @@ class StreamAborted(Exception):
 class RenderStream:
     """A streamed render in progress: the first block, then the rest as the worker sends it."""
 
-    def __init__(self, pool: WorkerPool, job: _Job, first: tuple, time_limit_s: float):
+    def __init__(self, pool: WorkerPool, job: _Job, first: tuple, time_limit_s: float,
+                 release: Callable[[], None]):
         self._pool = pool
+        self._release = release
         self._job = job
         self._first = first
         self._time_limit_s = time_limit_s
@@ -465,14 +596,4 @@ class RenderStream:
             return
         self._closed = True
         self._pool._cancel(self._job)
-        self._pool._release()
-
-
-class _JobStream(RenderStream):
-    """A job's stream: it holds no admission slot, so closing it only stops the render."""
-
-    def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        self._pool._cancel(self._job)
+        self._release()

@@ -12,11 +12,17 @@ class PoolStatus(BaseModel):
     in_flight: int = Field(description="renders admitted (running or waiting)")
     capacity: int = Field(description="workers + queue size; more renders are answered 503")
     replaced: int = Field(description="workers replaced since start (killed, timed out, crashed)")
+    heavy_in_flight: int = Field(0, description="heavy renders admitted (running or waiting)")
+    heavy_capacity: int = Field(0, description="heavy slots + their queue; more heavy renders "
+                                               "are answered 503")
+    hung: int = Field(0, description="workers killed since start for missing heartbeats")
 
 
 class Health(BaseModel):
-    status: str = Field(description="'ok' once every worker has warmed up, else 'starting'")
-    ready: bool
+    status: str = Field(description="'ok': a worker can take a render; 'degraded': warmed up "
+                                    "once, workers being replaced; 'starting': before the first "
+                                    "warm-up or no worker alive")
+    ready: bool = Field(description="a worker can take a render now")
     pool: PoolStatus
 
 
@@ -72,10 +78,20 @@ class Limits(BaseModel):
                                               "(POST /render/score)")
     score_formats: list[str] = Field(description="file suffixes POST /score/scene and "
                                                  "/render/score accept")
+    max_expanded_events: int = Field(description="events once strums and string-less mutes "
+                                                 "count once per string")
     min_sample_rate: int
     max_sample_rate: int
     time_limit_base_s: float
     time_limit_per_audio_s: float
+    time_limit_per_estimated_s: float = Field(
+        description="time limit = min(base + per_audio x duration, base + this x estimated s)")
+    max_render_s: float = Field(description="a scene whose estimated render time is longer is "
+                                            "refused (422)")
+    heavy_render_s: float = Field(description="renders estimated longer than this share fewer "
+                                              "workers (all but one by default)")
+    work_per_second: float = Field(description="work units (engine.estimate_cost) per second: "
+                                               "estimated s = work / this")
     stream_formats: list[str]
     formats: list[str]
     job_max_duration_s: float = Field(description="longest scene a job (POST /jobs) may render")

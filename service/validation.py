@@ -1,9 +1,10 @@
 """What the service checks on top of the engine's scene schema.
 
 * Strict JSON: Python's ``json`` (which FastAPI uses) accepts the non-standard tokens ``NaN``,
-  ``Infinity`` and ``-Infinity``.  The engine's schema refuses non-finite floats, but a token in a
-  string-typed field would reach it as text, so the tokens are refused here, before validation,
-  with the location of each.
+  ``Infinity`` and ``-Infinity``, turns a literal such as ``1e309`` into infinity and refuses an
+  integer of 4,300 digits or more with no location.  These are refused here, before validation,
+  with the location of each (a 422 naming the field), as are integer literals of more than
+  ``MAX_INT_DIGITS`` digits.
 * Service limits (``Settings``): duration, number of events, sample rate.  They are reported in the
   same shape as pydantic's own errors, so a client handles one format.
 """
@@ -11,23 +12,49 @@
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable, Coroutine, Iterator
 from typing import Any
 
 from fastapi import Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
+from starlette.requests import ClientDisconnect
 
 import engine
 
 from .config import Settings
+from .pool import ClientGone
 
 
 class _NonFinite:
-    """Stands in for a NaN/Infinity token while the body is scanned."""
+    """Stands in for a NaN/Infinity token (or a number literal out of range) while the body is
+    scanned; ``why`` ends the message."""
 
-    def __init__(self, token: str):
+    def __init__(self, token: str, why: str = "numbers must be finite"):
         self.token = token
+        self.why = why
+
+
+# Integer literals longer than this are out of range for every field (the longest a schema field
+# takes has 9 digits); Python's int() refuses 4,300 digits and more with a bare ValueError.
+MAX_INT_DIGITS = 100
+
+
+def _parse_float(text: str) -> Any:
+    x = float(text)
+    if math.isfinite(x):
+        return x
+    shown = text if len(text) <= 40 else text[:37] + "..."
+    return _NonFinite(shown, "the literal overflows a double (about 1.8e308); numbers must be finite")
+
+
+def _parse_int(text: str) -> Any:
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        return _NonFinite(f"an integer of {digits} digits",
+                          f"integer literals have at most {MAX_INT_DIGITS} digits")
+    return int(text)
 
 
 def _nonfinite_locations(data: Any) -> Iterator[tuple[tuple[str | int, ...], str]]:
@@ -36,7 +63,7 @@ def _nonfinite_locations(data: Any) -> Iterator[tuple[tuple[str | int, ...], str
     while stack:
         loc, value = stack.pop()
         if isinstance(value, _NonFinite):
-            yield loc, value.token
+            yield loc, value
         elif isinstance(value, dict):
             stack.extend(((*loc, k), v) for k, v in value.items())
         elif isinstance(value, list):
@@ -48,7 +75,8 @@ async def reject_nonfinite_json(request: Request) -> None:
     if not body:
         return
     try:
-        data = json.loads(body, parse_constant=_NonFinite)
+        data = json.loads(body, parse_constant=_NonFinite, parse_float=_parse_float,
+                          parse_int=_parse_int)
     except RecursionError:
         raise RequestValidationError([{
             "type": "json_invalid", "loc": ("body",), "msg": "JSON nested too deeply",
@@ -59,10 +87,10 @@ async def reject_nonfinite_json(request: Request) -> None:
         {
             "type": "finite_number",
             "loc": ("body", *loc),
-            "msg": f"{token} is not valid JSON: numbers must be finite",
-            "input": token,
+            "msg": f"{bad.token} is not valid here: {bad.why}",
+            "input": bad.token,
         }
-        for loc, token in sorted(_nonfinite_locations(data), key=lambda x: str(x[0]))
+        for loc, bad in sorted(_nonfinite_locations(data), key=lambda x: str(x[0]))
     ]
     if errors:
         raise RequestValidationError(errors)
@@ -75,7 +103,10 @@ class StrictJSONRoute(APIRoute):
         handler = super().get_route_handler()
 
         async def strict_handler(request: Request) -> Response:
-            await reject_nonfinite_json(request)
+            try:
+                await reject_nonfinite_json(request)
+            except ClientDisconnect:
+                raise ClientGone() from None  # left while sending its body: nobody to answer
             return await handler(request)
 
         return strict_handler
@@ -86,9 +117,10 @@ def _error(field: str, kind: str, msg: str, value: Any, ctx: dict[str, Any]) -> 
             "ctx": ctx}
 
 
-def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None = None) -> None:
+def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None = None) -> float:
     """Raise a 422 for a valid scene that is outside this server's limits (``max_events``: a
-    limit other than ``settings.max_events``, e.g. a score's)."""
+    limit other than ``settings.max_events``, e.g. a score's), its estimated cost included;
+    return the estimated seconds of its render (``engine.estimate_cost``)."""
     errors = []
     limit = settings.max_events if max_events is None else max_events
     events = scene.event_count()  # over all tracks
@@ -112,8 +144,31 @@ def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None
             f"{settings.max_sample_rate} Hz (service limits GUITAR_MIN_SAMPLE_RATE, "
             "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate,
             {"ge": settings.min_sample_rate, "le": settings.max_sample_rate}))
+    if not errors:
+        expanded = engine.expanded_event_count(scene)
+        if expanded > settings.max_expanded_events:
+            errors.append(_error(
+                "events", "too_long",
+                f"the events expand to {expanded} single-string events (a strum counts once per "
+                "string it plucks, a mute with no string once per string); at most "
+                f"{settings.max_expanded_events} (service limit GUITAR_MAX_EXPANDED_EVENTS)",
+                expanded, {"max_length": settings.max_expanded_events}))
     if errors:
         raise RequestValidationError(errors)
+    cost = engine.estimate_cost(scene)
+    seconds = settings.estimated_seconds(cost.work)
+    if seconds > settings.max_render_s:
+        most = settings.max_render_s * settings.work_per_second / cost.per_second
+        raise RequestValidationError([_error(
+            "duration", "render_cost",
+            f"this scene would take about {seconds:.0f} s to render ({len(cost.strings)} strings "
+            f"simulated at quality {scene.quality!r} and {scene.sample_rate} Hz cost about "
+            f"{cost.per_second / settings.work_per_second:.2f} s per second of audio); the "
+            f"server renders at most {settings.max_render_s:g} s per request (GUITAR_MAX_RENDER_S):"
+            f" at these settings the duration must be at most {most:.2f} s, or lower the quality, "
+            "the sample rate or the strings played", scene.duration,
+            {"le": round(most, 3), "estimated_s": round(seconds, 1)})])
+    return seconds
 
 
 def check_streamable(scene: engine.Scene) -> None:

@@ -5,7 +5,8 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
 
     parent -> worker   ("render", job_id, payload) | ("stream", job_id, payload)
                        | ("cancel", job_id) | None (stop)
-    worker -> parent   ("ready", pid, warmup_seconds)
+    worker -> parent   ("beat", pid)                                  every heartbeat_s, always
+                       ("ready", pid, warmup_seconds)
                        ("done", job_id, file_bytes, meta)             render finished
                        ("block", job_id, pcm_bytes, seconds_so_far, warnings)
                                                                       one streamed block
@@ -28,6 +29,7 @@ import io
 import json
 import os
 import signal
+import threading
 import time
 from multiprocessing.connection import Connection
 from typing import Any
@@ -37,10 +39,43 @@ import numpy as np
 from . import audio
 
 
-def main(conn: Connection, warmup: bool, block_frames: int) -> None:
+class _Pipe:
+    """The worker's end of the pipe, shared by the main thread and the heartbeat thread: one
+    message at a time goes out."""
+
+    def __init__(self, conn: Connection):
+        self._conn = conn
+        self._lock = threading.Lock()
+
+    def send(self, msg: Any) -> None:
+        with self._lock:
+            self._conn.send(msg)
+
+    def recv(self) -> Any:
+        return self._conn.recv()
+
+    def poll(self) -> bool:
+        return self._conn.poll()
+
+
+def _heartbeat(pipe: _Pipe, period_s: float) -> None:
+    # A thread of its own, so it beats while the main thread renders (numba releases the GIL
+    # between kernel calls, which are short) and stops only when the whole process does.
+    while True:
+        try:
+            pipe.send(("beat", os.getpid()))
+        except (OSError, EOFError, ValueError):
+            return  # the parent has gone away
+        time.sleep(period_s)
+
+
+def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float = 1.0) -> None:
     """Entry point of a worker process."""
     # Ctrl-C reaches the whole process group; the parent decides when workers stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    conn = _Pipe(conn)  # type: ignore[assignment]
+    threading.Thread(target=_heartbeat, args=(conn, heartbeat_s), name="heartbeat",
+                     daemon=True).start()
     import engine
 
     t0 = time.perf_counter()

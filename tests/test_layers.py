@@ -12,8 +12,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 # low to high, as engine/__init__.py lists them; a module may import only those before it
-ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "kernels", "string",
-         "controls", "intonation", "options", "output", "voice", "playability", "guitar",
+ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "grid", "cost", "kernels",
+         "string", "controls", "intonation", "options", "output", "voice", "playability", "guitar",
          "waveguide", "effects", "mix", "live", "rendering", "precompile"]
 
 
@@ -67,6 +67,8 @@ def test_kernels_know_nothing_above_them():
 def test_validating_a_scene_loads_no_numerics():
     code = ("import sys, engine; engine.parse_scene({'duration': 1.0, 'events': ["
             "{'type': 'pluck', 'time': 0, 'string': 1}]}); "
+            "engine.estimate_cost({'duration': 1.0, 'events': ["
+            "{'type': 'fret', 'time': 0, 'string': 1, 'fret': 3}]}); "
             "print(sorted(m for m in ('numba', 'scipy', 'engine.kernels') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                          check=True)

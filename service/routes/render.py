@@ -6,8 +6,9 @@ to the worker pool, turn the result into a response.  Status codes for failures:
 
 from __future__ import annotations
 
+import asyncio
 import json
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Request, Response
@@ -19,6 +20,7 @@ import engine
 
 from .. import audio
 from ..examples import scene_examples, stream_examples
+from ..pool import ClientGone
 from ..validation import StrictJSONRoute, check_limits, check_streamable
 
 router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
@@ -38,6 +40,27 @@ def scene_payload(scene: engine.Scene) -> dict[str, Any]:
     same defaults again).  A full dump of a scene with ``tracks`` would also carry the default
     top-level ``guitar``, which the schema refuses beside ``tracks``."""
     return scene.model_dump(mode="json", exclude_unset=True)
+
+
+async def _while_connected(request: Request, work: Awaitable[Any], poll_s: float) -> Any:
+    """Await ``work`` (the pool's render or the start of a stream), checking every ``poll_s``
+    that the client is still there; if it has gone, cancel ``work`` (a queued render leaves the
+    queue, a stream is cancelled in its worker, a heavy render's worker is stopped)."""
+    task = asyncio.ensure_future(work)
+    try:
+        while True:
+            done, _ = await asyncio.wait({task}, timeout=poll_s)
+            if done:
+                return task.result()
+            if await request.is_disconnected():
+                raise ClientGone()
+    finally:
+        if not task.done():
+            task.cancel()
+            try:
+                await task
+            except BaseException:  # noqa: S110 - cancelled or failed: the client is gone anyway
+                pass
 
 
 def _seconds(x: float) -> str:
@@ -81,8 +104,8 @@ async def render(
 ) -> Response:
     """Render a scene to a WAV, FLAC or Ogg Vorbis file."""
     settings, pool = request.state.settings, request.state.pool
-    check_limits(scene, settings)
-    out = await pool.render(
+    estimated_s = check_limits(scene, settings)
+    out = await _while_connected(request, pool.render(
         {
             "scene": scene_payload(scene),
             "diagnostics": scene.diagnostics,
@@ -91,8 +114,9 @@ async def render(
             "subtype": scene.output.subtype,
             "channels": scene.output.channels,
         },
-        settings.time_limit_s(scene.duration),
-    )
+        settings.time_limit_s(scene.duration, estimated_s),
+        heavy=estimated_s > settings.heavy_render_s,
+    ), settings.disconnect_poll_s)
     audio_s = out.frames / scene.sample_rate
     request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
     headers = {
@@ -144,16 +168,19 @@ async def render_stream(
     those of ``POST /render`` for the same scene with ``output.normalize: false``; ``normalize``
     and ``diagnostics`` are ignored here, and ``flac``/``ogg`` are refused (422)."""
     settings, pool = request.state.settings, request.state.pool
-    check_limits(scene, settings)
+    estimated_s = check_limits(scene, settings)
     check_streamable(scene)
     rate, subtype, channels = scene.sample_rate, scene.output.subtype, scene.output.channels
     frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
     scene_json = scene_payload(scene)
     scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them
-    stream = await pool.stream(
+    # A client gone before the first block cancels the stream in its worker (or its place in
+    # the queue); after, the response's on_close does.
+    stream = await _while_connected(request, pool.stream(
         {"scene": scene_json, "frames": frames, "subtype": subtype, "channels": channels},
-        settings.time_limit_s(scene.duration))
+        settings.time_limit_s(scene.duration, estimated_s),
+        heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
     audio_s = frames / rate
     request.state.audio_seconds = audio_s
     headers = {

@@ -139,9 +139,11 @@ def harness() -> Iterator[AppHarness]:
 
 @pytest.fixture(scope="session")
 def tiny_harness() -> Iterator[AppHarness]:
-    """One worker, no queue and a short time limit: for 503 and 504."""
+    """One worker, no queue and a short time limit: for 503 and 504 (a budget far above the
+    default, so that a render can be sent that outlasts the time limit)."""
     settings = Settings(workers=1, queue_size=0, time_limit_base_s=0.5, time_limit_per_audio_s=0.0,
-                        queue_timeout_s=5.0, retry_after_s=3, stream_block_frames=1 << 20)
+                        queue_timeout_s=5.0, retry_after_s=3, stream_block_frames=1 << 20,
+                        max_render_s=1000.0)
     h = AppHarness(settings).start()
     yield h
     h.stop()

@@ -35,6 +35,8 @@ def test_the_documented_defaults_are_the_codes(monkeypatch: pytest.MonkeyPatch) 
     assert set(documented) == set(Settings.model_fields), "a setting is missing from the docs"
     assert documented.pop("workers") == "CPUs this process may use"
     assert s.workers == len(os.sched_getaffinity(0))
+    assert documented.pop("heavy_workers") == "workers − 1 (at least 1)"
+    assert s.heavy_workers is None and s.heavy_slots() == max(1, s.workers - 1)
     for name, text in documented.items():
         value = getattr(s, name)
         if isinstance(value, bool):

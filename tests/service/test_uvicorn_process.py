@@ -66,9 +66,10 @@ def test_stream_sends_bytes_before_the_render_is_done(client: httpx.Client) -> N
 
 
 def test_client_disconnect_stops_the_render(client: httpx.Client, server: UvicornServer) -> None:
-    # 20 s of six strings at 96 kHz, quality high: far longer to render than the wait below.
+    # 12 s of six strings at 96 kHz, quality high (inside the default cost budget): far longer to
+    # render than the wait below.
     with httpx.Client(base_url=server.url, timeout=60.0) as other:
-        with other.stream("POST", "/render/stream", json=heavy_scene(20.0)) as r:
+        with other.stream("POST", "/render/stream", json=heavy_scene(12.0)) as r:
             assert r.status_code == 200
             next(r.iter_raw())
             assert client.get("/health").json()["pool"]["busy"] == 1

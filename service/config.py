@@ -79,7 +79,9 @@ class Settings(BaseSettings):
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 
     # Streaming
-    stream_block_frames: int = Field(4096, ge=256, le=1 << 20,
+    # a multiple of 1024: the waveguide model's blocks then give the samples of a whole render
+    # (engine/waveguide/voice.py, BLOCK_MULTIPLE)
+    stream_block_frames: int = Field(4096, ge=1024, le=1 << 20, multiple_of=1024,
                                      description="frames per streamed block")
 
     # Live play (WS /live): sessions run in processes of their own (service/live.py)

@@ -28,14 +28,21 @@ import numpy as np
 
 from ..kernels import entry_point
 from ..presets import Preset
+from ..voice import DECAY_CHECK_FRAMES
 from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
 from .fingering import FRET_REFLECTION, rest_height, stopped_frequency
+from .glide import GLIDE_EVERY
 from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
+# the kernel's glide (and collision reach) updates count from the start of each call, and ``run``
+# cuts every call at this global grid: blocks that are whole multiples of it give the same samples
+# however a render is cut
+BLOCK_MULTIPLE = DECAY_CHECK_FRAMES
+assert BLOCK_MULTIPLE % GLIDE_EVERY == 0 and BLOCK_MULTIPLE % REACH_EVERY == 0
 RELEASE_S = 0.002  # a contact (palm, harmonic touch, light finger) lets go over 2 ms
 LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
 RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
@@ -58,6 +65,7 @@ class WaveguideVoice:
     decay_velocity: float = 1e-7
     step: int = 0
     stopped: bool = False
+    _decay_peak: float = 0.0  # largest |output| since the last decay check
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
     _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
@@ -287,11 +295,36 @@ class WaveguideVoice:
 
     # -- running ----------------------------------------------------------------------------------
     def run(self, nsteps: int) -> np.ndarray:
-        """Advance nsteps samples; the pickups' velocity mix (m/s)."""
+        """Advance nsteps samples; the pickups' velocity mix (m/s).
+
+        The samples are run in pieces that end on the global grid of ``BLOCK_MULTIPLE`` samples,
+        and with the decay skip on the string is tested for decay only there, as the
+        finite-difference voice does.  The kernel's glide and reach updates count from the start
+        of a piece, so blocks of whole multiples of ``BLOCK_MULTIPLE`` samples give the same
+        samples however they are cut (``service.config`` holds a stream's blocks to that)."""
         out = np.zeros(nsteps)
         if self.stopped:
             self.step += nsteps
             return out
+        done = 0
+        while done < nsteps and not self.stopped:
+            m = min(nsteps - done, BLOCK_MULTIPLE - self.step % BLOCK_MULTIPLE)
+            seg = out[done:done + m]
+            self._advance(seg)
+            done += m
+            if not self.skip_decayed:
+                continue
+            self._decay_peak = max(self._decay_peak, float(np.max(np.abs(seg))))
+            if self.step % DECAY_CHECK_FRAMES == 0:
+                if self.step > self.timeline.last_step + 1:
+                    self._maybe_stop(self._decay_peak)
+                self._decay_peak = 0.0
+        self.step += nsteps - done  # stopped: the rest is silence
+        return out
+
+    def _advance(self, out: np.ndarray) -> None:
+        """Run len(out) samples into ``out``."""
+        nsteps = len(out)
         done = 0
         while done < nsteps:
             while (self.change_i < len(self.changes)
@@ -318,11 +351,8 @@ class WaveguideVoice:
                 raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
             self.step += m
             done += m
-        if self.skip_decayed and self.step > self.timeline.last_step + 1:
-            self._maybe_stop(out)
-        return out
 
-    def _maybe_stop(self, out: np.ndarray) -> None:
+    def _maybe_stop(self, peak: float) -> None:
         if any(f.rel < NEVER and f.rel >= self.step for f in self.timeline.fingers):
             return
         tail = 8.0 * self.rate / (2.0 * math.pi * LEAK_HZ)
@@ -331,7 +361,7 @@ class WaveguideVoice:
         if len(self.pb_step) and self.pb_step[-1] >= self.step:
             return
         vmax = max(np.max(np.abs(np.diff(self.R))), np.max(np.abs(np.diff(self.Mb)))) * self.rate
-        if vmax < self.decay_velocity and np.max(np.abs(out)) < self.decay_velocity:
+        if vmax < self.decay_velocity and peak < self.decay_velocity:
             self.stopped = True
 
     def energy(self) -> float:

@@ -207,35 +207,34 @@ def test_a_finger_too_light_to_seat_its_string_is_pointed_out(page: Any) -> None
     assert page.errors == []
 
 
-def test_a_scene_past_the_render_limit_is_rendered_as_a_job(tmp_path: Path) -> None:
+def test_a_scene_past_the_render_limit_is_rendered_as_a_job(page: Any, tmp_path: Path) -> None:
     """With /render limited to 1 s, the 2.5 s chord example goes to POST /jobs: the page shows
     the job's progress (static/jobs.js), then plays and draws the result."""
     s = UvicornServer(tmp_path, {"GUITAR_WORKERS": "2", "GUITAR_MAX_DURATION_S": "1",
                                  "GUITAR_DATA_DIR": str(tmp_path / "data")}).start()
     try:
-        with sync_api.sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-            pg = browser.new_page(viewport={"width": 1400, "height": 1000})
-            errors: list[str] = []
-            pg.on("pageerror", lambda e: errors.append(str(e)))
-            jobs: list[str] = []
-            pg.on("request", lambda r: jobs.append(r.url) if "/jobs" in r.url else None)
-            pg.goto(s.url + "/")
-            pg.wait_for_selector("body[data-ready='1']", timeout=30_000)
-            pg.click("button[data-example='chord']")
-            pg.click("#render")
-            pg.wait_for_selector("#job-progress:not([hidden])", timeout=30_000)
-            try:
-                pg.wait_for_selector("#spectrogram[data-drawn='1']", timeout=120_000)
-            except sync_api.TimeoutError:
-                raise AssertionError((pg.inner_text("#status"), pg.inner_text("#general-error"),
-                                      errors)) from None
-            assert "as a job" in pg.inner_text("#status")
-            assert pg.is_hidden("#job-progress")
-            duration = pg.evaluate("document.querySelector('#audio').duration")
-            assert duration == pytest.approx(2.5, abs=0.01)
-            assert any(u.endswith("/audio") for u in jobs), jobs
-            assert errors == []
-            browser.close()
+        # a page of the module's browser (a second Playwright would run inside the first's loop)
+        pg = page.context.browser.new_page(viewport={"width": 1400, "height": 1000})
+        errors: list[str] = []
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        jobs: list[str] = []
+        pg.on("request", lambda r: jobs.append(r.url) if "/jobs" in r.url else None)
+        pg.goto(s.url + "/")
+        pg.wait_for_selector("body[data-ready='1']", timeout=30_000)
+        pg.click("button[data-example='chord']")
+        pg.click("#render")
+        pg.wait_for_selector("#job-progress:not([hidden])", timeout=30_000)
+        try:
+            pg.wait_for_selector("#spectrogram[data-drawn='1']", timeout=120_000)
+        except sync_api.TimeoutError:
+            raise AssertionError((pg.inner_text("#status"), pg.inner_text("#general-error"),
+                                  errors)) from None
+        assert "as a job" in pg.inner_text("#status")
+        assert pg.is_hidden("#job-progress")
+        duration = pg.evaluate("document.querySelector('#audio').duration")
+        assert duration == pytest.approx(2.5, abs=0.01)
+        assert any(u.endswith("/audio") for u in jobs), jobs
+        assert errors == []
+        pg.close()
     finally:
         s.stop()

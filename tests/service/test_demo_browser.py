@@ -7,49 +7,24 @@ browser of its own.
 from __future__ import annotations
 
 import json
-import shutil
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, get_args
 
 import pytest
+from browser import LIT_PIXELS_JS, demo_page, require_browser
 from conftest import ROOT, UvicornServer
 
 import engine
 from engine.scene import Event
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run"]
-
-if CHROMIUM is None:
-    pytest.skip("chromium is not installed (apt-get install chromium)", allow_module_level=True)
-sync_api = pytest.importorskip("playwright.sync_api",
-                               reason="playwright is not installed (pip install playwright)")
-
-# Share of canvas pixels that differ from the darkest colour of the image.
-_LIT_PIXELS_JS = """(sel) => {
-  const c = document.querySelector(sel);
-  const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-  let min = 1e9;
-  for (let i = 0; i < d.length; i += 4) min = Math.min(min, d[i] + d[i + 1] + d[i + 2]);
-  let lit = 0;
-  for (let i = 0; i < d.length; i += 4) if (d[i] + d[i + 1] + d[i + 2] > min + 30) lit++;
-  return lit / (d.length / 4);
-}"""
+sync_api = require_browser()
 
 
 @pytest.fixture(scope="module")
 def page(server: UvicornServer) -> Iterator[Any]:
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1400, "height": 1000})
-        pg.errors = []  # type: ignore[attr-defined]
-        pg.on("pageerror", lambda e: pg.errors.append(str(e)))  # type: ignore[attr-defined]
-        pg.goto(server.url + "/")
-        pg.wait_for_selector("body[data-ready='1']", timeout=30_000)
+    with demo_page(sync_api, server.url, height=1000) as pg:
         yield pg
-        browser.close()
 
 
 def _render_example(page: Any, example: str, duration: float) -> None:
@@ -63,12 +38,12 @@ def _render_example(page: Any, example: str, duration: float) -> None:
         return {src: a.src, duration: a.duration, error: a.error && a.error.code}; }""")
     assert audio["src"].startswith("blob:") and audio["error"] is None
     assert audio["duration"] == pytest.approx(duration, abs=0.01)
-    assert page.evaluate(_LIT_PIXELS_JS, "#spectrogram") > 0.2
+    assert page.evaluate(LIT_PIXELS_JS, "#spectrogram") > 0.2
 
 
 def test_render_an_example_plays_and_draws(page: Any, tmp_path: Path) -> None:
     _render_example(page, "chord", 2.5)
-    assert page.evaluate(_LIT_PIXELS_JS, "#waveform") > 0.01
+    assert page.evaluate(LIT_PIXELS_JS, "#waveform") > 0.01
     assert "Rendered" in page.inner_text("#status")
     assert "real time" in page.inner_text("#stat-rtf")
     assert page.get_attribute("#download", "download") == "guitar.wav"
@@ -82,7 +57,7 @@ def test_stereo_render(page: Any) -> None:
     page.click("#render")
     page.wait_for_selector("#spectrogram[data-drawn='1']", timeout=60_000)
     assert "stereo" in page.inner_text("#stat-audio")
-    assert page.evaluate(_LIT_PIXELS_JS, "#spectrogram") > 0.2
+    assert page.evaluate(LIT_PIXELS_JS, "#spectrogram") > 0.2
     page.uncheck("#stereo")
     assert page.errors == []
 

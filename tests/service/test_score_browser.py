@@ -7,49 +7,23 @@ browser of its own.
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from browser import AUDIO_ARGS, LIT_PIXELS_JS, demo_page, require_browser
 from conftest import UvicornServer
 
 from tests.score_files import small_gp5, truncated_gp5
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run",
-        "--autoplay-policy=no-user-gesture-required"]
-
-if CHROMIUM is None:
-    pytest.skip("chromium is not installed (apt-get install chromium)", allow_module_level=True)
-sync_api = pytest.importorskip("playwright.sync_api",
-                               reason="playwright is not installed (pip install playwright)")
-
-# Share of a canvas's pixels brighter than its darkest colour.
-_LIT_PIXELS_JS = """(sel) => {
-  const c = document.querySelector(sel);
-  const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
-  let min = 1e9;
-  for (let i = 0; i < d.length; i += 4) min = Math.min(min, d[i] + d[i + 1] + d[i + 2]);
-  let lit = 0;
-  for (let i = 0; i < d.length; i += 4) if (d[i] + d[i + 1] + d[i + 2] > min + 30) lit++;
-  return lit / (d.length / 4);
-}"""
+sync_api = require_browser()
 
 
 @pytest.fixture(scope="module")
 def page(server: UvicornServer) -> Iterator[Any]:
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        pg = browser.new_page(viewport={"width": 1400, "height": 1400})
-        pg.errors = []  # type: ignore[attr-defined]
-        pg.on("pageerror", lambda e: pg.errors.append(str(e)))  # type: ignore[attr-defined]
-        pg.goto(server.url + "/")
-        pg.wait_for_selector("body[data-ready='1']", timeout=30_000)
+    with demo_page(sync_api, server.url, height=1400, extra_args=tuple(AUDIO_ARGS)) as pg:
         yield pg
-        browser.close()
 
 
 def _open(page: Any, name: str, data: bytes) -> None:
@@ -86,8 +60,8 @@ def test_open_choose_render_play_and_see_the_notes(page: Any, tmp_path: Path) ->
     assert audio["src"].startswith("blob:") and audio["error"] is None
     assert audio["duration"] == pytest.approx(2.5, abs=0.01)
     assert page.get_attribute("#score-roll", "data-notes") == "4"  # one track's four notes
-    assert page.evaluate(_LIT_PIXELS_JS, "#score-waveform") > 0.05
-    assert page.evaluate(_LIT_PIXELS_JS, "#score-roll") > 0.02
+    assert page.evaluate(LIT_PIXELS_JS, "#score-waveform") > 0.05
+    assert page.evaluate(LIT_PIXELS_JS, "#score-roll") > 0.02
     assert page.inner_text("#score-error") == ""
 
     # Hovering the first note names its string and fret (D4: string 2, fret 3).

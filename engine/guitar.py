@@ -37,7 +37,7 @@ from . import kernels
 from .controls import events_on, stopped_frets, string_controls
 from .intonation import fret_shifts, press_force
 from .options import GAMMA_RULES, QUALITY, RenderOptions
-from .output import Body, Decimator, default_pan, pan_gains
+from .output import Body, Decimator, add_to_mix, default_pan, pan_gains
 from .playability import finger_warnings, pull_off_warnings
 from .presets import Preset
 from .scene import Scene, frame_count
@@ -80,12 +80,7 @@ class Guitar:
         for v in self.voices:
             target = (self.frame + m) * v.oversample + v.decimator.lead
             y = v.decimator(v.run(target - v.step))
-            if self.channels == 2:
-                gl, gr = self.pans[v.index]
-                mix[:, 0] += gl * y
-                mix[:, 1] += gr * y
-            else:
-                mix += y
+            add_to_mix(mix, y, self.pans[v.index])
         self.frame += m
         return self.body(mix) if self.body is not None else mix
 

@@ -110,6 +110,16 @@ def pan_gains(pan: float) -> tuple[float, float]:
     return math.cos(a), math.sin(a)
 
 
+def add_to_mix(mix: np.ndarray, y: np.ndarray, gains: tuple[float, float]) -> None:
+    """Add one string's output ``y`` to ``mix``: as it is in mono, with its (left, right) pan
+    ``gains`` in stereo (``mix`` of shape (frames, 2))."""
+    if mix.ndim == 2:
+        mix[:, 0] += gains[0] * y
+        mix[:, 1] += gains[1] * y
+    else:
+        mix += y
+
+
 def default_pan(n_strings: int) -> list[float]:
     """Low strings to the left, high strings to the right (as the player hears it), +-0.6."""
     if n_strings == 1:

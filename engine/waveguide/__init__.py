@@ -44,7 +44,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..output import Body, default_pan, pan_gains
+from ..output import Body, add_to_mix, default_pan, pan_gains
 from ..presets import Preset
 from ..scene import Scene
 from .controls import timeline
@@ -99,12 +99,7 @@ class WaveguideInstrument:
         mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
         for v in self.voices:
             y = v.run(m)
-            if self.channels == 2:
-                gl, gr = self.pans[v.index]
-                mix[:, 0] += gl * y
-                mix[:, 1] += gr * y
-            else:
-                mix += y
+            add_to_mix(mix, y, self.pans[v.index])
         self.frame += m
         return self.body(mix) if self.body is not None else mix
 

@@ -21,13 +21,13 @@ import asyncio
 import itertools
 import logging
 import multiprocessing as mp
-import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 from . import live_worker
 from .config import Settings
+from .processes import PipedProcess
 
 log = logging.getLogger("service.live")
 
@@ -48,52 +48,15 @@ class LiveSession:
     closed: bool = False
 
 
-class _LiveWorker:
+class _LiveWorker(PipedProcess):
+    """A live worker: the sessions open on it."""
+
     def __init__(self, pool: LivePool, ctx: Any, number: int):
-        self.pool = pool
-        self.number = number
-        parent_conn, child_conn = ctx.Pipe(duplex=True)
-        self.proc = ctx.Process(
-            target=live_worker.main,
-            args=(child_conn, pool.settings.warmup, pool.settings.live_lead_ms / 1000.0,
-                  pool.settings.live_nice),
-            name=f"live-worker-{number}", daemon=True)
-        self.proc.start()
-        child_conn.close()
-        self.conn = parent_conn
-        self.started = time.monotonic()
-        self.ready = False
-        self.alive = True
         self.sessions: dict[int, LiveSession] = {}
-        self._send_lock = threading.Lock()
-        self.thread = threading.Thread(target=self._read, name=f"{self.proc.name}-reader",
-                                       daemon=True)
-        self.thread.start()
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid or 0
-
-    def _read(self) -> None:
-        loop = self.pool.loop
-        while True:
-            try:
-                msg = self.conn.recv()
-            except (EOFError, OSError):
-                break
-            try:
-                loop.call_soon_threadsafe(self.pool._on_message, self, msg)
-            except RuntimeError:
-                return
-        self.proc.join()
-        try:
-            loop.call_soon_threadsafe(self.pool._on_exit, self, self.proc.exitcode)
-        except RuntimeError:
-            pass
-
-    def send(self, msg: Any) -> None:
-        with self._send_lock:
-            self.conn.send(msg)
+        s = pool.settings
+        super().__init__(pool, ctx, number, live_worker.main,
+                         (s.warmup, s.live_lead_ms / 1000.0, s.live_nice),
+                         f"live-worker-{number}")
 
 
 class LivePool:

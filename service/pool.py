@@ -29,7 +29,6 @@ import asyncio
 import itertools
 import logging
 import multiprocessing as mp
-import threading
 import time
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass, field
@@ -37,6 +36,7 @@ from typing import Any
 
 from . import worker as worker_module
 from .config import Settings
+from .processes import PipedProcess
 
 log = logging.getLogger("service.pool")
 
@@ -98,66 +98,25 @@ class _Job:
     cleanup: list[Callable[[], None]] = field(default_factory=list)  # e.g. frees a heavy slot
 
 
-class _Worker:
-    """One worker process, its pipe and the thread that reads the pipe."""
+class _Worker(PipedProcess):
+    """A render worker: its job, and what it last said (heartbeats included)."""
 
     def __init__(self, pool: WorkerPool, ctx: Any, number: int):
-        self.pool = pool
-        self.number = number
-        parent_conn, child_conn = ctx.Pipe(duplex=True)
-        self.proc = ctx.Process(
-            target=worker_module.main,
-            args=(child_conn, pool.settings.warmup, pool.settings.stream_block_frames,
-                  pool.settings.heartbeat_s),
-            name=f"render-worker-{number}",
-            daemon=True,  # never outlive the server, even if its shutdown is skipped
-        )
-        self.proc.start()
-        child_conn.close()  # so that the worker's death closes the pipe for the reader
-        self.conn = parent_conn
-        self.started = time.monotonic()
-        self.last_seen = self.started  # any message, heartbeats included (set by the reader)
+        self.last_seen = time.monotonic()  # any message, heartbeats included (set by the reader)
         self.heard = False  # a first message came (the process is up and its heartbeat runs)
         self.warmed = False  # said "ready" once (``ready`` goes False when it is being killed)
-        self.ready = False
-        self.alive = True
         self.job: _Job | None = None
         self.jobs_done = 0
-        self.thread = threading.Thread(target=self._read, name=f"{self.proc.name}-reader",
-                                       daemon=True)
-        self.thread.start()
+        s = pool.settings
+        super().__init__(pool, ctx, number, worker_module.main,
+                         (s.warmup, s.stream_block_frames, s.heartbeat_s),
+                         f"render-worker-{number}")
+        self.last_seen = self.started
 
-    @property
-    def pid(self) -> int:
-        return self.proc.pid or 0
-
-    def _read(self) -> None:
-        loop = self.pool.loop
-        while True:
-            try:
-                msg = self.conn.recv()
-            except (EOFError, OSError):
-                break
-            self.last_seen = time.monotonic()
-            self.heard = True
-            if msg[0] == "beat":
-                continue
-            try:
-                loop.call_soon_threadsafe(self.pool._on_message, self, msg)
-            except RuntimeError:  # the loop is closed: the server is gone
-                return
-        self.proc.join()
-        try:
-            loop.call_soon_threadsafe(self.pool._on_exit, self, self.proc.exitcode)
-        except RuntimeError:
-            pass
-
-    def send(self, msg: Any) -> None:
-        self.conn.send(msg)
-
-    def kill(self) -> None:
-        if self.proc.is_alive():
-            self.proc.kill()  # SIGKILL: also ends a stopped (SIGSTOP) process
+    def received(self, msg: Any) -> bool:
+        self.last_seen = time.monotonic()
+        self.heard = True
+        return msg[0] != "beat"
 
     def silent_for(self) -> float:
         return time.monotonic() - self.last_seen

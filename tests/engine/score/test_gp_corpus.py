@@ -21,26 +21,31 @@ def _files(collecting: bool = False):
     return corpus("gp", "*.gp[345]", collecting)
 
 
-def _independent_count(path: str, scene) -> int:
-    """Notes a player attacks, counted from PyGuitarPro's model: every note of a pitched track
-    that is not a rest, a tie or a dead note, plus its grace note, once per time its measure is
-    played."""
+def _played_notes(path: str, scene):
+    """Every note of the score's pitched tracks that the scene kept, once per time its measure is
+    played (PyGuitarPro's model, read apart from the importer)."""
     song = guitarpro.parse(path)
     order = playback_order(song.measureHeaders)
     kept = {t["name"] for t in scene["tracks"]}
-    count = 0
     for t in song.tracks:
         if t.isPercussionTrack or (t.name or f"Track {t.number}") not in kept:
             continue
         for m in order:
             for voice in t.measures[m].voices:
                 for beat in voice.beats:
-                    for note in beat.notes:
-                        if note.type.name in ("normal",):
-                            count += 1
-                            g = note.effect.grace
-                            if g is not None and not g.isDead:
-                                count += 1
+                    yield from beat.notes
+
+
+def _independent_count(path: str, scene) -> int:
+    """Notes a player attacks: every note that is not a rest, a tie or a dead note, plus its
+    grace note."""
+    count = 0
+    for note in _played_notes(path, scene):
+        if note.type.name == "normal":
+            count += 1
+            g = note.effect.grace
+            if g is not None and not g.isDead:
+                count += 1
     return count
 
 
@@ -85,20 +90,9 @@ def test_gp_file_becomes_scene_with_matching_labels(path):
 
 
 def _dead_count(path, scene) -> int:
-    song = guitarpro.parse(path)
-    order = playback_order(song.measureHeaders)
-    kept = {t["name"] for t in scene["tracks"]}
-    n = 0
-    for t in song.tracks:
-        if t.isPercussionTrack or (t.name or f"Track {t.number}") not in kept:
-            continue
-        for m in order:
-            for v in t.measures[m].voices:
-                for b in v.beats:
-                    n += sum(1 for x in b.notes if x.type.name == "dead")
-                    n += sum(1 for x in b.notes if x.effect.grace is not None
-                             and x.effect.grace.isDead)
-    return n
+    """Dead notes, and dead grace notes."""
+    return sum((x.type.name == "dead") + (x.effect.grace is not None and x.effect.grace.isDead)
+               for x in _played_notes(path, scene))
 
 
 def test_labels_are_guitarset_jams(tmp_path):

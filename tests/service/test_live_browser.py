@@ -105,7 +105,8 @@ def test_play_from_keyboard_and_midi(page: Any) -> None:
     page.wait_for_timeout(500)
     assert _blocks(page) > before  # the stream goes on
     assert page.inner_text("#live-log") == ""  # nothing was refused
-    assert int(page.inner_text("#live-underruns")) >= 0
+    # the underrun count is shown (its value depends on the machine's load, not on the page)
+    assert re.fullmatch(r"\d+", page.inner_text("#live-underruns"))
     assert page.errors == []
     page.click("#live-connect")  # disconnect
     page.wait_for_function("document.querySelector('#live-status').textContent.startsWith('closed')")

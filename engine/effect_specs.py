@@ -68,31 +68,32 @@ class Lowpass(_Effect):
     cutoff_hz: float = Field(5000.0, ge=10.0, le=20000.0, description="-3 dB frequency, Hz")
 
 
-class Peak(_Effect):
-    """Peaking EQ band (pedalboard ``PeakFilter``)."""
+class _Band(_Effect):
+    """What the EQ bands share: their gain and their width."""
 
-    type: Literal["peak"] = "peak"
-    cutoff_hz: float = Field(1000.0, ge=10.0, le=20000.0, description="centre frequency, Hz")
     gain_db: float = Field(0.0, ge=-24.0, le=24.0, description="boost (+) or cut (-), dB")
     q: float = Field(0.707, ge=0.1, le=20.0, description="quality factor")
 
 
-class LowShelf(_Effect):
+class Peak(_Band):
+    """Peaking EQ band (pedalboard ``PeakFilter``)."""
+
+    type: Literal["peak"] = "peak"
+    cutoff_hz: float = Field(1000.0, ge=10.0, le=20000.0, description="centre frequency, Hz")
+
+
+class LowShelf(_Band):
     """Low-shelf EQ (pedalboard ``LowShelfFilter``)."""
 
     type: Literal["low_shelf"] = "low_shelf"
     cutoff_hz: float = Field(200.0, ge=10.0, le=20000.0, description="shelf frequency, Hz")
-    gain_db: float = Field(0.0, ge=-24.0, le=24.0, description="shelf gain, dB")
-    q: float = Field(0.707, ge=0.1, le=20.0, description="quality factor")
 
 
-class HighShelf(_Effect):
+class HighShelf(_Band):
     """High-shelf EQ (pedalboard ``HighShelfFilter``)."""
 
     type: Literal["high_shelf"] = "high_shelf"
     cutoff_hz: float = Field(4000.0, ge=10.0, le=20000.0, description="shelf frequency, Hz")
-    gain_db: float = Field(0.0, ge=-24.0, le=24.0, description="shelf gain, dB")
-    q: float = Field(0.707, ge=0.1, le=20.0, description="quality factor")
 
 
 class Chorus(_Effect):

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .kernels import Controls, interp
-from .presets import Preset
+from .presets import Preset, StringSpec
 from .scene import (
     Bend,
     Damp,
@@ -91,10 +91,11 @@ PLUCK_STYLES = {
 }
 
 
-def finger_x_m(preset: Preset, fret: int) -> float:
-    """Metres from the nut of a finger stopping ``fret`` (just behind it)."""
-    xq = preset.fret_x_m(fret)
-    return float(xq - FINGER_BEHIND * (xq - preset.fret_x_m(fret - 1)))
+def finger_x_m(preset: Preset, fret: int, spec: StringSpec | None = None) -> float:
+    """Metres from the nut of a finger stopping ``fret`` (just behind it) on string ``spec``
+    (``Preset.fret_x_m``: its nut compensation; None: an uncompensated nut)."""
+    xq = preset.fret_x_m(fret, spec)
+    return float(xq - FINGER_BEHIND * (xq - preset.fret_x_m(fret - 1, spec)))
 
 
 def expand(scene: Scene, n_strings: int) -> list:
@@ -185,6 +186,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
     slide presses with the largest over the frets it crosses.
     """
     length_m = preset.string_length_m(string)
+    spec = preset.strings[string - 1]
     shifts = fret_shifts or {}
 
     def default_force(frets: range) -> float:
@@ -193,7 +195,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
         return max(press_force(q) for q in frets)
 
     def finger_at(fret: int) -> float:
-        return finger_x_m(preset, fret) + shifts.get(fret, 0.0)
+        return finger_x_m(preset, fret, spec) + shifts.get(fret, 0.0)
 
     def step(t: float) -> int:
         # a time past the render's end is as good as never (the schema bounds times and releases;
@@ -264,7 +266,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 lift(on, held[-1])
                 add_pluck(e.time, held[-1]["x1"], e.force, PLUCK_STYLES["finger"][0])
         elif isinstance(e, Harmonic):
-            x = preset.fret_x_m(e.fret) if e.fret is not None else e.position * length_m
+            x = preset.fret_x_m(e.fret, spec) if e.fret is not None else e.position * length_m
             off = step(e.release) if e.release is not None else NEVER
             last = max(last, on if off == NEVER else off)
             end_touch(touches, on)

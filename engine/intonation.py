@@ -138,11 +138,11 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     n, k = model.n, model.k
     size = n  # nodes 1..N-1 and the finger
     if fret_x is None:
-        fret_x = float(preset.fret_x_m(fret))
+        fret_x = float(preset.fret_x_m(fret, model.spec))
     if prev_x is None and fret > 1:
-        prev_x = float(preset.fret_x_m(fret - 1))
+        prev_x = float(preset.fret_x_m(fret - 1, model.spec))
     if finger_x is None:
-        finger_x = finger_x_m(preset, fret)
+        finger_x = finger_x_m(preset, fret, model.spec)
     fg = preset.finger
     # the contact spring linearised at the force a finger with no force of its own presses with;
     # for alpha = 1 (every preset) it is K_FG whatever the force
@@ -200,10 +200,10 @@ def seating_force(model: StringModel, preset: Preset, fret: int,
     without it.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
     n = model.n
     lu = sparse_linalg.splu(_stiffness(model, tension_ratio))
-    finger = _vector(_interpolant(finger_x_m(preset, fret), model), n - 1)
+    finger = _vector(_interpolant(finger_x_m(preset, fret, model.spec), model), n - 1)
     frets = [fret - 1, fret] if fret > 1 else [fret]
     while True:
-        xs = [float(preset.fret_x_m(q)) for q in frets]
+        xs = [float(preset.fret_x_m(q, model.spec)) for q in frets]
         j = np.column_stack([_vector(_interpolant(x, model), n - 1) for x in xs])
         heights = -np.asarray(preset.clearance_m(np.array(xs)), dtype=float)
         solved = lu.solve(np.column_stack([finger, j]))
@@ -265,8 +265,8 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
     want = held_note(reference_model(model), preset, fret, target).frequency_hz
-    x0 = float(preset.fret_x_m(fret))
-    xf = finger_x_m(preset, fret)
+    x0 = float(preset.fret_x_m(fret, spec))
+    xf = finger_x_m(preset, fret, spec)
 
     def err(d: float) -> float:
         f = held_note(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d).frequency_hz
@@ -276,10 +276,10 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
     if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= TOLERANCE_CENTS:
         return 0.0
     if e0 > 0.0:  # sharp: a longer speaking length, towards the nut
-        limit = min(0.5 * model.h, 0.5 * (xf - float(preset.fret_x_m(fret - 1))))
+        limit = min(0.5 * model.h, 0.5 * (xf - float(preset.fret_x_m(fret - 1, spec))))
         sign = -1.0
     else:
-        nxt = float(preset.fret_x_m(fret + 1)) if fret < preset.frets else model.length_m
+        nxt = float(preset.fret_x_m(fret + 1, spec)) if fret < preset.frets else model.length_m
         limit = min(0.5 * model.h, 0.5 * (nxt - x0))
         sign = 1.0
     best, ebest = 0.0, e0

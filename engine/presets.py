@@ -71,7 +71,10 @@ class StringSpec:
     youngs_modulus_pa: float  # effective E (bending stiffness E I)
     t60_fundamental_s: float  # 60 dB decay time at the fundamental
     t60_2khz_s: float  # 60 dB decay time at 2 kHz
-    saddle_setback_m: float = 0.0  # intonation compensation: speaking length = scale + setback
+    saddle_setback_m: float = 0.0  # intonation compensation at the saddle: length beyond the scale
+    # intonation compensation at the nut: the nut moved this far towards the bridge (the frets stay
+    # where the scale puts them), so the open string is this much shorter
+    nut_compensation_m: float = 0.0
 
     @property
     def frequency_hz(self) -> float:
@@ -137,13 +140,21 @@ class Preset:
     def n_strings(self) -> int:
         return len(self.strings)
 
-    def fret_x_m(self, fret: int | np.ndarray) -> np.ndarray | float:
-        """x_q = L_scale (1 - 2^(-q/12)), metres from the nut (API.md, Coordinates)."""
-        return self.scale_length_m * (1.0 - 2.0 ** (-np.asarray(fret) / 12.0))
+    def fret_x_m(self, fret: int | np.ndarray, spec: StringSpec | None = None) -> np.ndarray | float:
+        """x_q = L_scale (1 - 2^(-q/12)), metres from the nut (API.md, Coordinates), less the nut
+        compensation of string ``spec`` (its nut sits that much nearer the frets); fret 0 is the
+        nut itself, at 0.  Without ``spec``: from an uncompensated nut."""
+        q = np.asarray(fret)
+        x = self.scale_length_m * (1.0 - 2.0 ** (-q / 12.0))
+        if spec is None or spec.nut_compensation_m == 0.0:
+            return x
+        return np.where(q > 0, x - spec.nut_compensation_m, 0.0)
 
     def string_length_m(self, string: int) -> float:
-        """Speaking length of string ``string`` (1-based): the scale plus its saddle setback."""
-        return self.scale_length_m + self.strings[string - 1].saddle_setback_m
+        """Speaking length of string ``string`` (1-based): the scale plus its saddle setback, less
+        its nut compensation."""
+        spec = self.strings[string - 1]
+        return self.scale_length_m + spec.saddle_setback_m - spec.nut_compensation_m
 
     def clearance_m(self, x_m: float | np.ndarray) -> np.ndarray | float:
         """Height of the string's rest line above the fret crowns at x_m metres from the nut."""
@@ -165,8 +176,10 @@ def _plain(note, gauge_in, rho, e, t60_f0, t60_2k) -> StringSpec:
     return StringSpec(note, gauge_in * INCH / 2, rho, e, t60_f0, t60_2k)
 
 
-def _with_setbacks(strings, setbacks) -> tuple[StringSpec, ...]:
-    return tuple(replace(s, saddle_setback_m=d) for s, d in zip(strings, setbacks, strict=True))
+def _compensated(strings, setbacks, nuts) -> tuple[StringSpec, ...]:
+    """The strings with their saddle setbacks and nut compensations (metres)."""
+    return tuple(replace(s, saddle_setback_m=d, nut_compensation_m=c)
+                 for s, d, c in zip(strings, setbacks, nuts, strict=True))
 
 
 _STEEL_SCALE = 0.645
@@ -174,7 +187,7 @@ STEEL_ACOUSTIC = Preset(
     name="steel-acoustic",
     description="Steel-string acoustic, 645 mm scale, light .012-.053 set, standard tuning",
     scale_length_m=_STEEL_SCALE,
-    strings=_with_setbacks(
+    strings=_compensated(
         (
             _plain("E4", 0.012, STEEL_DENSITY, STEEL_E, 4.0, 1.2),
             _plain("B3", 0.016, STEEL_DENSITY, STEEL_E, 5.0, 1.2),
@@ -183,9 +196,11 @@ STEEL_ACOUSTIC = Preset(
             _wound("A2", 0.042, 0.0160, 130.0, _STEEL_SCALE, 8.0, 0.8),
             _wound("E2", 0.053, 0.0180, 107.0, _STEEL_SCALE, 9.0, 0.7),
         ),
-        # fitted by `python -m benchmarks.intonation` (reference grid, 3 N finger); the B string
-        # needs the most, as on real compensated acoustic saddles
-        (3.20e-3, 5.35e-3, 1.55e-3, 1.95e-3, 2.65e-3, 3.55e-3),
+        # saddle setbacks and nut compensations fitted by `python -m benchmarks.intonation`
+        # (reference grid, frets 1-20); the B string needs the most, as on real compensated
+        # acoustic saddles
+        (1.10e-3, 2.25e-3, 0.65e-3, 0.85e-3, 0.95e-3, 1.40e-3),
+        (1.05e-3, 1.45e-3, 0.40e-3, 0.50e-3, 0.80e-3, 1.10e-3),
     ),
     frets=20,
     action_nut_m=0.25e-3,
@@ -222,12 +237,13 @@ NYLON_CLASSICAL = replace(
         for s in NYLON_CLASSICAL.strings[3:]
     ),
 )
-# fitted by `python -m benchmarks.intonation --preset nylon-classical`; the G string needs the most,
-# as on real classical guitars
+# saddle setbacks and nut compensations fitted by `python -m benchmarks.intonation --preset
+# nylon-classical` (frets 1-19); the G string needs the most, as on real classical guitars
 NYLON_CLASSICAL = replace(
     NYLON_CLASSICAL,
-    strings=_with_setbacks(NYLON_CLASSICAL.strings,
-                           (1.80e-3, 3.50e-3, 5.70e-3, 0.85e-3, 1.20e-3, 1.90e-3)),
+    strings=_compensated(NYLON_CLASSICAL.strings,
+                         (0.90e-3, 1.10e-3, 2.40e-3, 0.55e-3, 0.55e-3, 0.55e-3),
+                         (0.55e-3, 1.20e-3, 1.60e-3, 0.20e-3, 0.40e-3, 0.70e-3)),
 )
 
 # Electric: 648 mm (25.5") scale, nickel-wound .010-.046 set (tensions from the maker's charts),
@@ -238,7 +254,7 @@ ELECTRIC = Preset(
     name="electric",
     description="Solid-body electric, 648 mm scale, .010-.046 nickel set, bridge pickup",
     scale_length_m=_ELECTRIC_SCALE,
-    strings=_with_setbacks(
+    strings=_compensated(
         (
             _plain("E4", 0.010, STEEL_DENSITY, STEEL_E, 6.0, 1.5),
             _plain("B3", 0.013, STEEL_DENSITY, STEEL_E, 7.0, 1.5),
@@ -247,8 +263,10 @@ ELECTRIC = Preset(
             _wound("A2", 0.036, 0.0160, 87.0, _ELECTRIC_SCALE, 10.0, 1.1),
             _wound("E2", 0.046, 0.0190, 78.0, _ELECTRIC_SCALE, 11.0, 1.0),
         ),
-        # fitted by `python -m benchmarks.intonation --preset electric`; the plain G needs the most
-        (2.35e-3, 4.75e-3, 6.80e-3, 2.55e-3, 3.15e-3, 4.65e-3),
+        # fitted by `python -m benchmarks.intonation --preset electric` (frets 1-22); the plain G
+        # needs the most
+        (0.80e-3, 1.55e-3, 2.55e-3, 0.90e-3, 1.45e-3, 2.00e-3),
+        (0.85e-3, 1.55e-3, 2.20e-3, 0.85e-3, 0.75e-3, 1.40e-3),
     ),
     frets=22,
     action_nut_m=0.2e-3,
@@ -265,15 +283,16 @@ BASS = Preset(
     name="bass",
     description="Four-string electric bass, 864 mm scale, .045-.105 roundwound, E1 A1 D2 G2",
     scale_length_m=_BASS_SCALE,
-    strings=_with_setbacks(
+    strings=_compensated(
         (
             _wound("G2", 0.045, 0.0220, 178.0, _BASS_SCALE, 8.0, 0.6),
             _wound("D2", 0.065, 0.0280, 200.0, _BASS_SCALE, 9.0, 0.5),
             _wound("A1", 0.080, 0.0330, 196.0, _BASS_SCALE, 10.0, 0.45),
             _wound("E1", 0.105, 0.0400, 190.0, _BASS_SCALE, 11.0, 0.4),
         ),
-        # fitted by `python -m benchmarks.intonation --preset bass` (E1 still spans +-8 cents)
-        (4.20e-3, 6.45e-3, 9.55e-3, 15.0e-3),
+        # fitted by `python -m benchmarks.intonation --preset bass` (frets 1-20)
+        (1.85e-3, 2.75e-3, 4.25e-3, 7.40e-3),
+        (1.25e-3, 1.95e-3, 2.75e-3, 3.85e-3),
     ),
     frets=20,
     action_nut_m=0.4e-3,
@@ -305,19 +324,19 @@ def tension_n(spec: StringSpec, length_m: float) -> float:
 def added_string(preset: Preset, note: str) -> StringSpec:
     """A string below the preset's lowest (string n), built as a maker extends a set: the same
     construction as string n (its effective density, so the same wrap-to-core make-up, and its
-    core-to-gauge ratio, so the same effective Young's modulus; its decay times and saddle
-    setback), at the mean tension of the preset's two lowest strings (within their range), with
-    the radius that gives that tension at ``note``: rho A = T / (2 L f0)^2, solved together with
-    the small stiffness term.  ``tests/engine/test_tracks.py`` prints the results: the electric's
-    B1 at 0.063" (7-string sets sell .059-.064), the steel acoustic's B1 at 0.074", the bass's B0
-    at 0.141" (5-string sets: .125-.135; our bass's E1 is heavy, .105, too)."""
+    core-to-gauge ratio, so the same effective Young's modulus; its decay times, saddle
+    setback and nut compensation), at the mean tension of the preset's two lowest strings (within
+    their range), with the radius that gives that tension at ``note``: rho A = T / (2 L f0)^2,
+    solved together with the small stiffness term.  ``tests/engine/test_tracks.py`` prints the
+    results: the electric's B1 at 0.063" (7-string sets sell .059-.064), the steel acoustic's B1
+    at 0.074", the bass's B0 at 0.141" (5-string sets: .125-.135; our bass's E1 is heavy, .105, too)."""
     low = preset.strings[-1]
     pair = preset.strings[-2:]
     n = preset.n_strings
     target = sum(tension_n(s, preset.string_length_m(n - len(pair) + 1 + j))
                  for j, s in enumerate(pair)) / len(pair)
     spec = replace(low, note=note)
-    length = preset.scale_length_m + low.saddle_setback_m
+    length = preset.scale_length_m + low.saddle_setback_m - low.nut_compensation_m
     f0 = note_frequency(note)
     radius = low.radius_m
     for _ in range(50):  # fixed point: rho pi r^2 (2 L f0)^2 = T + pi^2 E pi r^4 / 4 / L^2

@@ -32,6 +32,9 @@ SAMPLE_RATE_MAX = 96000
 # arithmetic holds at any internal rate.
 MAX_RELEASE_S = 1e6
 MAX_STRINGS = 12  # the most strings a guitar (preset or overrides) may have
+# the most a nut may be moved towards the frets: a fifth of the shortest nut-to-fret-1 distance of
+# the presets (36.2 mm on the 645 mm scale); the presets use at most 3 mm
+MAX_NUT_COMPENSATION_M = 0.007
 FLAC_RATE_MAX_ANY = 65535  # FLAC frame headers carry any rate up to this; above, multiples of 10
 MAX_NAME_CHARS = 64
 
@@ -302,6 +305,11 @@ class StringOverride(_Model):
     t60_2khz_s: float | None = Field(None, ge=0.02, le=60.0)
     saddle_setback_m: float | None = Field(
         None, ge=0.0, le=0.02, description="intonation compensation: length beyond the scale, m"
+    )
+    nut_compensation_m: float | None = Field(
+        None, ge=0.0, le=MAX_NUT_COMPENSATION_M,
+        description="intonation compensation: the nut moved this far towards the frets, m (the "
+                    "open string is that much shorter, the frets stay where the scale puts them)"
     )
 
     @field_validator("note")

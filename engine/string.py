@@ -319,7 +319,7 @@ def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
     v = max_pluck_force / (2.0 * z)
     if fingers:
         q = np.arange(preset.frets + 1)
-        xq = preset.fret_x_m(q)
+        xq = preset.fret_x_m(q, model.spec)
         depth = float(np.max(preset.clearance_m(xq))) + preset.fret_height_m
         dip = depth / (0.5 * float(np.min(np.diff(xq))))
         m = preset.finger.mass_kg
@@ -348,7 +348,7 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     string; their heights stay those at x_q."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
-    xq = preset.fret_x_m(q)
+    xq = preset.fret_x_m(q, model.spec)
     shifts = fret_shifts or {}
     p = np.empty(len(q), np.int64)
     w0 = np.empty(len(q))
@@ -358,7 +358,7 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     m0 = -np.asarray(preset.clearance_m(xq), dtype=float)
     xn = np.arange(1, n) * h
     board = -(np.asarray(preset.clearance_m(xn), dtype=float) + preset.fret_height_m)
-    last = preset.fret_x_m(preset.frets + 0.5)  # the board ends half a fret past the last
+    last = preset.fret_x_m(preset.frets + 0.5, model.spec)  # the board ends half a fret past the last
     board[xn > last] = NO_BOARD
     if not fretboard:
         board[:] = NO_BOARD

@@ -563,11 +563,11 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
 
 def _touch(tr: _Track, string: int, fret: int, rel: float) -> float:
     """x / L (of the whole string) of a touch at ``rel`` of the speaking length from ``fret`` to
-    the bridge, with the preset's geometry (scale and saddle setback)."""
+    the bridge, with the preset's geometry (scale, saddle setback and nut compensation)."""
     preset = _presets.get_preset(tr.preset)
     s = min(string, preset.n_strings)
     length = preset.string_length_m(s)
-    x_stop = float(preset.fret_x_m(fret)) if fret > 0 else 0.0
+    x_stop = float(preset.fret_x_m(fret, preset.strings[s - 1])) if fret > 0 else 0.0
     x = x_stop + (length - x_stop) * rel
     return min(max(x / length, 0.021), 0.979)
 

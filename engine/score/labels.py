@@ -65,22 +65,27 @@ class _Geometry:
         tuning = guitar.get("tuning")
         notes = list(tuning) if tuning else [s.note for s in preset.strings]
         setbacks = [s.saddle_setback_m for s in preset.strings]
+        nuts = [s.nut_compensation_m for s in preset.strings]
         for o in guitar.get("strings") or []:
             i = o["string"] - 1
             if o.get("note") and i < len(notes):
                 notes[i] = o["note"]
             if o.get("saddle_setback_m") is not None and i < len(setbacks):
                 setbacks[i] = o["saddle_setback_m"]
+            if o.get("nut_compensation_m") is not None and i < len(nuts):
+                nuts[i] = o["nut_compensation_m"]
         self.open = [note_midi(n) for n in notes]
         self.scale = preset.scale_length_m
         self.setbacks = setbacks + [setbacks[-1]] * max(len(notes) - len(setbacks), 0)
+        self.nuts = nuts + [nuts[-1]] * max(len(notes) - len(nuts), 0)
         self.n = len(notes)
 
     def length(self, string: int) -> float:
-        return self.scale + self.setbacks[string - 1]
+        return self.scale + self.setbacks[string - 1] - self.nuts[string - 1]
 
-    def fret_x(self, fret: float) -> float:
-        return self.scale * (1.0 - 2.0 ** (-fret / 12.0))
+    def fret_x(self, fret: float, string: int) -> float:
+        """Metres from the string's (compensated) nut."""
+        return self.scale * (1.0 - 2.0 ** (-fret / 12.0)) - self.nuts[string - 1]
 
 
 def _expand(events: list[dict], n_strings: int, duration: float) -> dict[int, list[dict]]:
@@ -178,7 +183,7 @@ def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float)
         touch = next((x for (on, off, x) in touches if on <= t < off), None)
         dead = False
         if touch is not None:
-            x_stop = geo.fret_x(fret) if fret > 0 else 0.0
+            x_stop = geo.fret_x(fret, string) if fret > 0 else 0.0
             length = geo.length(string)
             r = (touch - x_stop) / (length - x_stop)
             if 0.0 < r < 1.0:
@@ -217,7 +222,7 @@ def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float)
             fingers.append({"fret": e["to_fret"], "on": t, "rel": e.get("release") or math.inf,
                             "slide": (t, t + d, e["from_fret"], e["to_fret"])})
         elif kind == "harmonic":
-            x = (geo.fret_x(e["fret"]) if e.get("fret") is not None
+            x = (geo.fret_x(e["fret"], string) if e.get("fret") is not None
                  else e["position"] * geo.length(string))
             touches.append((t, e.get("release") or math.inf, x))
         elif kind == "mute":

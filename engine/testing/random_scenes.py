@@ -22,6 +22,7 @@ from engine.presets import PRESETS, get_preset, note_frequency
 from engine.scene import (
     MAX_BEND_SEMITONES,
     MAX_FINGER_FORCE_N,
+    MAX_NUT_COMPENSATION_M,
     MAX_PLUCK_FORCE_N,
     MAX_TAP_VELOCITY_M_S,
     SAMPLE_RATE_MAX,
@@ -41,6 +42,7 @@ OVERRIDES = {
     "t60_fundamental_s": (0.05, 60.0, True),
     "t60_2khz_s": (0.02, 60.0, True),
     "saddle_setback_m": (0.0, 0.02, False),
+    "nut_compensation_m": (0.0, MAX_NUT_COMPENSATION_M, False),
 }
 
 

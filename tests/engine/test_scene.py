@@ -38,6 +38,10 @@ def _bad(patch):
     ({"duration": float("nan")}, ["duration"]),
     ({"events": [{"type": "pluck", "time": 0, "string": 1, "force": float("inf")}]}, ["force"]),
     ({"extra": 1}, ["extra"]),
+    ({"guitar": {"strings": [{"string": 1, "nut_compensation_m": 0.01}]}},
+     ["nut_compensation_m", "less than or equal to 0.007"]),
+    ({"guitar": {"strings": [{"string": 1, "nut_compensation_m": -1e-3}]}},
+     ["nut_compensation_m", "greater than or equal to 0"]),
     # the string's rest line must rise from the nut, or it starts below the upper fret tips
     ({"guitar": {"action_nut_m": 3e-3, "action_12th_m": 3e-4}},
      ["guitar.action_12th_m", "action_12th_m >= action_nut_m"]),

@@ -96,8 +96,8 @@ def test_a_calibrated_fret_gives_the_fine_grids_note_in_the_model(steel):
         target = steel.strings[1].frequency_hz * 2 ** (q / 12)
         d = fret_shift(m, steel, q)
         assert 0.0 < abs(d) <= 0.5 * m.h
-        got = held_note(m, steel, q, target, fret_x=float(steel.fret_x_m(q)) + d,
-                        finger_x=finger_x_m(steel, q) + d).frequency_hz
+        got = held_note(m, steel, q, target, fret_x=float(steel.fret_x_m(q, m.spec)) + d,
+                        finger_x=finger_x_m(steel, q, m.spec) + d).frequency_hz
         want = held_note(fine, steel, q, target).frequency_hz
         assert abs(1200 * math.log2(got / want)) <= TOLERANCE_CENTS
 
@@ -106,7 +106,7 @@ def test_a_shift_moves_that_frets_interpolant_only(steel):
     m = _string(steel, 1)
     plain = geometry(m, steel, [0.9])
     moved = geometry(m, steel, [0.9], fret_shifts={5: -0.3 * m.h})
-    x5 = float(steel.fret_x_m(5)) - 0.3 * m.h
+    x5 = float(steel.fret_x_m(5, m.spec)) - 0.3 * m.h
     p, w0, w1 = plain.fret_p.copy(), plain.fret_w0.copy(), plain.fret_w1.copy()
     assert moved.fret_p[4] * m.h - m.h + moved.fret_w1[4] * m.h == pytest.approx(x5)
     p[4], w0[4], w1[4] = moved.fret_p[4], moved.fret_w0[4], moved.fret_w1[4]

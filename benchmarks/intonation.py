@@ -11,7 +11,8 @@ alike, the setback more the higher the fret, so together they cancel both.  This
    every fret of the preset,
 2. fits, per string, the saddle setback and nut compensation that minimise the largest error over
    the whole fretboard (exact ideal-string formula for the effect of both on the speaking lengths),
-3. measures every quality level *with the preset's compensation* and prints the tables.
+3. measures every quality level and the reference grid *with the preset's compensation* on every
+   fret and prints the tables (frets 1-12 and the frets above apart).
 
     python -m benchmarks.intonation [--preset steel-acoustic] [--fit-only]
     python -m benchmarks.intonation --above-12th standard   # frets 13 and up, one quality
@@ -169,8 +170,8 @@ def main() -> None:
                   + "; nut compensation (mm): "
                   + ", ".join(f"{s.nut_compensation_m * 1e3:.2f}" for s in preset.strings))
             for name, q in QUALITY.items():
-                print_table(f"quality '{name}' with the preset's compensation",
-                            table(args.preset, q, False, pool))
+                print_split(f"quality '{name}' with the preset's compensation",
+                            table(args.preset, q, False, pool, every), every)
             print_split("reference grid with the preset's compensation",
                         table(args.preset, REFERENCE, False, pool, every), every)
     print(f"\n({time.perf_counter() - t0:.0f} s on this machine)")

@@ -37,6 +37,11 @@ class StringInfo(BaseModel):
     linear_density_kg_m: float
     t60_fundamental_s: float
     t60_2khz_s: float
+    saddle_setback_m: float = Field(
+        description="intonation compensation at the saddle: speaking length beyond the scale, m")
+    nut_compensation_m: float = Field(
+        description="intonation compensation at the nut: the nut moved this far towards the "
+                    "frets, m (the open string speaks over scale + setback - this)")
 
 
 class FingerInfo(BaseModel):

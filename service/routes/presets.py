@@ -30,6 +30,8 @@ def _string_info(preset, number: int) -> StringInfo:
         linear_density_kg_m=spec.linear_density_kg_m,
         t60_fundamental_s=spec.t60_fundamental_s,
         t60_2khz_s=spec.t60_2khz_s,
+        saddle_setback_m=spec.saddle_setback_m,
+        nut_compensation_m=spec.nut_compensation_m,
     )
 
 

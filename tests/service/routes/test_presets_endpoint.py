@@ -37,3 +37,16 @@ def test_presets_name_their_body(harness) -> None:
     bodies = {p["name"]: p["body"] for p in harness.get("/presets").json()["presets"]}
     assert bodies == {name: p.body for name, p in engine.PRESETS.items()}
     assert bodies["steel-acoustic"] == "acoustic" and bodies["electric"] == "none"
+
+
+def test_presets_carry_their_intonation_compensation(harness) -> None:
+    """Each string's saddle setback and nut compensation, as a scene's overrides start from: the
+    open string speaks over scale + setback - nut compensation."""
+    for p in harness.get("/presets").json()["presets"]:
+        preset = engine.get_preset(p["name"])
+        for s in p["strings"]:
+            spec = preset.strings[s["string"] - 1]
+            assert s["saddle_setback_m"] == spec.saddle_setback_m
+            assert s["nut_compensation_m"] == spec.nut_compensation_m
+            assert p["scale_length_m"] + s["saddle_setback_m"] - s["nut_compensation_m"] == \
+                pytest.approx(preset.string_length_m(s["string"]), abs=1e-15)

@@ -148,7 +148,7 @@ class Preset:
         x = self.scale_length_m * (1.0 - 2.0 ** (-q / 12.0))
         if spec is None or spec.nut_compensation_m == 0.0:
             return x
-        return np.where(q > 0, x - spec.nut_compensation_m, 0.0)
+        return np.where(q > 0, x - spec.nut_compensation_m, 0.0)[()]  # a scalar for a scalar
 
     def string_length_m(self, string: int) -> float:
         """Speaking length of string ``string`` (1-based): the scale plus its saddle setback, less

@@ -33,7 +33,7 @@ SAMPLE_RATE_MAX = 96000
 MAX_RELEASE_S = 1e6
 MAX_STRINGS = 12  # the most strings a guitar (preset or overrides) may have
 # the most a nut may be moved towards the frets: a fifth of the shortest nut-to-fret-1 distance of
-# the presets (36.2 mm on the 645 mm scale); the presets use at most 3 mm
+# the presets (36.2 mm on the 645 mm scale); the presets use at most 3.85 mm (the bass's E1)
 MAX_NUT_COMPENSATION_M = 0.007
 FLAC_RATE_MAX_ANY = 65535  # FLAC frame headers carry any rate up to this; above, multiples of 10
 MAX_NAME_CHARS = 64

@@ -436,7 +436,7 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
         targets = [("open strings within +-1 cent", r["f0"], 1.0),
                    ("partials 1-10 within 1 cent of the stiff-string formula",
                     max(r["p10"], r["p10_measured"]), 1.0),
-                   ("fretted notes, frets 1-12, all six strings, within +-5 cents", r["fretted"], 5.0),
+                   ("fretted notes, frets 1-12, all six strings, within +-3 cents", r["fretted"], 3.0),
                    ("energy balance <= 1e-11", r["energy"], 1e-11)]
         out += ["Engine targets at the standard level (steel-acoustic):",
                 md_table(["target", "measured", "limit", "met"],

@@ -22,7 +22,6 @@ from engine.presets import PRESETS, get_preset, note_frequency
 from engine.scene import (
     MAX_BEND_SEMITONES,
     MAX_FINGER_FORCE_N,
-    MAX_NUT_COMPENSATION_M,
     MAX_PLUCK_FORCE_N,
     MAX_TAP_VELOCITY_M_S,
     SAMPLE_RATE_MAX,
@@ -42,7 +41,9 @@ OVERRIDES = {
     "t60_fundamental_s": (0.05, 60.0, True),
     "t60_2khz_s": (0.02, 60.0, True),
     "saddle_setback_m": (0.0, 0.02, False),
-    "nut_compensation_m": (0.0, MAX_NUT_COMPENSATION_M, False),
+    # nut_compensation_m is left out: one more draw would change every stream a seed names (the
+    # soak's replays, the waveguide's passivity scenes); tests/engine/test_stability.py covers
+    # its largest value on every preset
 }
 
 

@@ -72,8 +72,9 @@ def _psi_trace(sc: dict):
 @pytest.mark.parametrize("preset", ["steel-acoustic", "electric"])
 def test_fretboard_psi_returns_to_zero_after_contact(preset):
     """Sec. 4.7: out of contact the gamma rule drives psi_B to zero, so no energy stays in a
-    fretboard that nothing touches.  (A 20 N pluck at 0.65 L swings the low E onto the board.)"""
-    sc = scene([pluck(6, force=MAX_PLUCK_FORCE_N, position=0.65)], duration=0.2,
+    fretboard that nothing touches.  (A 20 N pluck at 0.7 L swings the low E onto the board; at
+    0.65 L the electric's, 0.6 mm longer than its scale, misses it.)"""
+    sc = scene([pluck(6, force=MAX_PLUCK_FORCE_N, position=0.7)], duration=0.2,
                guitar={"preset": preset})
     eng, probe = _psi_trace(sc)
     v = eng.voices[0]

@@ -50,6 +50,8 @@ from .string import StringModel, tune
 REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are matched to
 PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmarks.intonation's)
 TOLERANCE_CENTS = 0.02  # a shift is refined until the model's note is this close to the reference
+DECAY_TOLERANCE_DB_S = 0.25  # a finger's damping is refined until the note's decay is this close
+DAMPING_RANGE = (1.0 / 16.0, 16.0)  # the finger's calibrated damping, times the preset's
 # a finger that presses with no force of its own presses with at least this multiple of the
 # seating force: the static force leaves the vibrating string no margin.  ``benchmarks/seating.py``
 # (standard, run at afcb369) found rendered strings resting on their fret from at most 1.27
@@ -129,12 +131,13 @@ class HeldNote(NamedTuple):
 
 def held_note(model: StringModel, preset: Preset, fret: int, target: float,
               fret_x: float | None = None, prev_x: float | None = None,
-              finger_x: float | None = None) -> HeldNote:
+              finger_x: float | None = None, damping: float | None = None) -> HeldNote:
     """The note the model above gives for ``fret`` on ``model``'s grid: the mode nearest
     ``target`` (Hz) that the pluck and the pickup hear most; NaNs if none is within a semitone.
     ``fret_x``, ``prev_x`` and ``finger_x`` place the interpolants of the fret, of the one behind
     it and of the finger (default: where they are, ``Preset.fret_x_m`` and
-    ``controls.finger_x_m``)."""
+    ``controls.finger_x_m``); ``damping`` is the finger's contact damping (N s/m; default: the
+    preset's)."""
     n, k = model.n, model.k
     size = n  # nodes 1..N-1 and the finger
     if fret_x is None:
@@ -154,7 +157,7 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     string_stiff, mass = _string_matrices(model, fg.mass_kg)
     jfs = sparse.csr_matrix(jf)
     stiff = string_stiff + kf * (jfs.T @ jfs)
-    damp = fg.damping_n_s_m * (jfs.T @ jfs)
+    damp = (fg.damping_n_s_m if damping is None else damping) * (jfs.T @ jfs)
     z = _null_basis([_interpolant(x, model) for x in (fret_x, prev_x) if x is not None], size)
     ks, cs, ms = (z.T @ a @ z for a in (stiff, damp, mass))
     nz = z.shape[1]
@@ -248,8 +251,29 @@ def reference_model(model: StringModel) -> StringModel:
         factor += 1
 
 
+def _illinois(f, a: float, fa: float, b: float, fb: float, tol: float, best: tuple[float, float]):
+    """Regula falsi with the Illinois rule on f, bracketed by a and b (f(a) f(b) <= 0): the x
+    whose |f| is smallest of those tried (``best``: the (x, f) to beat), once |f| <= tol or
+    after 30 steps."""
+    for _ in range(30):
+        c = b - fb * (b - a) / (fb - fa)
+        fc = f(c)
+        if not math.isfinite(fc):
+            break
+        if abs(fc) < abs(best[1]):
+            best = (c, fc)
+        if abs(fc) <= tol:
+            break
+        if fc * fb < 0.0:
+            a, fa = b, fb
+        else:  # the same end kept twice: halve its value (Illinois)
+            fa *= 0.5
+        b, fb = c, fc
+    return best
+
+
 @lru_cache(maxsize=4096)
-def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
+def fret_shift(model: StringModel, preset: Preset, fret: int, damping: float | None = None) -> float:
     """Metres to move the interpolants of ``fret`` and of the finger stopping it, together
     (towards the bridge if positive), so that the model's note at that fret on ``model``'s grid has
     the pitch it has on the fine grid.  Moving the finger with the fret keeps the distance between
@@ -260,7 +284,8 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
     that corrects the error, at most h / 2 and no further than half way to the next fret (the
     finger: to the fret behind it), then refined by regula falsi (Illinois) to
     ``TOLERANCE_CENTS``; if no shift within those bounds reaches the fine grid's pitch, the one that
-    comes closest is taken.  Cached per process.
+    comes closest is taken.  ``damping``: the finger's contact damping on ``model``'s grid (default:
+    the preset's; the fine grid keeps the preset's).  Cached per process.
     """
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
@@ -269,7 +294,8 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
     xf = finger_x_m(preset, fret)
 
     def err(d: float) -> float:
-        f = held_note(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d).frequency_hz
+        f = held_note(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d,
+                      damping=damping).frequency_hz
         return 1200.0 * math.log2(f / want) if f > 0.0 else math.nan
 
     e0 = err(0.0)
@@ -293,25 +319,95 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
             break
         if abs(e) < abs(ebest):
             best, ebest = d, e
-        if e * ea <= 0.0:  # bracketed between a and d: Illinois
-            b, eb = d, e
-            for _ in range(30):
-                c = b - eb * (b - a) / (eb - ea)
-                ec = err(c)
-                if not math.isfinite(ec):
-                    break
-                if abs(ec) < abs(ebest):
-                    best, ebest = c, ec
-                if abs(ec) <= TOLERANCE_CENTS:
-                    break
-                if ec * eb < 0.0:
-                    a, ea = b, eb
-                else:  # the same end kept twice: halve its value (Illinois)
-                    ea *= 0.5
-                b, eb = c, ec
+        if e * ea <= 0.0:  # bracketed between a and d
+            best, ebest = _illinois(err, a, ea, d, e, TOLERANCE_CENTS, (best, ebest))
             break
         a, ea = d, e
     return best
+
+
+@lru_cache(maxsize=4096)
+def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float = 0.0) -> float:
+    """N s/m: the contact damping of a finger stopping ``fret`` on ``model``'s grid (its fret and
+    finger moved by ``shift``, ``fret_shift``) with which the model's note decays as the same note
+    does on the fine grid with the preset's damping.
+
+    On a coarse grid the sounding string reaches the nodes under the finger (the fret's
+    interpolant pins a point between two nodes, and the stencil couples nodes two apart), so the
+    finger's damping drains the note: at ``standard`` up to 14.7 dB/s more than on the fine grid
+    (steel, string 1, fret 10).  Where the note lies above the finger's own resonance (its mass on
+    its contact spring, 318 Hz for the presets) less damping drains less; near and below it the
+    finger rides the string, and more damping holds it still and drains less.  The search starts
+    at the preset's damping, goes the way the decay error shrinks, in factors of 2 up to
+    ``DAMPING_RANGE``, and refines a bracket by regula falsi (on the log of the damping) to
+    ``DECAY_TOLERANCE_DB_S``; without a bracket, the closest tried.  Any damping >= 0 keeps the
+    energy balance exact (it is booked as a loss).  Cached per process."""
+    r0 = preset.finger.damping_n_s_m
+    spec = model.spec
+    target = spec.frequency_hz * 2.0 ** (fret / 12.0)
+    want = held_note(reference_model(model), preset, fret, target).decay_db_s
+    x0 = float(preset.fret_x_m(fret)) + shift
+    xf = finger_x_m(preset, fret) + shift
+
+    def err(log_scale: float) -> float:
+        d = held_note(model, preset, fret, target, fret_x=x0, finger_x=xf,
+                      damping=r0 * math.exp(log_scale)).decay_db_s
+        return d - want
+
+    e0 = err(0.0)
+    if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= DECAY_TOLERANCE_DB_S:
+        return r0
+    lo, hi = (math.log(v) for v in DAMPING_RANGE)
+    step = math.log(2.0)
+    e_up = err(0.5 * step)  # the way the error shrinks: up, or else down
+    if math.isfinite(e_up) and abs(e_up) < abs(e0):
+        direction, a, ea = 1.0, 0.5 * step, e_up
+        if ea * e0 <= 0.0:  # crossed already
+            return r0 * math.exp(_illinois(err, 0.0, e0, a, ea, DECAY_TOLERANCE_DB_S, (a, ea))[0])
+    else:
+        direction, a, ea = -1.0, 0.0, e0
+    best = (a, ea)
+    while lo < a < hi:
+        b = min(max(a + direction * step, lo), hi)
+        eb = err(b)
+        if not math.isfinite(eb):
+            break
+        if abs(eb) < abs(best[1]):
+            best = (b, eb)
+        if eb * ea <= 0.0:
+            best = _illinois(err, a, ea, b, eb, DECAY_TOLERANCE_DB_S, best)
+            break
+        a, ea = b, eb
+    return r0 * math.exp(best[0])
+
+
+class FretCalibration(NamedTuple):
+    shift_m: float  # ``fret_shift``: the fret's and its finger's interpolants moved this far
+    damping_n_s_m: float  # ``finger_damping``: the contact damping of a finger stopping it
+
+
+@lru_cache(maxsize=4096)
+def fret_calibration(model: StringModel, preset: Preset, fret: int) -> FretCalibration:
+    """Pitch and decay of the note at ``fret`` on ``model``'s grid matched to the fine grid's: the
+    shift at the preset's damping, the damping at that shift, then the shift again at that damping
+    (the damping moves the note's pitch by up to a few cents where the note is near the finger's
+    resonance).  Cached per process."""
+    shift = fret_shift(model, preset, fret)
+    damping = finger_damping(model, preset, fret, shift)
+    if damping != preset.finger.damping_n_s_m:
+        shift = fret_shift(model, preset, fret, damping)
+    return FretCalibration(shift, damping)
+
+
+def fret_calibrations(model: StringModel, preset: Preset,
+                      frets: Iterable[int]) -> dict[int, FretCalibration]:
+    """``fret_calibration`` of each of ``frets`` (those the scene's fingers stop), with BLAS on one
+    thread (see ``fret_shifts``)."""
+    wanted = sorted(q for q in set(frets) if 1 <= q <= preset.frets)
+    if not wanted:
+        return {}
+    with threadpool_limits(limits=1, user_api="blas"):
+        return {q: fret_calibration(model, preset, q) for q in wanted}
 
 
 def fret_shifts(model: StringModel, preset: Preset, frets: Iterable[int]) -> dict[int, float]:

@@ -22,7 +22,10 @@ notes on a coarse grid").
 ``fret_shifts`` moves each stopped fret's interpolant (not its height), and the finger that stops
 it, along the string, towards the nut where the grid is sharp, until the model's note on the grid
 has the pitch of the same note on a fine grid (h <= ``REFERENCE_H_M``, the reference of
-``benchmarks/intonation.py``).
+``benchmarks/intonation.py``).  The same model gives the note's decay by the finger's damping,
+which a coarse grid overstates (the sounding string reaches the nodes under the finger):
+``finger_damping`` sets the contact damping of the finger stopping each fret so that the model's
+note decays as on the fine grid, and ``fret_calibration`` refits the shift at that damping.
 
 The same string at rest gives ``seating_force``: how hard the finger must press for the string to
 rest on its fret at all (a lighter press leaves a dead or buzzing note), and ``press_force``, the
@@ -51,7 +54,10 @@ REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are match
 PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmarks.intonation's)
 TOLERANCE_CENTS = 0.02  # a shift is refined until the model's note is this close to the reference
 DECAY_TOLERANCE_DB_S = 0.25  # a finger's damping is refined until the note's decay is this close
-DAMPING_RANGE = (1.0 / 16.0, 16.0)  # the finger's calibrated damping, times the preset's
+# ... once the note's decay is this far from the fine grid's with the preset's damping (closer, the
+# finger keeps it)
+DECAY_CALIBRATE_DB_S = 1.0
+DAMPING_RANGE = (1.0 / 64.0, 64.0)  # the finger's calibrated damping, times the preset's
 # a finger that presses with no force of its own presses with at least this multiple of the
 # seating force: the static force leaves the vibrating string no margin.  ``benchmarks/seating.py``
 # (standard, run at afcb369) found rendered strings resting on their fret from at most 1.27
@@ -251,6 +257,15 @@ def reference_model(model: StringModel) -> StringModel:
         factor += 1
 
 
+@lru_cache(maxsize=4096)
+def reference_note(model: StringModel, preset: Preset, fret: int) -> HeldNote:
+    """The note at ``fret`` on the fine grid of ``model``'s string (``reference_model``): what the
+    calibration of that fret matches, in pitch and in decay.  Cached: the fine grid's solve is
+    most of a calibration's cost."""
+    target = model.spec.frequency_hz * 2.0 ** (fret / 12.0)
+    return held_note(reference_model(model), preset, fret, target)
+
+
 def _illinois(f, a: float, fa: float, b: float, fb: float, tol: float, best: tuple[float, float]):
     """Regula falsi with the Illinois rule on f, bracketed by a and b (f(a) f(b) <= 0): the x
     whose |f| is smallest of those tried (``best``: the (x, f) to beat), once |f| <= tol or
@@ -289,7 +304,7 @@ def fret_shift(model: StringModel, preset: Preset, fret: int, damping: float | N
     """
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
-    want = held_note(reference_model(model), preset, fret, target).frequency_hz
+    want = reference_note(model, preset, fret).frequency_hz
     x0 = float(preset.fret_x_m(fret))
     xf = finger_x_m(preset, fret)
 
@@ -334,18 +349,20 @@ def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float =
 
     On a coarse grid the sounding string reaches the nodes under the finger (the fret's
     interpolant pins a point between two nodes, and the stencil couples nodes two apart), so the
-    finger's damping drains the note: at ``standard`` up to 14.7 dB/s more than on the fine grid
-    (steel, string 1, fret 10).  Where the note lies above the finger's own resonance (its mass on
-    its contact spring, 318 Hz for the presets) less damping drains less; near and below it the
-    finger rides the string, and more damping holds it still and drains less.  The search starts
-    at the preset's damping, goes the way the decay error shrinks, in factors of 2 up to
-    ``DAMPING_RANGE``, and refines a bracket by regula falsi (on the log of the damping) to
-    ``DECAY_TOLERANCE_DB_S``; without a bracket, the closest tried.  Any damping >= 0 keeps the
-    energy balance exact (it is booked as a loss).  Cached per process."""
+    finger's damping drains the note (``benchmarks/fret_modes.py``).  Where the note lies above the
+    finger's own resonance (its mass on its contact spring: 318 Hz for the guitars' fingers, 252 Hz
+    for the bass's) less damping drains less; near and below it the finger rides the string, and
+    more damping holds it still and drains less.  The search starts at the preset's damping, goes
+    that way (down above the resonance, up below it; the other way where the grid drains less than
+    the fine grid) in factors of 2 up to ``DAMPING_RANGE``, then, without a bracket, the other
+    way, and refines a bracket by regula falsi (on the log of the damping) to
+    ``DECAY_TOLERANCE_DB_S``.  A note within ``DECAY_CALIBRATE_DB_S`` of the fine grid, or one for
+    which no damping in the range brackets the fine grid's decay, keeps the preset's damping.  Any
+    damping >= 0 keeps the energy balance exact (it is booked as a loss).  Cached per process."""
     r0 = preset.finger.damping_n_s_m
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
-    want = held_note(reference_model(model), preset, fret, target).decay_db_s
+    want = reference_note(model, preset, fret).decay_db_s
     x0 = float(preset.fret_x_m(fret)) + shift
     xf = finger_x_m(preset, fret) + shift
 
@@ -355,30 +372,32 @@ def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float =
         return d - want
 
     e0 = err(0.0)
-    if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= DECAY_TOLERANCE_DB_S:
+    if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= DECAY_CALIBRATE_DB_S:
         return r0
     lo, hi = (math.log(v) for v in DAMPING_RANGE)
     step = math.log(2.0)
-    e_up = err(0.5 * step)  # the way the error shrinks: up, or else down
-    if math.isfinite(e_up) and abs(e_up) < abs(e0):
-        direction, a, ea = 1.0, 0.5 * step, e_up
-        if ea * e0 <= 0.0:  # crossed already
-            return r0 * math.exp(_illinois(err, 0.0, e0, a, ea, DECAY_TOLERANCE_DB_S, (a, ea))[0])
-    else:
-        direction, a, ea = -1.0, 0.0, e0
-    best = (a, ea)
-    while lo < a < hi:
-        b = min(max(a + direction * step, lo), hi)
-        eb = err(b)
-        if not math.isfinite(eb):
-            break
-        if abs(eb) < abs(best[1]):
-            best = (b, eb)
-        if eb * ea <= 0.0:
-            best = _illinois(err, a, ea, b, eb, DECAY_TOLERANCE_DB_S, best)
-            break
-        a, ea = b, eb
-    return r0 * math.exp(best[0])
+    # above the finger's resonance (its mass on its contact spring, linearised at its force as in
+    # ``held_note``) less damping drains less; near and below it more damping holds the finger
+    # still, and less lets it ring and bounce (a note below it that the model put within 0.2 dB/s
+    # of the fine grid at an eighth of the damping rendered 4.3 dB/s off)
+    fg = preset.finger
+    force = press_force(model, preset, fret)
+    kf = fg.alpha * force / (force / fg.stiffness) ** (1.0 / fg.alpha)
+    direction = -1.0 if target > math.sqrt(kf / fg.mass_kg) / (2.0 * math.pi) else 1.0
+    if e0 > 0.0:  # the grid drains less than the fine grid: the other way
+        direction = -direction
+    for way in (direction, -direction):  # then the other way, if that one finds no bracket
+        a, ea = 0.0, e0
+        while lo < a + way * 0.5 * step < hi:
+            b = min(max(a + way * step, lo), hi)
+            eb = err(b)
+            if not math.isfinite(eb):
+                break
+            if eb * ea <= 0.0:
+                best = (b, eb) if abs(eb) < abs(ea) else (a, ea)
+                return r0 * math.exp(_illinois(err, a, ea, b, eb, DECAY_TOLERANCE_DB_S, best)[0])
+            a, ea = b, eb
+    return r0
 
 
 class FretCalibration(NamedTuple):

@@ -1,5 +1,5 @@
 """Why a coarse grid puts fretted notes out of tune and shortens them, and the calibration that
-takes the pitch error out.
+takes both errors out.
 
 ``engine.intonation`` models a held note as a linear system on the string's grid (the scheme's
 stiffness and mass, the frets on both sides of the finger as constraints, the finger as a damped
@@ -10,14 +10,16 @@ those frets costs (once, in one process):
 
 1. the grid's share of the error, frets left where they are: the rendered pitch on the quality's
    grid minus that on the reference grid (h <= 1.5 mm), and the model's same difference;
-2. with the stopped frets calibrated, their fingers moved with them (what `draft` and `standard`
-   render): the rendered pitch minus the reference grid's, which the calibration aims to make
-   zero;
+2. with the stopped frets calibrated, their fingers moved with them and the fingers' damping
+   calibrated (what `draft` and `standard` render): the rendered pitch minus the reference
+   grid's, which the calibration aims to make zero;
 3. the decay of the fundamental (dB/s; rendered: a line fitted over 0.2-1.15 s; the model: its
    mode's decay by the finger's contact damping) minus the reference grid's, frets where they are
-   (rendered and the model) and calibrated (rendered).  The same sub-grid geometry sets how much
-   of the sounding string reaches the finger's damping: on a coarse grid a fretted note dies
-   faster.  The calibration does not aim at it.
+   (rendered and the model), frets calibrated for pitch alone, and frets and fingers' damping
+   calibrated (rendered).  The same sub-grid geometry sets how much of the sounding string
+   reaches the finger's damping: on a coarse grid a fretted note dies faster, which the finger's
+   damping calibrated per fret (``intonation.finger_damping``) takes out;
+4. the calibrated damping of each fret's finger (N s/m; the preset's is 8).
 
     python -m benchmarks.fret_modes [--preset steel-acoustic] [--quality draft]
 """
@@ -33,7 +35,7 @@ from multiprocessing import Pool
 import numpy as np
 
 from benchmarks.intonation import FRETS, REFERENCE, SR, print_table, tables
-from engine.intonation import fret_shift, fret_shifts, held_note
+from engine.intonation import fret_calibration, fret_calibrations, fret_shift, held_note
 from engine.options import QUALITY, Quality
 from engine.presets import Preset, get_preset
 from engine.voice import oversample_for
@@ -67,15 +69,21 @@ def main(argv: list[str] | None = None) -> None:
     t0 = time.perf_counter()
     model, model_decay = predicted(preset, quality)
     fret_shift.cache_clear()
+    fret_calibration.cache_clear()
     t1 = time.perf_counter()
+    dampings = np.zeros((preset.n_strings, len(FRETS)))
     for i, spec in enumerate(preset.strings, start=1):
-        fret_shifts(oversample_for(spec, preset.string_length_m(i), SR, quality)[1], preset, FRETS)
+        cal = fret_calibrations(oversample_for(spec, preset.string_length_m(i), SR, quality)[1],
+                                preset, FRETS)
+        dampings[i - 1] = [cal[q].damping_n_s_m for q in FRETS]
     calibration = time.perf_counter() - t1
     raw = replace(quality, calibrate_frets=False)
-    calibrated = replace(quality, calibrate_frets=True)
+    pitch_only = replace(quality, calibrate_frets=True, calibrate_damping=False)
+    calibrated = replace(quality, calibrate_frets=True, calibrate_damping=True)
     with Pool(2) as pool:
         reference, ref_decay = tables(args.preset, REFERENCE, False, pool)
         raw_cents, raw_decay = tables(args.preset, raw, False, pool)
+        _, pitch_decay = tables(args.preset, pitch_only, False, pool)
         cal_cents, cal_decay = tables(args.preset, calibrated, False, pool)
     rendered = raw_cents - reference
     after = cal_cents - reference
@@ -96,11 +104,18 @@ def main(argv: list[str] | None = None) -> None:
     apart = np.abs(model_decay - decay)
     print(f"model and rendered decay within 0.5 dB/s on {int(np.sum(apart <= 0.5))} of "
           f"{apart.size} notes, within 0.1 dB/s on {int(np.sum(apart <= 0.1))}")
-    print_table("3. frets calibrated, rendered notes: quality minus reference",
+    print_table("3. frets calibrated for pitch alone, rendered notes: quality minus reference",
+                pitch_decay - ref_decay, "dB/s")
+    print_table("3. frets and fingers' damping calibrated, rendered notes: quality minus reference",
                 cal_decay - ref_decay, "dB/s")
+    worst = [np.max(np.abs(d)) for d in (decay, pitch_decay - ref_decay, cal_decay - ref_decay)]
+    print(f"worst |decay error| over the {ref_decay.size} notes: frets where they are "
+          f"{worst[0]:.1f}, calibrated for pitch {worst[1]:.1f}, pitch and damping {worst[2]:.1f} "
+          f"dB/s; worst |pitch error| calibrated {np.max(np.abs(after)):.2f} cents")
+    print_table("4. the calibrated finger's damping (N s/m)", dampings, "N s/m")
     n = preset.n_strings * len(FRETS)
-    print(f"\ncalibrating the {n} frets (engine.intonation.fret_shifts, one process, empty cache): "
-          f"{calibration:.1f} s, {calibration / n * 1e3:.0f} ms per fret")
+    print(f"\ncalibrating the {n} frets (engine.intonation.fret_calibrations, one process, empty "
+          f"cache): {calibration:.1f} s, {calibration / n * 1e3:.0f} ms per fret")
     print(f"\n({time.perf_counter() - t0:.0f} s on this machine)")
 
 

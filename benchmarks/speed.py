@@ -95,11 +95,13 @@ def strum_events(force: float = 2.0) -> list[dict]:
     return [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force} for i in range(6)]
 
 
+CHORD_FRETS = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}  # C major
+
+
 def chord_events() -> list[dict]:
     """A fretted C major chord (strings 4, 3 and 1 open), strummed like ``strum_events``."""
-    chord_frets = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}
     chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
-             for s, q in chord_frets.items() if q > 0]
+             for s, q in CHORD_FRETS.items() if q > 0]
     return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
                     for i in range(6)]
 
@@ -136,6 +138,7 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
           "with every nonlinearity on, against the linear string, both at the open string's own x.")
     print("string | x |   N | linear, same x | linear, own x | fretted full | fretted / linear "
           "(same x) | in cycles | in instructions | open full / linear | in instructions")
+    floor = {"chord": 0.0, "strum": 0.0}
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
         lin = {**base, "events": pluck_events(s, 8.0)}
@@ -147,6 +150,8 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
         t_own = best_time(lin, RenderOptions(**LINEAR), repeat)
         t_open = best_time(soft, RenderOptions(skip_decayed=False), repeat)
         t_soft_lin = best_time(soft, RenderOptions(**LINEAR), repeat)
+        floor["chord"] += (t_same if CHORD_FRETS[s] > 0 else t_own).seconds / seconds
+        floor["strum"] += t_own.seconds / seconds
         print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | "
               f"{t_same.seconds / seconds * 1e3:14.1f} | {t_own.seconds / seconds * 1e3:13.1f} | "
               f"{t_full.seconds / seconds * 1e3:12.1f} | "
@@ -155,6 +160,12 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
               f"{_ratio(t_full.instructions, t_same.instructions, 15)} | "
               f"{t_open.seconds / t_soft_lin.seconds:18.2f} | "
               f"{_ratio(t_open.instructions, t_soft_lin.instructions, 15)}")
+    print("the floor of a scene: its six strings on its grids, linear (no contact, no "
+          "Kirchhoff-Carrier, no body)")
+    for name, key in (("fretted C chord (fretted strings at x, open at own x)", "chord"),
+                      ("open strum (own x)", "strum")):
+        print(f"  {name}: {floor[key] * 1e3:.1f} ms per s of audio, {1.0 / floor[key]:.1f}x "
+              "real time at most")
 
 
 def components(seconds: float, repeat: int, string: int = 4) -> None:

@@ -65,6 +65,10 @@ from .scene import (
 FINGER_EVENTS = ("fret", "tap", "hammer_on", "slide")
 FINGER_BEHIND = 0.3  # of the spacing between fret q-1 and fret q
 TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
+# a finger has landed this long after it is put down: from then on it has the damping calibrated
+# for its fret (``engine.intonation.finger_damping``), while it lands the preset's, which sets how
+# a tap strikes the string and how deep it drives it (``test_stress.py``'s hard taps)
+FINGER_SETTLE_S = 10e-3
 NEVER = np.iinfo(np.int64).max // 4
 MAX_FINGERS = 4  # fingers of the fretting hand on one string at once (hammer-ons add them)
 PALM_WIDTH_M = 0.02
@@ -176,18 +180,23 @@ def frets_pressed(e) -> range:
 def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
                     impedance: float, ratio_for_cents,
                     fret_shifts: dict[int, float] | None = None,
-                    press_force=None) -> StringControls:
+                    press_force=None,
+                    finger_damping: dict[int, float] | None = None) -> StringControls:
     """Compile ``events`` (already on ``string``, sorted) for a grid of spacing h at ``rate`` Hz.
 
     ``impedance`` is sqrt(T rho A); ``ratio_for_cents(c)`` the tension ratio that raises the pitch
     by c cents.  ``fret_shifts`` (fret -> metres, ``engine.intonation``) moves a finger stopping
     a calibrated fret along with that fret's interpolant.  ``press_force(fret)`` is the force of a
     finger whose event gives none (``engine.intonation.press_force``; default: the preset's); a
-    slide presses with the largest over the frets it crosses.
+    slide presses with the largest over the frets it crosses.  ``finger_damping`` (fret -> N s/m,
+    ``engine.intonation``) is the contact damping of a finger stopping a calibrated fret (a slide:
+    the fret it ends on) once it has landed (``FINGER_SETTLE_S`` after it is put down); while it
+    lands, and elsewhere, the preset's.
     """
     length_m = preset.string_length_m(string)
     spec = preset.strings[string - 1]
     shifts = fret_shifts or {}
+    damping = finger_damping or {}
 
     def default_force(frets: range) -> float:
         if press_force is None:
@@ -258,8 +267,10 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 ms = me = 0
             fret = e.to_fret if isinstance(e, Slide) else e.fret
             force = e.force if e.force is not None else default_force(frets_pressed(e))
+            r = damping.get(fret, preset.finger.damping_n_s_m)
+            settle = on + step(FINGER_SETTLE_S) if r != preset.finger.damping_n_s_m else on
             slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
-                              gap=v0 * TAP_GAP_S, fret=fret))
+                              gap=v0 * TAP_GAP_S, fret=fret, r=r, rs=settle))
         elif isinstance(e, PullOff):
             held = [s for s in slots if s["fret"] == e.fret and s["on"] <= on < s["rel"]]
             if held:
@@ -362,6 +373,8 @@ def _arrays(plucks, slots, dampers, bends, h, n) -> Controls:
         fs_force=np.array([s["force"] for s in slots], float),
         fs_v0=np.array([s["v0"] for s in slots], float),
         fs_gap=np.array([s["gap"] for s in slots], float),
+        fs_r=np.array([s["r"] for s in slots], float),
+        fs_rs=np.array([s["rs"] for s in slots], i64),
         dp_on=np.array([d[0] for d in dampers], i64),
         dp_off=np.array([d[1] for d in dampers], i64),
         dp_r=np.array([d[2] for d in dampers], float),

@@ -35,7 +35,7 @@ import numpy as np
 
 from . import kernels
 from .controls import events_on, stopped_frets, string_controls
-from .intonation import fret_shifts, press_force
+from .intonation import fret_calibrations, fret_shifts, press_force
 from .options import GAMMA_RULES, QUALITY, RenderOptions
 from .output import Body, Decimator, add_to_mix, default_pan, pan_gains
 from .playability import finger_warnings, pull_off_warnings
@@ -131,12 +131,18 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
                                kc_s_skip=kc_skip_level(model, kc_tol))
         calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
         frets = range(1, preset.frets + 1) if opts.live_grid else stopped_frets(events)
-        shifts = (fret_shifts(model, preset, frets)
-                  if calibrate and fret_mode == FRET_RIGID else None)
+        shifts = damping = None
+        if calibrate and fret_mode == FRET_RIGID:
+            if q.calibrate_damping if opts.calibrate_damping is None else opts.calibrate_damping:
+                cal = fret_calibrations(model, preset, frets)
+                shifts = {f: c.shift_m for f, c in cal.items()}
+                damping = {f: c.damping_n_s_m for f, c in cal.items()}
+            else:
+                shifts = fret_shifts(model, preset, frets)
         # the default pressing force of each fret (a small static solve), once per string
         press = cache(partial(press_force, model, preset, tension_ratio=rmax))
-        build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, press,
-                        pickups, fret_mode, opts)
+        build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, damping,
+                        press, pickups, fret_mode, opts)
         ctl, geom = build(events)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, policy,
@@ -149,13 +155,13 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
                   {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
 
 
-def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, press,
+def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, damping, press,
                            pickups: list[float], fret_mode: int, opts: RenderOptions, events: list):
     """String ``i``'s control arrays for ``events`` (those on it, sorted) on the grid of ``model``
     at the internal ``rate``, and its geometry with the contact margin those events need."""
     impedance = math.sqrt(model.tension_n * model.rho_a)
     ctl = string_controls(events, preset, i, model.h, model.n, rate, impedance,
-                          partial(tension_ratio_for_cents, model), shifts, press)
+                          partial(tension_ratio_for_cents, model), shifts, press, damping)
     margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
               if opts.skip_contacts else 1.0)
     geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,

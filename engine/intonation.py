@@ -22,7 +22,10 @@ notes on a coarse grid").
 ``fret_shifts`` moves each stopped fret's interpolant (not its height), and the finger that stops
 it, along the string, towards the nut where the grid is sharp, until the model's note on the grid
 has the pitch of the same note on a fine grid (h <= ``REFERENCE_H_M``, the reference of
-``benchmarks/intonation.py``).
+``benchmarks/intonation.py``).  The same model gives the note's decay by the finger's damping,
+which a coarse grid overstates (the sounding string reaches the nodes under the finger):
+``finger_damping`` sets the contact damping of the finger stopping each fret so that the model's
+note decays as on the fine grid, and ``fret_calibration`` refits the shift at that damping.
 
 The same string at rest gives ``seating_force``: how hard the finger must press for the string to
 rest on its fret at all (a lighter press leaves a dead or buzzing note), and ``press_force``, the
@@ -50,6 +53,11 @@ from .string import StringModel, tune
 REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are matched to
 PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmarks.intonation's)
 TOLERANCE_CENTS = 0.02  # a shift is refined until the model's note is this close to the reference
+DECAY_TOLERANCE_DB_S = 0.25  # a finger's damping is refined until the note's decay is this close
+# ... once the note's decay is this far from the fine grid's with the preset's damping (closer, the
+# finger keeps it)
+DECAY_CALIBRATE_DB_S = 1.0
+DAMPING_RANGE = (1.0 / 64.0, 64.0)  # the finger's calibrated damping, times the preset's
 # a finger that presses with no force of its own presses with at least this multiple of the
 # seating force: the static force leaves the vibrating string no margin.  ``benchmarks/seating.py``
 # (standard, run at afcb369) found rendered strings resting on their fret from at most 1.27
@@ -129,12 +137,13 @@ class HeldNote(NamedTuple):
 
 def held_note(model: StringModel, preset: Preset, fret: int, target: float,
               fret_x: float | None = None, prev_x: float | None = None,
-              finger_x: float | None = None) -> HeldNote:
+              finger_x: float | None = None, damping: float | None = None) -> HeldNote:
     """The note the model above gives for ``fret`` on ``model``'s grid: the mode nearest
     ``target`` (Hz) that the pluck and the pickup hear most; NaNs if none is within a semitone.
     ``fret_x``, ``prev_x`` and ``finger_x`` place the interpolants of the fret, of the one behind
     it and of the finger (default: where they are, ``Preset.fret_x_m`` and
-    ``controls.finger_x_m``)."""
+    ``controls.finger_x_m``); ``damping`` is the finger's contact damping (N s/m; default: the
+    preset's)."""
     n, k = model.n, model.k
     size = n  # nodes 1..N-1 and the finger
     if fret_x is None:
@@ -154,7 +163,7 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     string_stiff, mass = _string_matrices(model, fg.mass_kg)
     jfs = sparse.csr_matrix(jf)
     stiff = string_stiff + kf * (jfs.T @ jfs)
-    damp = fg.damping_n_s_m * (jfs.T @ jfs)
+    damp = (fg.damping_n_s_m if damping is None else damping) * (jfs.T @ jfs)
     z = _null_basis([_interpolant(x, model) for x in (fret_x, prev_x) if x is not None], size)
     ks, cs, ms = (z.T @ a @ z for a in (stiff, damp, mass))
     nz = z.shape[1]
@@ -249,7 +258,37 @@ def reference_model(model: StringModel) -> StringModel:
 
 
 @lru_cache(maxsize=4096)
-def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
+def reference_note(model: StringModel, preset: Preset, fret: int) -> HeldNote:
+    """The note at ``fret`` on the fine grid of ``model``'s string (``reference_model``): what the
+    calibration of that fret matches, in pitch and in decay.  Cached: the fine grid's solve is
+    most of a calibration's cost."""
+    target = model.spec.frequency_hz * 2.0 ** (fret / 12.0)
+    return held_note(reference_model(model), preset, fret, target)
+
+
+def _illinois(f, a: float, fa: float, b: float, fb: float, tol: float, best: tuple[float, float]):
+    """Regula falsi with the Illinois rule on f, bracketed by a and b (f(a) f(b) <= 0): the x
+    whose |f| is smallest of those tried (``best``: the (x, f) to beat), once |f| <= tol or
+    after 30 steps."""
+    for _ in range(30):
+        c = b - fb * (b - a) / (fb - fa)
+        fc = f(c)
+        if not math.isfinite(fc):
+            break
+        if abs(fc) < abs(best[1]):
+            best = (c, fc)
+        if abs(fc) <= tol:
+            break
+        if fc * fb < 0.0:
+            a, fa = b, fb
+        else:  # the same end kept twice: halve its value (Illinois)
+            fa *= 0.5
+        b, fb = c, fc
+    return best
+
+
+@lru_cache(maxsize=4096)
+def fret_shift(model: StringModel, preset: Preset, fret: int, damping: float | None = None) -> float:
     """Metres to move the interpolants of ``fret`` and of the finger stopping it, together
     (towards the bridge if positive), so that the model's note at that fret on ``model``'s grid has
     the pitch it has on the fine grid.  Moving the finger with the fret keeps the distance between
@@ -260,16 +299,18 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
     that corrects the error, at most h / 2 and no further than half way to the next fret (the
     finger: to the fret behind it), then refined by regula falsi (Illinois) to
     ``TOLERANCE_CENTS``; if no shift within those bounds reaches the fine grid's pitch, the one that
-    comes closest is taken.  Cached per process.
+    comes closest is taken.  ``damping``: the finger's contact damping on ``model``'s grid (default:
+    the preset's; the fine grid keeps the preset's).  Cached per process.
     """
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
-    want = held_note(reference_model(model), preset, fret, target).frequency_hz
+    want = reference_note(model, preset, fret).frequency_hz
     x0 = float(preset.fret_x_m(fret, spec))
     xf = finger_x_m(preset, fret, spec)
 
     def err(d: float) -> float:
-        f = held_note(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d).frequency_hz
+        f = held_note(model, preset, fret, target, fret_x=x0 + d, finger_x=xf + d,
+                      damping=damping).frequency_hz
         return 1200.0 * math.log2(f / want) if f > 0.0 else math.nan
 
     e0 = err(0.0)
@@ -293,25 +334,99 @@ def fret_shift(model: StringModel, preset: Preset, fret: int) -> float:
             break
         if abs(e) < abs(ebest):
             best, ebest = d, e
-        if e * ea <= 0.0:  # bracketed between a and d: Illinois
-            b, eb = d, e
-            for _ in range(30):
-                c = b - eb * (b - a) / (eb - ea)
-                ec = err(c)
-                if not math.isfinite(ec):
-                    break
-                if abs(ec) < abs(ebest):
-                    best, ebest = c, ec
-                if abs(ec) <= TOLERANCE_CENTS:
-                    break
-                if ec * eb < 0.0:
-                    a, ea = b, eb
-                else:  # the same end kept twice: halve its value (Illinois)
-                    ea *= 0.5
-                b, eb = c, ec
+        if e * ea <= 0.0:  # bracketed between a and d
+            best, ebest = _illinois(err, a, ea, d, e, TOLERANCE_CENTS, (best, ebest))
             break
         a, ea = d, e
     return best
+
+
+@lru_cache(maxsize=4096)
+def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float = 0.0) -> float:
+    """N s/m: the contact damping of a finger stopping ``fret`` on ``model``'s grid (its fret and
+    finger moved by ``shift``, ``fret_shift``) with which the model's note decays as the same note
+    does on the fine grid with the preset's damping.
+
+    On a coarse grid the sounding string reaches the nodes under the finger (the fret's
+    interpolant pins a point between two nodes, and the stencil couples nodes two apart), so the
+    finger's damping drains the note (``benchmarks/fret_modes.py``).  Where the note lies above the
+    finger's own resonance (its mass on its contact spring: 318 Hz for the guitars' fingers, 252 Hz
+    for the bass's) less damping drains less; near and below it the finger rides the string, and
+    more damping holds it still and drains less.  The search starts at the preset's damping, goes
+    that way (down above the resonance, up below it; the other way where the grid drains less than
+    the fine grid) in factors of 2 up to ``DAMPING_RANGE``, then, without a bracket, the other
+    way, and refines a bracket by regula falsi (on the log of the damping) to
+    ``DECAY_TOLERANCE_DB_S``.  A note within ``DECAY_CALIBRATE_DB_S`` of the fine grid, or one for
+    which no damping in the range brackets the fine grid's decay, keeps the preset's damping.  Any
+    damping >= 0 keeps the energy balance exact (it is booked as a loss).  Cached per process."""
+    r0 = preset.finger.damping_n_s_m
+    spec = model.spec
+    target = spec.frequency_hz * 2.0 ** (fret / 12.0)
+    want = reference_note(model, preset, fret).decay_db_s
+    x0 = float(preset.fret_x_m(fret, spec)) + shift
+    xf = finger_x_m(preset, fret, spec) + shift
+
+    def err(log_scale: float) -> float:
+        d = held_note(model, preset, fret, target, fret_x=x0, finger_x=xf,
+                      damping=r0 * math.exp(log_scale)).decay_db_s
+        return d - want
+
+    e0 = err(0.0)
+    if not math.isfinite(want) or not math.isfinite(e0) or abs(e0) <= DECAY_CALIBRATE_DB_S:
+        return r0
+    lo, hi = (math.log(v) for v in DAMPING_RANGE)
+    step = math.log(2.0)
+    # above the finger's resonance (its mass on its contact spring, linearised at its force as in
+    # ``held_note``) less damping drains less; near and below it more damping holds the finger
+    # still, and less lets it ring and bounce (a note below it that the model put within 0.2 dB/s
+    # of the fine grid at an eighth of the damping rendered 4.3 dB/s off)
+    fg = preset.finger
+    force = press_force(model, preset, fret)
+    kf = fg.alpha * force / (force / fg.stiffness) ** (1.0 / fg.alpha)
+    direction = -1.0 if target > math.sqrt(kf / fg.mass_kg) / (2.0 * math.pi) else 1.0
+    if e0 > 0.0:  # the grid drains less than the fine grid: the other way
+        direction = -direction
+    for way in (direction, -direction):  # then the other way, if that one finds no bracket
+        a, ea = 0.0, e0
+        while lo < a + way * 0.5 * step < hi:
+            b = min(max(a + way * step, lo), hi)
+            eb = err(b)
+            if not math.isfinite(eb):
+                break
+            if eb * ea <= 0.0:
+                best = (b, eb) if abs(eb) < abs(ea) else (a, ea)
+                return r0 * math.exp(_illinois(err, a, ea, b, eb, DECAY_TOLERANCE_DB_S, best)[0])
+            a, ea = b, eb
+    return r0
+
+
+class FretCalibration(NamedTuple):
+    shift_m: float  # ``fret_shift``: the fret's and its finger's interpolants moved this far
+    damping_n_s_m: float  # ``finger_damping``: the contact damping of a finger stopping it
+
+
+@lru_cache(maxsize=4096)
+def fret_calibration(model: StringModel, preset: Preset, fret: int) -> FretCalibration:
+    """Pitch and decay of the note at ``fret`` on ``model``'s grid matched to the fine grid's: the
+    shift at the preset's damping, the damping at that shift, then the shift again at that damping
+    (the damping moves the note's pitch by up to a few cents where the note is near the finger's
+    resonance).  Cached per process."""
+    shift = fret_shift(model, preset, fret)
+    damping = finger_damping(model, preset, fret, shift)
+    if damping != preset.finger.damping_n_s_m:
+        shift = fret_shift(model, preset, fret, damping)
+    return FretCalibration(shift, damping)
+
+
+def fret_calibrations(model: StringModel, preset: Preset,
+                      frets: Iterable[int]) -> dict[int, FretCalibration]:
+    """``fret_calibration`` of each of ``frets`` (those the scene's fingers stop), with BLAS on one
+    thread (see ``fret_shifts``)."""
+    wanted = sorted(q for q in set(frets) if 1 <= q <= preset.frets)
+    if not wanted:
+        return {}
+    with threadpool_limits(limits=1, user_api="blas"):
+        return {q: fret_calibration(model, preset, q) for q in wanted}
 
 
 def fret_shifts(model: StringModel, preset: Preset, frets: Iterable[int]) -> dict[int, float]:

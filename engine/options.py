@@ -27,12 +27,17 @@ class Quality:
     # where it takes most of the grid's error out of the fretted pitch; off at high, where it cost
     # more spectral accuracy (tap, fret buzz) than it bought (docs/accuracy.md, "Quality levels")
     calibrate_frets: bool = False
+    # with the frets: the contact damping of the finger stopping each one calibrated, so that the
+    # held note decays as on the fine grid (``intonation.finger_damping``: on a coarse grid the
+    # finger's damping reaches the sounding string and drains it)
+    calibrate_damping: bool = False
 
 
 QUALITY = {
-    "draft": Quality(max_h_m=1.0, kc_tolerance=1e-3, calibrate_frets=True),
+    "draft": Quality(max_h_m=1.0, kc_tolerance=1e-3, calibrate_frets=True,
+                     calibrate_damping=True),
     "standard": Quality(max_h_m=5.5e-3, max_dispersion_cents=0.8, kc_tolerance=1e-4,
-                        calibrate_frets=True),
+                        calibrate_frets=True, calibrate_damping=True),
     "high": Quality(max_h_m=2.5e-3, max_dispersion_cents=0.3, max_oversample=16),
 }
 
@@ -63,6 +68,7 @@ class RenderOptions:
     gamma_rule: str = "joint"
     compensate_dispersion: bool = True
     calibrate_frets: bool | None = None  # overrides ``Quality.calibrate_frets``
+    calibrate_damping: bool | None = None  # overrides ``Quality.calibrate_damping``
     # keep each voice's per-step energy series (``Voice.energy_h`` ...; tests and benchmarks read
     # them); off, a render with diagnostics keeps only running figures, in memory that does not
     # grow with the scene's duration

@@ -52,7 +52,7 @@ class Coefs(NamedTuple):
     fg_mass: float
     fg_k: float
     fg_alpha: float
-    fg_r: float  # finger contact damping, N s / m
+    fg_r: float  # finger contact damping, N s / m (the preset's: ``Controls.fs_r``)
     fg_lift: float  # finger is removed once this far above the string, m
     lam2: float  # T0 k^2 / (rho A h^2): the tension's share of B, for bends
     den: float  # 1 + sigma0 k
@@ -105,6 +105,10 @@ class Controls(NamedTuple):
     fs_force: np.ndarray
     fs_v0: np.ndarray
     fs_gap: np.ndarray
+    # contact damping R (N s/m) of a finger held from step fs_rs on (``engine.intonation``
+    # calibrates it per fret); before that step, while it lands, ``Coefs.fg_r``
+    fs_r: np.ndarray
+    fs_rs: np.ndarray
     dp_on: np.ndarray  # dampers (light touch, palm): active steps, damping N s/m, spread
     dp_off: np.ndarray
     dp_r: np.ndarray
@@ -170,6 +174,7 @@ class Work(NamedTuple):
     fw0: np.ndarray
     fw1: np.ndarray
     fchi: np.ndarray
+    fr: np.ndarray  # its contact damping R in this step (``Controls.fs_r``)
     fbeta: np.ndarray
     fcol: np.ndarray  # the finger's column (-1: none)
     rd: np.ndarray  # ``_ray_blocked``'s direction and system

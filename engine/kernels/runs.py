@@ -119,15 +119,16 @@ def _held_until(s, ctl, st):
     string; (s, -1) if step s may not be held.
 
     A held step is a general step of a fixed kind (see ``_held_run``): one finger on the string,
-    staying where it is and pressing, no other finger put down or lifted, no damper, no residual
+    staying where it is and pressing with one damping (it changes once the finger has landed,
+    ``Controls.fs_rs``), no other finger put down or lifted, no damper, no residual
     psi of the fretboard or the penalty frets.  Plucks may act (their forces are added as in the
     general path).  A sliding finger holds before its slide begins and after it ends: its
     interpolant, worked out in the general step before the run, is the one each step would get.
     Nothing of this changes in a held step, so the answer holds until the next general step.
     """
     psi, f_state = st.psi, st.f_state
-    fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me = (
-        ctl.fs_on, ctl.fs_rel, ctl.fs_x0, ctl.fs_x1, ctl.fs_ms, ctl.fs_me)
+    fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, fs_rs = (
+        ctl.fs_on, ctl.fs_rel, ctl.fs_x0, ctl.fs_x1, ctl.fs_ms, ctl.fs_me, ctl.fs_rs)
     dp_on, dp_off = ctl.dp_on, ctl.dp_off
     if psi[0] != 0.0 or psi[1] != 0.0:
         return s, -1
@@ -139,6 +140,8 @@ def _held_until(s, ctl, st):
                 return s, -1
             slot = q
             end = min(end, fs_rel[q])
+            if s < fs_rs[q]:  # its damping changes there
+                end = min(end, fs_rs[q])
             if fs_x0[q] != fs_x1[q]:  # held while _finger_x is x0 (before ms) or x1 (after both)
                 if fs_ms[q] <= s <= max(fs_ms[q], fs_me[q]):
                     return s, -1
@@ -230,7 +233,11 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
             nc += 1
     _gram(nc, kind, cstart, cidx, cval, cslot, Q, 0.0, lam, lam_f, G, scr)  # the fixed entries
     vlv = lam * (fw0 * fw0 + fw1 * fw1) + lam_f
-    rdamp = c.fg_r / (2.0 * k)  # the finger's contact damping R / (2 k)
+    # the finger's contact damping: a run does not straddle the step where it changes
+    # (``_held_until``)
+    fr = w.fr
+    fr[slot] = ctl.fs_r[slot] if step0 + it >= ctl.fs_rs[slot] else c.fg_r
+    rdamp = fr[slot] / (2.0 * k)  # R / (2 k)
     done = 0
     for i in range(it, it_end):
         step = step0 + i
@@ -282,7 +289,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         fbeta[slot] = bt
         fchi[slot] = 1.0
         if _joint_gamma(fc + 1, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs,
-                        cbt, ccon, psi, f_psi, fbeta, fchi, rdamp, nc):
+                        cbt, ccon, psi, f_psi, fbeta, fchi, fr, k, nc):
             return done, s_last
         # the step is a held one: apply it, z^(n+1) = z_free + Lambda sum_c v_c x_c
         f_bprev[slot] = bt
@@ -299,7 +306,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         pin = 0.0
         if diag:
             dr = deta / (2.0 * k)
-            qloss += 1.0 * c.fg_r * dr * dr * k
+            qloss += 1.0 * fr[slot] * dr * dr * k
             pin += -force * (wn - f_w1[slot]) * 0.5
         f_w1[slot] = f_w[slot]
         f_w[slot] = wn

@@ -81,7 +81,7 @@ def _apply_gamma(c, UF, U1, psi, which, contact, joint, cidx, cval, start, nent)
 
 @njit(**JIT_INLINE)
 def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs, cbt, ccon,
-                 psi, f_psi, fbeta, fchi, rdamp, nc):
+                 psi, f_psi, fbeta, fchi, fr, k, nc):
     """The gradient correction of sec. 4.7 for columns that act together; True if any changed.
 
     ``_gamma`` predicts a column's psi from the free motion and its own force alone.  When a finger
@@ -91,7 +91,8 @@ def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam
     here each one's predicted mean psi is read off that joint solution, and where it would pull
     (mean < 0 in contact) or leave a residual (out of contact), gamma is recomputed by the same
     rule with the prediction that includes every other column's force from the first solve.  The
-    caller then solves once more.  Any gamma keeps the energy balance exact.
+    caller then solves once more.  Any gamma keeps the energy balance exact.  ``fr``: each finger
+    slot's contact damping R in this step (``Work.fr``), k the time step.
     """
     changed = False
     for i in range(nbase):
@@ -128,7 +129,7 @@ def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam
         if kd == FINGER:
             bt = gnew * cbt[i]
             fbeta[s_] = bt
-            cc[i], ca[i] = _finger_row(bt, ps, v1[i], fchi[s_], rdamp)
+            cc[i], ca[i] = _finger_row(bt, ps, v1[i], fchi[s_], fr[s_] / (2.0 * k))
         else:
             f = gnew / gold
             for e in range(cstart[i], cstart[i + 1]):

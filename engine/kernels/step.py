@@ -68,7 +68,8 @@ def step_block(c, geo, ctl, st, pol, step0, nsteps, out, diag, e_h, e_q, e_p):
         cs=np.empty(ncap), cbt=np.empty(ncap), ccon=np.zeros(ncap, np.bool_),
         scr=np.zeros(n + 3), du=np.zeros(n + 3), wfree=np.empty(nslot), fext=np.zeros(nslot),
         fp=np.zeros(nslot, np.int64), fw0=np.zeros(nslot), fw1=np.zeros(nslot),
-        fchi=np.zeros(nslot), fbeta=np.zeros(nslot), fcol=np.full(nslot, -1, np.int64),
+        fchi=np.zeros(nslot), fr=np.zeros(nslot), fbeta=np.zeros(nslot),
+        fcol=np.full(nslot, -1, np.int64),
         rd=np.empty(ncap), ra=np.empty((ncap, ncap)))
     return _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p)
 
@@ -85,9 +86,9 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
         ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
-    fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, fs_force, fs_v0, fs_gap = (
+    fs_on, fs_rel, fs_x0, fs_x1, fs_ms, fs_me, fs_force, fs_v0, fs_gap, fs_r, fs_rs = (
         ctl.fs_on, ctl.fs_rel, ctl.fs_x0, ctl.fs_x1, ctl.fs_ms, ctl.fs_me, ctl.fs_force,
-        ctl.fs_v0, ctl.fs_gap)
+        ctl.fs_v0, ctl.fs_gap, ctl.fs_r, ctl.fs_rs)
     ndamp = ctl.dp_on.shape[0]
     npk = geo.out_p.shape[0]
     n = c.n
@@ -99,10 +100,9 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         w.kind, w.cstart, w.cslot, w.cfret, w.ca, w.cc, w.vfree, w.v1)
     cidx, cval, G, A, x, xp, cgam, cs, cbt, ccon = (
         w.cidx, w.cval, w.g, w.a, w.x, w.xp, w.cgam, w.cs, w.cbt, w.ccon)
-    scr, du, wfree, fext, fp, fw0, fw1, fchi, fbeta, fcol = (
-        w.scr, w.du, w.wfree, w.fext, w.fp, w.fw0, w.fw1, w.fchi, w.fbeta, w.fcol)
+    scr, du, wfree, fext, fp, fw0, fw1, fchi, fr, fbeta, fcol = (
+        w.scr, w.du, w.wfree, w.fext, w.fp, w.fw0, w.fw1, w.fchi, w.fr, w.fbeta, w.fcol)
     lam_f = k * k / c.fg_mass
-    rdamp = c.fg_r / (2.0 * k)  # the finger's contact damping R / (2 k)
     status = OK
 
     b0 = c.b0
@@ -196,6 +196,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 fext[s] = fs_force[s]  # lifting
             else:
                 fext[s] = -fs_force[s]  # pressing towards the board
+            fr[s] = fs_r[s] if step >= fs_rs[s] else c.fg_r  # landing: the preset's damping
             wfree[s] = _w_free(f_w[s], f_w1[s], lam_f, fext[s])
         # ---- assemble the columns --------------------------------------------------------------
         nc = 0
@@ -266,7 +267,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 continue
             fbeta[s] = bt
             fchi[s] = 1.0 if contact else 0.0
-            cc[nc], ca[nc] = _finger_row(bt, f_psi[s], eta1, fchi[s], rdamp)
+            cc[nc], ca[nc] = _finger_row(bt, f_psi[s], eta1, fchi[s], fr[s] / (2.0 * k))
             kind[nc] = FINGER
             cslot[nc] = s
             vfree[nc] = etaf
@@ -404,7 +405,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             if gpass == 1 or not joint or nsav == 0 or status != OK:
                 break
             if not _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam,
-                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, rdamp, nc):
+                                cs, cbt, ccon, psi, f_psi, fbeta, fchi, fr, k, nc):
                 break
         # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
         free = pol.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
@@ -432,7 +433,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 f_psi[s] += 0.5 * fbeta[s] * deta
                 if diag:
                     dr = deta / (2.0 * k)
-                    qloss += fchi[s] * c.fg_r * dr * dr * k
+                    qloss += fchi[s] * fr[s] * dr * dr * k
             if diag:
                 pin += fext[s] * (wn - f_w1[s]) * 0.5
             f_w1[s] = f_w[s]

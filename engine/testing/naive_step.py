@@ -270,7 +270,6 @@ def naive_step(c, geo, ctl, st, step: int, rule: int | None = None) -> dict:
             sav(1, gprev_f, False)
 
     # ---- fingers, eqs. (25)-(27), (55c-d), with contact damping ------------------------------
-    rdamp = c.fg_r / (2.0 * k)
     for s in range(nslot):
         if f_state[s] != ACTIVE:
             continue
@@ -291,8 +290,9 @@ def naive_step(c, geo, ctl, st, step: int, rule: int | None = None) -> dict:
         if bt * g == 0.0 and not contact:
             continue
         chi = 1.0 if contact else 0.0
-        cols.append(_finger_col(v, bt, g, chi, rdamp, f_psi[s], z1, slot=s, contact=contact,
-                                vlv=vlv))
+        r = ctl.fs_r[s] if step >= ctl.fs_rs[s] else c.fg_r
+        cols.append(_finger_col(v, bt, g, chi, r / (2.0 * k), f_psi[s], z1, slot=s,
+                                contact=contact, vlv=vlv))
     # ---- dampers: x = -R d(v.u) / (2 k) ---------------------------------------------------------
     for d in range(len(ctl.dp_on)):
         if not ctl.dp_on[d] <= step < ctl.dp_off[d]:
@@ -329,7 +329,7 @@ def naive_step(c, geo, ctl, st, step: int, rule: int | None = None) -> dict:
             raise RuntimeError("the naive active set did not settle")
         if gpass == 1 or not joint:
             break
-        if not _joint_gamma(cols, all_cols, x, zfree, z1, lam_z, psi, f_psi, rdamp):
+        if not _joint_gamma(cols, all_cols, x, zfree, z1, lam_z, psi, f_psi):
             break
 
     # ---- apply: z^(n+1) = z_free + Lambda V x; psi updates, eq. (48) -------------------------
@@ -364,10 +364,10 @@ def _finger_col(v, bt, g, chi, rdamp, psi_f, z1, **extra):
     beta = g * bt
     cf = 0.25 * beta * beta + chi * rdamp
     return _Col("finger", v, c=cf, alpha=-beta * psi_f + cf * (v @ z1), beta=beta, bt=bt,
-                gam=g, chi=chi, psi=psi_f, **extra)
+                gam=g, chi=chi, psi=psi_f, rdamp=rdamp, **extra)
 
 
-def _joint_gamma(cols, all_cols, x, zfree, z1, lam_z, psi, f_psi, rdamp) -> bool:
+def _joint_gamma(cols, all_cols, x, zfree, z1, lam_z, psi, f_psi) -> bool:
     """Sec. 4.7 on the joint solution: each SAV or finger column's mean psi predicted from the
     solve; where it pulls in contact (or, out of contact, the residual's root moved), gamma from
     the prediction with every other column's force.  Changes the columns in place."""
@@ -402,7 +402,7 @@ def _joint_gamma(cols, all_cols, x, zfree, z1, lam_z, psi, f_psi, rdamp) -> bool
                 continue
         changed = True
         if col.kind == "finger":
-            cols[i] = _finger_col(col.v, col.bt, gnew, col.chi, rdamp, ps, z1, slot=col.slot,
+            cols[i] = _finger_col(col.v, col.bt, gnew, col.chi, col.rdamp, ps, z1, slot=col.slot,
                                   contact=col.contact, vlv=col.vlv)
         else:
             v = col.gt * gnew

@@ -33,3 +33,22 @@ def test_penalty_frets_match_the_naive_reference():
     assert r["decisions"] == 0, r
     for field, err in r["worst"].items():
         assert err <= TOL, (field, r)
+
+
+def test_a_landed_fingers_calibrated_damping_matches_the_naive_reference():
+    """String 4 at fret 10: the finger lands with the preset's damping and holds with the one
+    calibrated for that fret (``intonation.finger_damping``, several times the preset's there)
+    from 10 ms on, inside the stretch compared."""
+    from engine import Scene
+    from engine.guitar import prepare
+    from engine.testing.scenes import SR
+
+    sc = scene([fret(4, 10), pluck(4, time=0.008, force=4.0)], 0.014)
+    v = prepare(Scene.model_validate(sc)).voices[0]
+    ctl = v.ctl.arrays
+    assert ctl.fs_r[0] > 2.0 * v.coefs.fg_r
+    assert 0 < ctl.fs_rs[0] < 0.014 * SR * v.oversample
+    r = compare_steps(sc, 0.014)
+    assert r["decisions"] == 0, r
+    for field, err in r["worst"].items():
+        assert err <= TOL, (field, r)

@@ -226,7 +226,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         if decay_v > 0.0:
             peak = max(peak, abs(acc))
             if (s + 1) % BLOCK == 0:
-                if s + 1 >= stop_from and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v):
+                if s + 1 >= stop_from and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v,
+                                                 js_on, js_off, js_rel, js_idx, js_np, tail):
                     stopped = True
                     break
                 peak = 0.0
@@ -282,7 +283,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             i += e - s1
             ri += e - s1
             if decay_v > 0.0 and e % BLOCK == 0:
-                if e >= stop_from and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v):
+                if e >= stop_from and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v,
+                                             js_on, js_off, js_rel, js_idx, js_np, tail):
                     stopped = True
                     break
                 peak = 0.0
@@ -389,9 +391,13 @@ def _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs):
 
 
 @njit(**JIT_INLINE)
-def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max):
-    """Have the pickups (their largest |output| since the last test: peak) and does every point
-    of the sounding string (n_t .. N) at step s moved slower than v_max?"""
+def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_idx, js_np, tail):
+    """Have the pickups (their largest |output| since the last test: peak) and has every point
+    of the sounding string (n_t .. N) moved slower than v_max at step s?  The velocity is read
+    off the rails, u(n, s) - u(n, s - 1) with u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the
+    waves' values at s, one point further on, before the junctions of step s moved them; next
+    to a junction that acts (a steady damper) that mixes its step-s perturbation into the
+    difference, so those points are left out: they move with their neighbours."""
     if peak >= v_max:
         return False
     lim = v_max / fs
@@ -399,7 +405,14 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max):
         du = (R[(s - n) & mask] + Mb[(s + n) & mask]) - (R[(s - 1 - n) & mask]
                                                          + Mb[(s - 1 + n) & mask])
         if abs(du) >= lim:
-            return False
+            near = False
+            for j in range(js_on.shape[0]):
+                if js_on[j] <= s < js_off[j] + js_rel[j] + tail:
+                    for k in range(js_np[j]):
+                        if abs(js_idx[j, k] - n) <= 1:
+                            near = True
+            if not near:
+                return False
     return True
 
 

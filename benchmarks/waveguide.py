@@ -120,10 +120,15 @@ def print_rows(title: str, rows: list[dict]) -> None:
               f"{r['s_wg']:5.1f} {r['s_fd']:6.1f}")
 
 
-def strum(ref_opts: RenderOptions) -> dict:
+def strum_scene() -> dict:
+    """The fretted C/G strum: the fingers down at 0, a 2 N strum at 50 ms, 4 s."""
     evs = [fret(s, q) for s, q in CHORD.items() if q > 0]
     evs.append({"type": "strum", "time": 0.05, "force": 2.0, "spread": 0.03})
-    sc = scene(evs, 4.0)
+    return scene(evs, 4.0)
+
+
+def strum(ref_opts: RenderOptions) -> dict:
+    sc = strum_scene()
     t_wg, wg = cpu(renderer(sc, "wg"))
     t_fd, fd = cpu(renderer(sc, "fd"))
     ref = renderer(sc, "ref", ref_opts)()

@@ -63,6 +63,7 @@ class WaveguideOptions:
     dispersion: bool = True
     collisions: bool = True
     glide: bool = True
+    finger_damping: bool = True  # ``fingering.finger_reflection``
     skip_silent: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7  # m/s, as the finite-difference model's
@@ -166,7 +167,8 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
                                  f"fret {f.fret}: the note sounds dead"))
         voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
                                      opts.dispersion, opts.collisions, opts.glide,
-                                     opts.skip_decayed, opts.decay_velocity))
+                                     opts.finger_damping, opts.skip_decayed,
+                                     opts.decay_velocity))
     frames = int(round(scene.duration * scene.sample_rate))
     pan = out.pan or default_pan(preset.n_strings)
     body_name = out.body or preset.body

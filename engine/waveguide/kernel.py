@@ -30,7 +30,7 @@ import math
 
 from numba import njit
 
-from ..config import JIT_INLINE, JIT_NO_NRT
+from ..config import JIT_INLINE, JIT_STEP
 from .collision import REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
 from .pluck import LEAK_HZ, _blow, _envelope, _msd
@@ -52,9 +52,10 @@ BLOCK = 1024
 QUIET_MARGIN = 2.0  # a quiet string's energy bound stays this far below every obstacle
 MAX_SECTIONS = 4  # dispersion allpass sections at most (``string``)
 NONNEG = (1 << 62) - 1
+SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost as much as the rest)
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT_STEP)
 def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
               pb_step, pb_f,
               js_on, js_off, js_len, js_rel, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst,
@@ -231,11 +232,11 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                     stopped = True
                     break
                 peak = 0.0
-        # a plain run: steps at which nothing acts but the termination, the bridge and the
-        # pickups (no junction, no live collision point, no update of the period or the reach),
-        # the same arithmetic as the general step's in a loop of its own, up to the next step
-        # that needs the general one
-        if nlive > 0 or i >= nsteps:
+        # a plain run: steps at which nothing acts but the termination, the bridge, the live
+        # collision points and the pickups (no junction, no update of the period or the reach),
+        # the same arithmetic as the general step's in a loop of its own (``_plain``), up to the
+        # next step that needs the general one
+        if i >= nsteps:
             continue
         s1 = step0 + i
         e = min(s1 + (GLIDE_EVERY - s1 % GLIDE_EVERY) % GLIDE_EVERY, step0 + nsteps)
@@ -246,39 +247,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 e = min(e, js_on[j])
             elif s1 < js_off[j] + js_rel[j] + tail:
                 e = s1
-        for s in range(s1, e):
-            period += dper
-            d = period - 2.0 * (N - n_t) - tau
-            walk = 0
-            if d < 1.0 and n_t < N - 1:
-                n_t += 1
-                d += 2.0
-                walk = 1
-            elif d >= 3.0 and n_t > 0:
-                n_t -= 1
-                d -= 2.0
-                walk = -1
-            if d < 1.0:
-                d = 1.0
-            if d > dcap:
-                d = dcap
-            if d != d_taps:
-                j0, h0, h1, h2, h3 = _taps(d)
-                d_taps = d
-            if walk == -1:
-                v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                    Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
-                    refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-                R[(s - n_t - 1) & mask] = v
-            if walk <= 0:
-                v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                    Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
-                    refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-                R[(s - n_t) & mask] = v
-            Mb[(s + N) & mask] = -R[(s - N) & mask]
-            acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
-            out[s - step0] = acc
-            peak = max(peak, abs(acc))
+        if e > s1:
+            (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
+             peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
+                            d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                            ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n, pk_w, pk_g, fs, peak,
+                            col_n, col_ref, col_cr, col_prev, col_list, nlive)
         if e > s1:
             i += e - s1
             ri += e - s1
@@ -314,6 +288,57 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     return i
 
 
+@njit(**JIT_STEP)
+def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0, h1,
+           h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst,
+           pk_n, pk_w, pk_g, fs, peak, col_n, col_ref, col_cr, col_prev, col_list, nlive):
+    """Steps s1 .. e - 1 of ``run_block`` when no junction acts and neither the period's exact
+    value nor the reach is due: the period's linear step, the termination, the bridge, the live
+    collision points and the pickups, as in the general step (a function of its own, so that the
+    compiler keeps this loop's few values in registers).  Returns the state it changes."""
+    mask &= NONNEG  # known >= 0 here too
+    for s in range(s1, e):
+        period += dper
+        d = period - 2.0 * (N - n_t) - tau
+        walk = 0
+        if d < 1.0 and n_t < N - 1:
+            n_t += 1
+            d += 2.0
+            walk = 1
+        elif d >= 3.0 and n_t > 0:
+            n_t -= 1
+            d -= 2.0
+            walk = -1
+        if d < 1.0:
+            d = 1.0
+        if d > dcap:
+            d = dcap
+        if d != d_taps:
+            j0, h0, h1, h2, h3 = _taps(d)
+            d_taps = d
+        if walk == -1:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
+                refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t - 1) & mask] = v
+        if walk <= 0:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
+                refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t) & mask] = v
+        Mb[(s + N) & mask] = -R[(s - N) & mask]
+        for q in range(nlive):
+            c = col_list[q]
+            n = col_n[c]
+            if n <= n_t or n >= N:
+                continue
+            col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
+        acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
+        out[s - step0] = acc
+        peak = max(peak, abs(acc))
+    return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
+
+
 @njit(**JIT_INLINE)
 def _ratio_at(t, pb_step, pb_f, ib):
     """The pitch ratio at step t (linear between breakpoints) and the breakpoint index, searched
@@ -333,8 +358,10 @@ def _taps(d):
     [1, 2): (j0, h0, h1, h2, h3), the taps on samples j0 .. j0 + 3 back."""
     j0 = int(d) - 1
     x = d - j0
-    return (j0, -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0, x * (x - 2.0) * (x - 3.0) / 2.0,
-            -x * (x - 1.0) * (x - 3.0) / 2.0, x * (x - 1.0) * (x - 2.0) / 6.0)
+    a = x - 1.0
+    b = x - 2.0
+    c = x - 3.0
+    return (j0, -(a * b * c) * SIXTH, x * b * c * 0.5, -(x * a * c) * 0.5, x * a * b * SIXTH)
 
 
 @njit(**JIT_INLINE)
@@ -416,7 +443,7 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_id
     return True
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
            seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
            s_end):
@@ -427,6 +454,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     if the string is quiet: no junction acts and the pitch is steady until then, and the energy
     bound keeps every point ``QUIET_MARGIN`` times below its obstacle (the energy of the passive
     string does not grow while nothing acts on it, so the bound holds for all that time)."""
+    mask &= NONNEG
     nlive = 0
     B = REACH_EVERY
     nseg = seg_p.shape[0]

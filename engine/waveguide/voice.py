@@ -32,7 +32,14 @@ from ..voice import DECAY_CHECK_FRAMES
 from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
-from .fingering import FRET_REFLECTION, rest_height, stopped_frequency
+from .fingering import (
+    FINGER_HOLD_S,
+    FRET_REFLECTION,
+    finger_decay_db_s,
+    finger_reflection,
+    rest_height,
+    stopped_frequency,
+)
 from .glide import GLIDE_EVERY
 from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
@@ -63,6 +70,7 @@ class WaveguideVoice:
     dispersion: bool = True
     collisions: bool = True
     glide: bool = True
+    finger_damping: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7
     step: int = 0
@@ -149,6 +157,11 @@ class WaveguideVoice:
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / X
                         if self.glide else 0.0)
         self.changes = self.timeline.stops(self.preset)
+        # a stop that lasts FINGER_HOLD_S is held by a finger that damps it; the frets a slide
+        # crosses in passing are not (``fingering``)
+        ends = [c[0] for c in self.changes[1:]] + [NEVER]
+        self.held = [e - c[0] >= FINGER_HOLD_S * self.rate
+                     for c, e in zip(self.changes, ends, strict=True)]
         self.change_i = 0
         self.stop_fret: int | None = None
         self.cfg = np.zeros(11)
@@ -195,21 +208,28 @@ class WaveguideVoice:
         self.col_list = np.zeros(len(self.col_n), np.int64)
 
     # -- configurations ---------------------------------------------------------------------------
-    def loop(self, fret: int | None) -> Loop:
-        if fret in self.loops:
-            return self.loops[fret]
+    def loop(self, fret: int | None, held: bool = False) -> Loop:
+        """The loop stopped at ``fret`` (None: open); ``held``: by a finger that stays there
+        (``fingering.finger_reflection``)."""
+        key = (fret, held)
+        if key in self.loops:
+            return self.loops[key]
         p = self.preset
         x = 0.0 if fret is None else float(p.fret_x_m(fret))
         f1 = stopped_frequency(p, self.phys, self.index, x, fret, self.intonation,
                                p.finger.press_force_n)
         speaking = self.phys.length_m - x
-        loop = design_loop(self.spec, self.phys, self.rate, f1, speaking,
-                           1.0 if fret is None else FRET_REFLECTION, self.dispersion)
-        self.loops[fret] = loop
+        refl = 1.0
+        if fret is not None:
+            refl = FRET_REFLECTION
+            if held and self.finger_damping:
+                refl *= finger_reflection(finger_decay_db_s(p, self.index, self.rate, fret), f1)
+        loop = design_loop(self.spec, self.phys, self.rate, f1, speaking, refl, self.dispersion)
+        self.loops[key] = loop
         return loop
 
-    def _configure(self, fret: int | None) -> None:
-        lp = self.loop(fret)
+    def _configure(self, fret: int | None, held: bool = False) -> None:
+        lp = self.loop(fret, held)
         c = self.cfg
         c[K.C_LOSS_G], c[K.C_LOSS_A] = lp.loss_g, lp.loss_a
         c[K.C_DISP_A], c[K.C_REFL_G], c[K.C_TAU] = lp.disp_a, lp.refl_g, lp.tau
@@ -245,15 +265,15 @@ class WaveguideVoice:
         stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
         return np.array([rest_height(self.preset, self.phys.length_m, stop_x, v) for v in x])
 
-    def _change(self, fret: int | None, strike: float) -> None:
+    def _change(self, fret: int | None, strike: float, held: bool) -> None:
         old = self.stop_fret
         if fret == old:
             return
         mask = len(self.R) - 1
         s = self.step
         nt_old = int(self.ist[K.I_NT])
-        self._configure(fret)
-        nt = self._place(self.loop(fret))
+        self._configure(fret, held)
+        nt = self._place(self.loop(fret, held))
         x_old = -1.0 if old is None else float(self.preset.fret_x_m(old))
         x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret))
         release = x_new < x_old
@@ -320,11 +340,11 @@ class WaveguideVoice:
         stopped string costs nothing from then on.  The kernel's glide and reach updates restart
         on that grid, so blocks of whole multiples of ``BLOCK_MULTIPLE`` samples give the same
         samples however they are cut (``service.config`` holds a stream's blocks to that)."""
-        out = np.zeros(nsteps)
         if self.stopped:
             self.step += nsteps
-        else:
-            self._advance(out)
+            return np.zeros(nsteps)
+        out = np.empty(nsteps)  # the kernel writes every sample it runs (``_advance``)
+        self._advance(out)
         return out
 
     def _advance(self, out: np.ndarray) -> None:
@@ -336,7 +356,7 @@ class WaveguideVoice:
             while (self.change_i < len(self.changes)
                    and self.changes[self.change_i][0] <= self.step):
                 _, fret, strike = self.changes[self.change_i]
-                self._change(fret, strike)
+                self._change(fret, strike, self.held[self.change_i])
                 self.change_i += 1
             nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
                    else NEVER)
@@ -359,7 +379,8 @@ class WaveguideVoice:
             done += ran
             if self.ist[K.I_STOPPED]:
                 self.stopped = True
-        self.step = end  # stopped: the rest is silence
+                out[done:] = 0.0  # the rest is silence
+        self.step = end
 
     def energy(self) -> float:
         """Stored energy of the sounding grid, J: each travelling wave's mu X (du/dt)^2 summed

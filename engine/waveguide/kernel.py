@@ -4,8 +4,8 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 
 1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch
    ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide (``glide``,
-   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples and linear
-   between;
+   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples (and at a
+   call's start and every ``BLOCK`` steps) and linear between;
    the termination's fractional delay D = P - 2 (N - n_t) - tau, and the termination walks one
    grid step when D leaves [1, 3) (``string``; at most one step a sample, which the slow pitch
    changes never exceed);
@@ -15,7 +15,22 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes),
    and a pluck's force as a velocity blow (``pluck._blow``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
-6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``.
+6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``;
+7. on the grid of ``BLOCK`` steps, from the step ``voice`` computes (no event, release, contact
+   or pitch breakpoint left to come), the decay stop: the pickups' output since the last test and
+   every point's velocity on the sounding grid below ``decay_velocity``, and the string stops
+   (``_still``; a stopped string costs nothing).
+
+That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found
+live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
+loop of their own up to the next step that needs the general one (a period update every
+``GLIDE_EVERY`` steps, a reach, a junction's onset), compiled apart so that its few values stay in
+registers.  Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
+samples do not depend on where a plain run starts or ends.  Collision reach (``_reach``) runs
+every ``REACH_EVERY`` steps; when the string is quiet (no junction, a steady pitch, and the
+energy bound ``QUIET_MARGIN`` times below every obstacle) it is not needed again before the next
+``BLOCK`` step.  The filters' states live in registers for a call (``_terminate``), and ring
+indices are masked by a mask the compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.

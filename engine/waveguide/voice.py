@@ -37,7 +37,6 @@ from .fingering import (
     FRET_REFLECTION,
     finger_decay_db_s,
     finger_reflection,
-    rest_height,
     stopped_frequency,
 )
 from .glide import GLIDE_EVERY
@@ -238,10 +237,8 @@ class WaveguideVoice:
         c[K.C_DECAY_V] = self.decay_velocity if self.skip_decayed else 0.0
         self.disp_m = lp.disp_m
         self.stop_fret = fret
-        stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
         if len(self.col_n):
-            rest = np.array([rest_height(self.preset, self.phys.length_m, stop_x, x)
-                             for x in self.x_of(self.col_n)])
+            rest = self._rest(fret, self.x_of(self.col_n))
             self.col_ref = self.col_abs - rest
             self.col_live[:] = 0
 
@@ -263,7 +260,13 @@ class WaveguideVoice:
 
     def _rest(self, fret: int | None, x: np.ndarray) -> np.ndarray:
         stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
-        return np.array([rest_height(self.preset, self.phys.length_m, stop_x, v) for v in x])
+        x = np.asarray(x, float)
+        if stop_x is None:
+            return np.zeros(len(x))
+        # ``fingering.rest_height`` at every x, in the same arithmetic
+        c = float(self.preset.clearance_m(stop_x))
+        length = self.phys.length_m
+        return np.where(x >= stop_x, -c * (length - x) / (length - stop_x), -c * x / stop_x)
 
     def _change(self, fret: int | None, strike: float, held: bool) -> None:
         old = self.stop_fret

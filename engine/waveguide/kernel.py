@@ -78,7 +78,11 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
               col_n, col_ref, col_cr, col_prev, col_live, col_list, seg_p, seg_m,
               pk_n, pk_w, pk_g):
     """Run nsteps samples from step0 into out; returns the number run (fewer if the decay stop
-    acted: ist[I_STOPPED] is then 1), or -1 if the string became non-finite."""
+    acted: ist[I_STOPPED] is then 1), -1 if the string became non-finite, or -2 if the reach's
+    segment arrays do not fit this kernel's ``REACH_EVERY`` (a kernel cached from another value
+    of it: numba's cache watches only this file)."""
+    if seg_p.shape[0] < N // REACH_EVERY + 2 or seg_m.shape[0] < N // REACH_EVERY + 2:
+        return -2
     mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound
     fs = cfg[C_FS]
     loss_gg = cfg[C_LOSS_G] * (1.0 + cfg[C_LOSS_A])

@@ -376,6 +376,9 @@ class WaveguideVoice:
             if self._run is None:  # the argument types are the same in every call
                 self._run = entry_point(K.run_block, args)
             ran = self._run(*args)
+            if ran == -2:
+                raise RuntimeError("the cached waveguide kernel was compiled with another "
+                                   "REACH_EVERY: touch engine/waveguide/kernel.py")
             if ran < 0:
                 raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
             self.step += ran

@@ -12,14 +12,18 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     VIRTUAL_ENV=/opt/venv \
     PATH=/opt/venv/bin:$PATH \
     PYTHONPATH=/app \
-    NUMBA_CACHE_DIR=/var/cache/guitar/numba
+    NUMBA_CACHE_DIR=/var/cache/guitar/numba \
+    GUITAR_DATA_DIR=/var/lib/guitar
 
 # A fixed numeric id, so that USER resolves without the image's passwd file.
 RUN groupadd --system --gid 10001 app \
     && useradd --system --uid 10001 --gid 10001 --home-dir /app --no-create-home \
        --shell /usr/sbin/nologin app \
-    && mkdir -p /app "$NUMBA_CACHE_DIR" \
-    && chown 10001:10001 "$NUMBA_CACHE_DIR"
+    && mkdir -p /app "$NUMBA_CACHE_DIR" "$GUITAR_DATA_DIR" \
+    && chown 10001:10001 "$NUMBA_CACHE_DIR" "$GUITAR_DATA_DIR"
+
+# Jobs (SQLite and their results) live here: mount a volume to keep them across containers.
+VOLUME /var/lib/guitar
 
 WORKDIR /app
 

@@ -28,25 +28,32 @@ frets 1, 5 and 12; 1-12 with ``--full``), and the fretted six-string C major str
 ``fd`` with fretted pitch within 3 cents).  ``--intonation`` adds the waveguide's fretted pitch
 with ``intonation="physical"`` (``engine.waveguide.fingering``).
 
-Where each model is better (the default run at 94798ab, on the shared two-core machine; the cost
-columns moved by up to a factor 1.5 between runs with the other load):
+Where each model is better (the default run at 33291ac, on the shared two-core machine at a
+load average of about 4.5; the cost columns move by up to a factor 1.5 between runs with the load):
 
-* cost: the waveguide.  Single notes 188-441x real time against the finite-difference model's
-  15.8-133x at ``standard`` (about 10x cheaper, median 337 against 34.7); the fretted C/G strum
-  51x against 10.1x, 5.1x cheaper (7.4x in an earlier run): short of the issue's 20x.  Its sample
-  loop costs a few tens of nanoseconds a string-sample on this machine, most of it the
-  termination's filter chain (a loop-carried dependency through the loss and allpass sections),
-  and the collision checks of a fretted string, whose next frets are always within reach.
+* cost: the waveguide.  Single notes 493-705x real time against the finite-difference model's
+  22.2-135x at ``standard`` (median 578 against 43.2); the fretted C/G strum 164x against 10.7x,
+  15.4x cheaper: short of the issue's 20x.  ``python -m tools.instructions --waveguide`` counts
+  the strum's instructions, which do not move with the load: 79.3 million per second of audio
+  against 988.7 million at
+  ``standard``, 12.5x fewer (at 240c929, before the reach every 256 samples took about 7 % off
+  the waveguide's).  What is left of the waveguide's cost is the loop's own work per sample
+  (the termination's Lagrange read, loss and allpass sections, the bridge, a pickup, and the
+  Lagrange taps recomputed every sample while the glide moves the delay), the checks of the
+  collision points a fretted string's vibration keeps within reach for its first second, the
+  reach bounds, and the Python around each block (``engine/waveguide/kernel.py``).
 * pitch: the waveguide, by construction.  Its fractional delay puts open strings within 0.09 cents
-  and stopped strings (ideal intonation) within 0.09 cents of 12-TET, where the finite-difference
+  and stopped strings (ideal intonation) within 0.07 cents of 12-TET, where the finite-difference
   model sounds the physics of its frets: -4.59..+3.75 cents at ``standard`` (its converged
   reference -4.95..+4.33), compensated by the presets' saddle setbacks.  With ``--intonation``
   the waveguide's own physical model of the stopped string gives -5.0..+3.5 cents on the steel
   set.
-* decay of the fundamental: both fitted to the same T60 values.  Open strings agree with the
-  reference to 0.01 dB/s; fretted notes decay up to 4.6 dB/s slower on the waveguide (its fret
-  reflects fully, the finite-difference finger takes energy) and up to 8.2 dB/s faster on the
-  finite-difference model at ``standard`` (its coarse grid reaches the finger's damping).
+* decay of the fundamental: both fitted to the same T60 values, and the waveguide's fingering
+  termination to the finite-difference finger's damping of the held note
+  (``engine.waveguide.fingering``).  Open strings agree with the reference to 0.01 dB/s; fretted
+  notes within 1.5 dB/s on the waveguide (4.6 dB/s slower before it took the finger's damping)
+  and within 8.2 dB/s on the finite-difference model at ``standard`` (its coarse grid
+  overstates the finger's damping).
 * spectrum: the finite-difference model (it is the reference's own scheme): median -19.6 dB
   against -8.8 dB for the waveguide, whose worst notes (-1 to -6 dB) are the wound strings
   stopped by a finger, where the finite-difference string's contact with the finger and the
@@ -120,10 +127,15 @@ def print_rows(title: str, rows: list[dict]) -> None:
               f"{r['s_wg']:5.1f} {r['s_fd']:6.1f}")
 
 
-def strum(ref_opts: RenderOptions) -> dict:
+def strum_scene() -> dict:
+    """The fretted C/G strum: the fingers down at 0, a 2 N strum at 50 ms, 4 s."""
     evs = [fret(s, q) for s, q in CHORD.items() if q > 0]
     evs.append({"type": "strum", "time": 0.05, "force": 2.0, "spread": 0.03})
-    sc = scene(evs, 4.0)
+    return scene(evs, 4.0)
+
+
+def strum(ref_opts: RenderOptions) -> dict:
+    sc = strum_scene()
     t_wg, wg = cpu(renderer(sc, "wg"))
     t_fd, fd = cpu(renderer(sc, "fd"))
     ref = renderer(sc, "ref", ref_opts)()

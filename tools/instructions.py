@@ -2,6 +2,7 @@
 not move with the machine.
 
     python -m tools.instructions [--quality standard] [--seconds 1]
+    python -m tools.instructions --waveguide   (the waveguide's C/G strum against the FD model's)
 
 Times move between sessions by more than most changes are worth, and with the vector width of the
 machine a session gets (docs/measurements.md, "Speed"); hardware counters
@@ -54,8 +55,11 @@ from engine.options import RenderOptions
 from engine.scene import Scene
 configs = json.loads(sys.argv[1])
 def engine_of(c, duration):
-    return prepare(Scene.model_validate({**c["scene"], "duration": duration}),
-                   RenderOptions(**c["options"]))
+    scene = Scene.model_validate({**c["scene"], "duration": duration})
+    if scene.model == "waveguide":
+        from engine import waveguide
+        return waveguide.prepare(scene, waveguide.WaveguideOptions(**c["options"]))
+    return prepare(scene, RenderOptions(**c["options"]))
 for c in configs:  # load the kernels for every configuration's types (not counted)
     for _ in engine_of(c, 0.25).blocks():
         pass
@@ -97,6 +101,19 @@ def configurations(quality: str, seconds: float) -> list[dict]:
     return out
 
 
+def waveguide_configurations(quality: str) -> list[dict]:
+    """``benchmarks.waveguide``'s fretted C/G strum (4 s, no body), on the finite-difference
+    model at ``quality`` and on the waveguide, each with its default options (the decay skip on),
+    as that benchmark renders them."""
+    from benchmarks.waveguide import strum_scene
+
+    sc = {k: v for k, v in strum_scene().items() if k != "duration"}
+    return [{"name": f"finite difference ({quality})", "scene": {**sc, "quality": quality},
+             "options": {}, "seconds": 4.0},
+            {"name": "waveguide", "scene": {**sc, "model": "waveguide"}, "options": {},
+             "seconds": 4.0}]
+
+
 def _totals(path: Path) -> int:
     for line in path.read_text().splitlines():
         if line.startswith("totals:"):
@@ -134,9 +151,22 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quality", default="standard", choices=["draft", "standard", "high"])
     ap.add_argument("--seconds", type=float, default=1.0)
+    ap.add_argument("--waveguide", action="store_true",
+                    help="only the fretted C/G strum of benchmarks.waveguide, on both models")
     args = ap.parse_args()
     if shutil.which("valgrind") is None:
         sys.exit("needs valgrind (Debian: apt-get install valgrind)")
+    if args.waveguide:
+        configs = waveguide_configurations(args.quality)
+        fd, wg = count(configs)
+        print(f"\nfretted C/G strum of benchmarks.waveguide (4 s, no body), kernels built for "
+              f"{CPU_NAME} (callgrind)")
+        print(f"  finite difference ({args.quality}): {fd / 4e6:10.1f} million instructions per "
+              f"s of audio")
+        print(f"  waveguide:{'':{len(args.quality) + 12}s} {wg / 4e6:10.1f} million instructions "
+              f"per s of audio")
+        print(f"  the waveguide takes {fd / wg:.1f}x fewer instructions")
+        return
     configs = configurations(args.quality, args.seconds)
     counts = count(configs)
     per_s = {c["name"]: n / args.seconds / 1e6 for c, n in zip(configs, counts, strict=True)}

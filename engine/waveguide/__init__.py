@@ -28,13 +28,19 @@ finite-difference output sample m is the velocity at (m + 1/2) / rate, this one'
 (m - 1/2) / rate (a backward difference), one sample apart.
 
 Where each model is better (``benchmarks/waveguide.py`` measures it and says so in its docstring):
-the waveguide is about ten times cheaper per note (five to seven times on a fretted six-string
+the waveguide is ten to twenty times cheaper per note (about fifteen times on a fretted six-string
 strum: short of twenty) and tunes every note exactly through its fractional delay (open strings,
 stopped strings, bends); the finite-difference model computes what the waveguide approximates:
 the frets' intonation physics (pressing stretch, stiffness over the crown), the finger's own
-dynamics on the string and its damping of a held note, a distributed Kirchhoff-Carrier tension,
-penalty contacts with an exact energy balance, and the transients of pressing a finger down; its
+dynamics on the string (the waveguide takes only its damping of a held note, fitted to the
+finite-difference analysis: ``fingering``), a distributed Kirchhoff-Carrier tension, penalty
+contacts with an exact energy balance, and the transients of pressing a finger down; its
 spectrum is the reference's.
+
+A scene's first fretted notes cost more than the rest: each fret a finger holds asks the
+finite-difference held-note analysis for the finger's damping once per process (an eigenvalue
+problem, about a second; ``WaveguideOptions(finger_damping=False)`` leaves it out).  Live
+sessions (``engine.live``) play the finite-difference model only.
 """
 
 from __future__ import annotations
@@ -63,6 +69,7 @@ class WaveguideOptions:
     dispersion: bool = True
     collisions: bool = True
     glide: bool = True
+    finger_damping: bool = True  # ``fingering.finger_reflection``
     skip_silent: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7  # m/s, as the finite-difference model's
@@ -166,7 +173,8 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
                                  f"fret {f.fret}: the note sounds dead"))
         voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
                                      opts.dispersion, opts.collisions, opts.glide,
-                                     opts.skip_decayed, opts.decay_velocity))
+                                     opts.finger_damping, opts.skip_decayed,
+                                     opts.decay_velocity))
     frames = int(round(scene.duration * scene.sample_rate))
     pan = out.pan or default_pan(preset.n_strings)
     body_name = out.body or preset.body

@@ -47,7 +47,11 @@ termination), times ``ENERGY_SAFETY`` for the energy in transit inside the termi
 It holds while nothing drives the string: junctions that inject (a pluck, a finger, a damper,
 until their leak has gone) anywhere on it switch it off, and within B points of a candidate make
 the candidate checked for the whole stretch.  Only the points whose bound reaches their
-obstacle are tested, sample by sample; the rest cost nothing until the next bound.
+obstacle are tested, sample by sample; the rest cost nothing until the next bound.  A quiet
+string (no junction acting until the next ``kernel.BLOCK`` step, a steady pitch, and the energy
+bound at least ``kernel.QUIET_MARGIN`` times below every obstacle) needs no bound before that
+step: its energy does not grow while nothing acts on it, so the energy bound holds for all that
+time, with the margin for what the termination's filters hold beyond ``ENERGY_SAFETY``.
 """
 
 from __future__ import annotations
@@ -58,7 +62,7 @@ from ..config import JIT_INLINE
 
 FRET_RESTITUTION = 0.5
 BOARD_RESTITUTION = 0.05
-REACH_EVERY = 128  # samples between two bounds (B), and the segment length of the bound
+REACH_EVERY = 256  # samples between two bounds (B), and the segment length of the bound
 
 
 @njit(**JIT_INLINE)

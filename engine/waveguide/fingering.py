@@ -17,10 +17,26 @@ make the crown a low-pass reflector losing 22 % of the amplitude per period at 2
 fretted steel string does.  This model therefore keeps Fig. 7's structure (the speaking string
 ends at a reflecting termination with a gain g_f and a sign inversion, and the string beyond it
 towards the nut is cut off) with the reflection at the crown: the termination of ``string`` moved
-to the fret, reflection -g_f with g_f = ``FRET_REFLECTION`` (the finger behind the crown is what
-it would take energy from; the finite-difference model's held notes lose some of their decay to
-it, ``engine.intonation.held_note``, which this leaves out: ``benchmarks/waveguide.py`` prints the
-fretted notes' decay against the finite-difference reference).  The light fingering junction of (40)
+to the fret, reflection -g_f.  The crown reflects fully (``FRET_REFLECTION``); what g_f loses is
+the finger's: its flesh (the finite-difference model's contact damper, ``FingerSpec.damping_n_s_m``,
+on its mass and contact spring a few millimetres behind the crown) takes energy from the held
+note through the string's bending over the crown.  That coupling is the finite-difference
+model's physics, which the waveguide's point termination does not have, so g_f is fitted to it:
+the finite-difference model's own linear analysis of the held note
+(``engine.intonation.held_note`` on its converged grid, ``engine.intonation.reference_model``)
+gives the held mode's decay by the finger, D dB/s (``finger_decay_db_s``), and
+
+    g_f = 10^(D / (20 f1)),                                                      (``finger_reflection``)
+
+the amplitude the mode loses per period, a frequency-independent loss of the loop: every partial
+of the stopped loop decays D dB/s faster than the loss filter alone makes it (the finger's own
+decay is fitted at the fundamental only).  g_f <= 1: passive.  It applies to a fret where a
+finger stays at least ``FINGER_HOLD_S`` (a held, tapped or hammered note, a slide's goal); the
+frets a slide crosses in passing are stopped by the crown alone (the finger's effect over a few
+milliseconds is below a tenth of a dB, and each fret's analysis costs an eigenvalue problem,
+about a second, cached per process as the finite-difference model's fret calibration is).
+``benchmarks/waveguide.py`` prints the fretted notes' decay against the finite-difference
+reference.  The light fingering junction of (40)
 without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
 what it models well, a finger that touches without stopping: a dead note (a ``fret`` pressing
 less than the string's seating force, ``engine.intonation.seating_force``), the harmonic touch and
@@ -53,13 +69,35 @@ pressed shape.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 from ..controls import finger_x_m
 from ..presets import Preset
 from .string import Physical
 
-FRET_REFLECTION = 1.0
+FRET_REFLECTION = 1.0  # the crown's own reflection
+FINGER_HOLD_S = 0.05  # a finger that stays this long on a fret damps the note (``finger_reflection``)
 INTONATION = ("ideal", "physical")
+
+
+@lru_cache(maxsize=4096)
+def finger_decay_db_s(preset: Preset, string: int, rate: float, fret: int) -> float:
+    """dB/s (<= 0) of the held note at ``fret`` by the finger's contact damping: the
+    finite-difference model's held-note analysis on its converged grid (``engine.intonation``);
+    0 where it finds no mode near the note.  Cached per process."""
+    from ..intonation import held_note, reference_model
+    from ..string import tune
+
+    spec = preset.strings[string - 1]
+    model = reference_model(tune(spec, preset.string_length_m(string), rate))
+    d = held_note(model, preset, fret, spec.frequency_hz * 2 ** (fret / 12)).decay_db_s
+    return min(d, 0.0) if math.isfinite(d) else 0.0
+
+
+def finger_reflection(decay_db_s: float, f1: float) -> float:
+    """g_f: the amplitude a loop of fundamental f1 Hz keeps per period when it decays
+    ``decay_db_s`` (<= 0) dB/s."""
+    return 10.0 ** (min(decay_db_s, 0.0) / (20.0 * f1))
 
 
 def stopped_frequency(preset: Preset, phys: Physical, string: int, x_m: float, fret: int | None,

@@ -4,8 +4,8 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 
 1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch
    ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide (``glide``,
-   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples and linear
-   between;
+   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples (and at a
+   call's start and every ``BLOCK`` steps) and linear between;
    the termination's fractional delay D = P - 2 (N - n_t) - tau, and the termination walks one
    grid step when D leaves [1, 3) (``string``; at most one step a sample, which the slow pitch
    changes never exceed);
@@ -15,7 +15,22 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes),
    and a pluck's force as a velocity blow (``pluck._blow``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
-6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``.
+6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``;
+7. on the grid of ``BLOCK`` steps, from the step ``voice`` computes (no event, release, contact
+   or pitch breakpoint left to come), the decay stop: the pickups' output since the last test and
+   every point's velocity on the sounding grid below ``decay_velocity``, and the string stops
+   (``_still``; a stopped string costs nothing).
+
+That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found
+live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
+loop of their own up to the next step that needs the general one (a period update every
+``GLIDE_EVERY`` steps, a reach, a junction's onset), compiled apart so that its few values stay in
+registers.  Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
+samples do not depend on where a plain run starts or ends.  Collision reach (``_reach``) runs
+every ``REACH_EVERY`` steps; when the string is quiet (no junction, a steady pitch, and the
+energy bound ``QUIET_MARGIN`` times below every obstacle) it is not needed again before the next
+``BLOCK`` step.  The filters' states live in registers for a call (``_terminate``), and ring
+indices are masked by a mask the compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -30,31 +45,47 @@ import math
 
 from numba import njit
 
-from ..config import JIT, JIT_INLINE
+from ..config import JIT_INLINE, JIT_STEP
 from .collision import REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
 from .pluck import LEAK_HZ, _blow, _envelope, _msd
 
-# ist: integer state
-I_NT, I_PB = 0, 1
+# ist: integer state: the termination's place, the bend breakpoint, the first step at which the
+# decay stop may act (``voice``: no event left to come), and whether it has
+I_NT, I_PB, I_STOP_FROM, I_STOPPED = 0, 1, 2, 3
 # fst: float state; pickups' previous displacement from F_PICKUP on
-F_LOSS, F_GLIDE, F_D, F_GSTEP, F_PICKUP = 0, 1, 2, 3, 4
-# cfg: the current termination and string constants
-C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE = range(10)
+F_LOSS, F_GLIDE, F_D, F_PEAK, F_PICKUP = 0, 1, 2, 3, 4
+# cfg: the current termination and string constants; C_DECAY_V <= 0 turns the decay stop off
+(C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE,
+ C_DECAY_V) = range(11)
 HISTORY = 64  # samples of the u- history at the termination that the reach bound covers
 ENERGY_SAFETY = 2.0  # the energy bound's allowance for what the termination's filters hold
+# The glide's exact period and the reach schedule restart at every multiple of BLOCK (and at a
+# call's start), and the decay stop is tested there: a render gives the same samples however its
+# calls are cut, as long as they are cut on this grid (``voice.BLOCK_MULTIPLE``).
+BLOCK = 1024
+QUIET_MARGIN = 2.0  # a quiet string's energy bound stays this far below every obstacle
+MAX_SECTIONS = 4  # dispersion allpass sections at most (``string``)
+NONNEG = (1 << 62) - 1
+SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost as much as the rest)
 
 
-@njit(**JIT)
+@njit(**JIT_STEP)
 def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
               pb_step, pb_f,
               js_on, js_off, js_len, js_rel, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst,
               x_k0,
               col_n, col_ref, col_cr, col_prev, col_live, col_list, seg_p, seg_m,
               pk_n, pk_w, pk_g):
-    mask = R.shape[0] - 1
+    """Run nsteps samples from step0 into out; returns the number run (fewer if the decay stop
+    acted: ist[I_STOPPED] is then 1), -1 if the string became non-finite, or -2 if the reach's
+    segment arrays do not fit this kernel's ``REACH_EVERY`` (a kernel cached from another value
+    of it: numba's cache watches only this file)."""
+    if seg_p.shape[0] < N // REACH_EVERY + 2 or seg_m.shape[0] < N // REACH_EVERY + 2:
+        return -2
+    mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound
     fs = cfg[C_FS]
-    loss_g = cfg[C_LOSS_G]
+    loss_gg = cfg[C_LOSS_G] * (1.0 + cfg[C_LOSS_A])
     loss_a = cfg[C_LOSS_A]
     disp_a = cfg[C_DISP_A]
     refl = -cfg[C_REFL_G]
@@ -63,6 +94,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     glide_k = cfg[C_GLIDE_K]
     dcap = cfg[C_DCAP]
     fbase = cfg[C_FBASE]
+    decay_v = cfg[C_DECAY_V]
+    stop_from = ist[I_STOP_FROM]
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
@@ -75,18 +108,37 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     npk = pk_n.shape[0]
     n_t = ist[I_NT]
     ib = ist[I_PB]
+    # the termination's filter states, in registers for the call
+    ly = fst[F_LOSS]
+    x0 = dsx[0] if disp_m > 0 else 0.0
+    x1 = dsx[1] if disp_m > 1 else 0.0
+    x2 = dsx[2] if disp_m > 2 else 0.0
+    x3 = dsx[3] if disp_m > 3 else 0.0
+    y0 = dsy[0] if disp_m > 0 else 0.0
+    y1 = dsy[1] if disp_m > 1 else 0.0
+    y2 = dsy[2] if disp_m > 2 else 0.0
+    y3 = dsy[3] if disp_m > 3 else 0.0
+    peak = fst[F_PEAK]
     nlive = 0
+    quiet_until = -1  # reach not needed before this step (``_reach``)
     period = 0.0
     dper = 0.0
     d_taps = -1.0
     j0, h0, h1, h2, h3 = _taps(1.5)
-    for i in range(nsteps):
+    ri = 0  # steps since the schedule's restart
+    i = 0
+    stopped = False
+    while i < nsteps:
+        # a general step: everything that may act at s
         s = step0 + i
-        # 1. the period, exact at the first step and every GLIDE_EVERY steps, linear in between
+        # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
+        restart = i == 0 or s % BLOCK == 0
+        if restart:
+            ri = 0
         phase = s % GLIDE_EVERY
-        if i == 0 or phase == 0:
+        if restart or phase == 0:
             if glide_k > 0.0 and phase == 0:
                 # between n_t + 1 and N - 1, whose values at s are final (the termination and
                 # the bridge write theirs below), and u(N) = 0
@@ -94,7 +146,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             else:
                 g_new = fst[F_GLIDE]
             ratio, ib = _ratio_at(s, pb_step, pb_f, ib)
-            if i == 0:
+            if restart:
                 period = fs / (fbase * ratio * fst[F_GLIDE])
             ahead = GLIDE_EVERY - phase
             r_next, _ = _ratio_at(s + ahead, pb_step, pb_f, ib)
@@ -126,57 +178,59 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         # the one it wrote a step ago (now one point further on), and its input the one it read
         # then, so it does nothing this step.  A step towards the nut writes two samples, the
         # old place's and the new one's, from two consecutive inputs.
-        if walk == 0:
-            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_g,
-                                             loss_a, disp_a, disp_m, refl, fst, dsx, dsy)
-        elif walk == -1:
-            R[(s - n_t - 1) & mask] = _terminate(Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3,
-                                                 loss_g, loss_a, disp_a, disp_m, refl, fst, dsx,
-                                                 dsy)
-            R[(s - n_t) & mask] = _terminate(Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_g,
-                                             loss_a, disp_a, disp_m, refl, fst, dsx, dsy)
+        if walk == -1:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t - 1) & mask] = v
+        if walk <= 0:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t) & mask] = v
         # 3. the bridge
         Mb[(s + N) & mask] = -R[(s - N) & mask]
         # 4. junctions (none before the first onset or after the last one is gone)
-        for j in range(nslot if slot_lo <= s < slot_hi else 0):
-            if s < js_on[j] or s >= js_off[j] + js_rel[j] + tail:
-                continue
-            t = s - js_on[j]
-            if s < js_off[j]:
-                env = _envelope(t, js_len[j])
-                force = env if js_len[j] > 0 else 0.0
-            elif s < js_off[j] + js_rel[j]:  # the contact lets go over js_rel steps
-                r = math.cos(0.5 * math.pi * (s - js_off[j]) / js_rel[j])
-                env = r * r
-                force = 0.0
-            else:  # gone; what it put on the string leaks away (``pluck._msd``)
-                env = 0.0
-                force = 0.0
-            for k in range(js_np[j]):
-                n = js_idx[j, k]
-                if n <= n_t or n >= N:
+        if slot_lo <= s < slot_hi:
+            for j in range(nslot):
+                if s < js_on[j] or s >= js_off[j] + js_rel[j] + tail:
                     continue
-                ip = (s - n) & mask
-                im = (s + n) & mask
-                uin = R[ip] + Mb[im]
-                st = jst[j, k]
-                if t == 0:  # the junction acts on the motion from its onset on
-                    for q in range(5):
-                        st[q] = 0.0
-                    st[5] = uin
-                h = _msd(uin, st, env * js_mp[j, k], env * js_rho[j, k], env * js_kappa[j, k],
-                         leak)
-                R[ip] += 0.5 * h
-                Mb[im] += 0.5 * h
-                f = force * js_f[j, k]
-                if f != 0.0:
-                    _blow(R, Mb, mask, s, n, N, 0.5 * x_k0 * f)
+                t = s - js_on[j]
+                if s < js_off[j]:
+                    env = _envelope(t, js_len[j])
+                    force = env if js_len[j] > 0 else 0.0
+                elif s < js_off[j] + js_rel[j]:  # the contact lets go over js_rel steps
+                    r = math.cos(0.5 * math.pi * (s - js_off[j]) / js_rel[j])
+                    env = r * r
+                    force = 0.0
+                else:  # gone; what it put on the string leaks away (``pluck._msd``)
+                    env = 0.0
+                    force = 0.0
+                for k in range(js_np[j]):
+                    n = js_idx[j, k]
+                    if n <= n_t or n >= N:
+                        continue
+                    ip = (s - n) & mask
+                    im = (s + n) & mask
+                    uin = R[ip] + Mb[im]
+                    if t == 0:  # the junction acts on the motion from its onset on
+                        for q in range(5):
+                            jst[j, k, q] = 0.0
+                        jst[j, k, 5] = uin
+                    h = _msd(uin, jst, j, k, env * js_mp[j, k], env * js_rho[j, k],
+                             env * js_kappa[j, k], leak)
+                    R[ip] += 0.5 * h
+                    Mb[im] += 0.5 * h
+                    f = force * js_f[j, k]
+                    if f != 0.0:
+                        _blow(R, Mb, mask, s, n, N, 0.5 * x_k0 * f)
         # 5. collisions
         if ncol > 0:
-            if i % REACH_EVERY == 0:
-                nlive = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live,
-                               col_list, seg_p, seg_m, js_on, js_off, js_rel, js_idx, js_np,
-                               js_f, js_mp, js_kappa)
+            if ri % REACH_EVERY == 0 and s >= quiet_until:
+                nlive, quiet_until = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref,
+                                            col_prev, col_live, col_list, seg_p, seg_m, js_on,
+                                            js_off, js_rel, js_idx, js_np, js_f, js_mp,
+                                            js_kappa, tail, pb_step, ib, step0 + nsteps)
             for q in range(nlive):
                 c = col_list[q]
                 n = col_n[c]
@@ -185,26 +239,123 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
                                        fs)
         # 6. pickups
-        acc = 0.0
-        for p in range(npk):
-            n = pk_n[p]
-            if n <= n_t or n + 1 > N:
-                u = 0.0
-            else:
-                w = pk_w[p]
-                u = ((1.0 - w) * (R[(s - n) & mask] + Mb[(s + n) & mask])
-                     + w * (R[(s - n - 1) & mask] + Mb[(s + n + 1) & mask]))
-            acc += pk_g[p] * (u - fst[F_PICKUP + p]) * fs
-            fst[F_PICKUP + p] = u
+        acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
         out[i] = acc
+        ri += 1
+        i += 1
+        if decay_v > 0.0:
+            peak = max(peak, abs(acc))
+            if (s + 1) % BLOCK == 0:
+                if s + 1 >= stop_from and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v,
+                                                 js_on, js_off, js_rel, js_idx, js_np, tail):
+                    stopped = True
+                    break
+                peak = 0.0
+        # a plain run: steps at which nothing acts but the termination, the bridge, the live
+        # collision points and the pickups (no junction, no update of the period or the reach),
+        # the same arithmetic as the general step's in a loop of its own (``_plain``), up to the
+        # next step that needs the general one
+        if i >= nsteps:
+            continue
+        s1 = step0 + i
+        e = min(s1 + (GLIDE_EVERY - s1 % GLIDE_EVERY) % GLIDE_EVERY, step0 + nsteps)
+        if ncol > 0 and s1 >= quiet_until:
+            e = min(e, s1 + (REACH_EVERY - ri % REACH_EVERY) % REACH_EVERY)
+        for j in range(nslot):
+            if js_on[j] > s1:
+                e = min(e, js_on[j])
+            elif s1 < js_off[j] + js_rel[j] + tail:
+                e = s1
+        if e > s1:
+            (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
+             peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
+                            d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                            ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n, pk_w, pk_g, fs, peak,
+                            col_n, col_ref, col_cr, col_prev, col_list, nlive)
+        if e > s1:
+            i += e - s1
+            ri += e - s1
+            if decay_v > 0.0 and e % BLOCK == 0:
+                if e >= stop_from and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v,
+                                             js_on, js_off, js_rel, js_idx, js_np, tail):
+                    stopped = True
+                    break
+                peak = 0.0
+    if stopped:
+        ist[I_STOPPED] = 1
+        peak = 0.0
     ist[I_NT] = n_t
     ist[I_PB] = ib
     fst[F_D] = d_taps
-    finite = True
+    fst[F_LOSS] = ly
+    fst[F_PEAK] = peak
+    if disp_m > 0:
+        dsx[0] = x0
+        dsy[0] = y0
+    if disp_m > 1:
+        dsx[1] = x1
+        dsy[1] = y1
+    if disp_m > 2:
+        dsx[2] = x2
+        dsy[2] = y2
+    if disp_m > 3:
+        dsx[3] = x3
+        dsy[3] = y3
     for p in range(npk):
         if not math.isfinite(fst[F_PICKUP + p]):
-            finite = False
-    return finite
+            return -1
+    return i
+
+
+@njit(**JIT_STEP)
+def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0, h1,
+           h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst,
+           pk_n, pk_w, pk_g, fs, peak, col_n, col_ref, col_cr, col_prev, col_list, nlive):
+    """Steps s1 .. e - 1 of ``run_block`` when no junction acts and neither the period's exact
+    value nor the reach is due: the period's linear step, the termination, the bridge, the live
+    collision points and the pickups, as in the general step (a function of its own, so that the
+    compiler keeps this loop's few values in registers).  Returns the state it changes."""
+    mask &= NONNEG  # known >= 0 here too
+    for s in range(s1, e):
+        period += dper
+        d = period - 2.0 * (N - n_t) - tau
+        walk = 0
+        if d < 1.0 and n_t < N - 1:
+            n_t += 1
+            d += 2.0
+            walk = 1
+        elif d >= 3.0 and n_t > 0:
+            n_t -= 1
+            d -= 2.0
+            walk = -1
+        if d < 1.0:
+            d = 1.0
+        if d > dcap:
+            d = dcap
+        if d != d_taps:
+            j0, h0, h1, h2, h3 = _taps(d)
+            d_taps = d
+        if walk == -1:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
+                refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t - 1) & mask] = v
+        if walk <= 0:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
+                refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t) & mask] = v
+        Mb[(s + N) & mask] = -R[(s - N) & mask]
+        for q in range(nlive):
+            c = col_list[q]
+            n = col_n[c]
+            if n <= n_t or n >= N:
+                continue
+            col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
+        acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
+        out[s - step0] = acc
+        peak = max(peak, abs(acc))
+    return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
 
 
 @njit(**JIT_INLINE)
@@ -226,34 +377,103 @@ def _taps(d):
     [1, 2): (j0, h0, h1, h2, h3), the taps on samples j0 .. j0 + 3 back."""
     j0 = int(d) - 1
     x = d - j0
-    return (j0, -(x - 1.0) * (x - 2.0) * (x - 3.0) / 6.0, x * (x - 2.0) * (x - 3.0) / 2.0,
-            -x * (x - 1.0) * (x - 3.0) / 2.0, x * (x - 1.0) * (x - 2.0) / 6.0)
+    a = x - 1.0
+    b = x - 2.0
+    c = x - 3.0
+    return (j0, -(a * b * c) * SIXTH, x * b * c * 0.5, -(x * a * c) * 0.5, x * a * b * SIXTH)
 
 
 @njit(**JIT_INLINE)
-def _terminate(Mb, mask, at, j0, h0, h1, h2, h3, loss_g, loss_a, disp_a, disp_m, refl, fst, dsx,
-               dsy):
+def _terminate(Mb, mask, at, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
+               x0, x1, x2, x3, y0, y1, y2, y3):
     """The termination's output: Lagrange read of the u- history before index ``at`` (taps
-    ``_taps``), the loss one-pole, the dispersion allpasses, the reflection."""
+    ``_taps``), the loss one-pole (gain loss_gg = g (1 + a), state ly), the dispersion allpasses
+    (disp_m of the MAX_SECTIONS, states x, y), the reflection; returns the output and the
+    states."""
     base = at - j0
     y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
          + h3 * Mb[(base - 3) & mask])
-    y = loss_g * (1.0 + loss_a) * y - loss_a * fst[F_LOSS]
-    fst[F_LOSS] = y
-    for k in range(disp_m):
-        v = disp_a * y + dsx[k] - disp_a * dsy[k]
-        dsx[k] = y
-        dsy[k] = v
+    y = loss_gg * y - loss_a * ly
+    ly = y
+    if disp_m > 0:
+        v = disp_a * y + x0 - disp_a * y0
+        x0 = y
+        y0 = v
         y = v
-    return refl * y
+        if disp_m > 1:
+            v = disp_a * y + x1 - disp_a * y1
+            x1 = y
+            y1 = v
+            y = v
+            if disp_m > 2:
+                v = disp_a * y + x2 - disp_a * y2
+                x2 = y
+                y2 = v
+                y = v
+                if disp_m > 3:
+                    v = disp_a * y + x3 - disp_a * y3
+                    x3 = y
+                    y3 = v
+                    y = v
+    return refl * y, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
-@njit(**JIT)
+@njit(**JIT_INLINE)
+def _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs):
+    """The pickups' velocity (u(s) - u(s - 1)) fs at each, times its gain, summed; each one's
+    displacement kept in fst for the next step."""
+    acc = 0.0
+    for p in range(pk_n.shape[0]):
+        n = pk_n[p]
+        if n <= n_t or n + 1 > N:
+            u = 0.0
+        else:
+            w = pk_w[p]
+            u = ((1.0 - w) * (R[(s - n) & mask] + Mb[(s + n) & mask])
+                 + w * (R[(s - n - 1) & mask] + Mb[(s + n + 1) & mask]))
+        acc += pk_g[p] * (u - fst[F_PICKUP + p]) * fs
+        fst[F_PICKUP + p] = u
+    return acc
+
+
+@njit(**JIT_INLINE)
+def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_idx, js_np, tail):
+    """Have the pickups (their largest |output| since the last test: peak) and has every point
+    of the sounding string (n_t .. N) moved slower than v_max at step s?  The velocity is read
+    off the rails, u(n, s) - u(n, s - 1) with u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the
+    waves' values at s, one point further on, before the junctions of step s moved them; next
+    to a junction that acts (a steady damper) that mixes its step-s perturbation into the
+    difference, so those points are left out: they move with their neighbours."""
+    if peak >= v_max:
+        return False
+    lim = v_max / fs
+    for n in range(n_t, N + 1):
+        du = (R[(s - n) & mask] + Mb[(s + n) & mask]) - (R[(s - 1 - n) & mask]
+                                                         + Mb[(s - 1 + n) & mask])
+        if abs(du) >= lim:
+            near = False
+            for j in range(js_on.shape[0]):
+                if js_on[j] <= s < js_off[j] + js_rel[j] + tail:
+                    for k in range(js_np[j]):
+                        if abs(js_idx[j, k] - n) <= 1:
+                            near = True
+            if not near:
+                return False
+    return True
+
+
+@njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
-           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa):
+           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
+           s_end):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
-    in col_list; returns how many there are."""
+    in col_list.  Returns how many there are and the step until which no bound is needed: s if
+    the next one is due in REACH_EVERY samples, or the next multiple of ``BLOCK`` (at most s_end)
+    if the string is quiet: no junction acts and the pitch is steady until then, and the energy
+    bound keeps every point ``QUIET_MARGIN`` times below its obstacle (the energy of the passive
+    string does not grow while nothing acts on it, so the bound holds for all that time)."""
+    mask &= NONNEG
     nlive = 0
     B = REACH_EVERY
     nseg = seg_p.shape[0]
@@ -264,13 +484,15 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     maxm = 0.0
     slope = 0.0  # sum over the sounding grid of the rails' squared steps: E / T * X
     lo = n_t - HISTORY
-    for n in range(lo, N + 1):
+    for n in range(lo, n_t):  # the u- history that the termination still reads
+        b = abs(Mb[(s + n) & mask])
+        if b > maxm:
+            maxm = b
+    for n in range(n_t, N + 1):
         a = abs(R[(s - n) & mask])
         b = abs(Mb[(s + n) & mask])
         if b > maxm:
             maxm = b
-        if n < n_t:
-            continue  # the u- history that the termination still reads
         dp = R[(s - n) & mask] - R[(s - n - 1) & mask]
         dm = Mb[(s + n) & mask] - Mb[(s + n - 1) & mask]
         slope += dp * dp + dm * dm
@@ -282,12 +504,18 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
         if a > maxp:
             maxp = a
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
+    until = min(s_end, (s // BLOCK + 1) * BLOCK)  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B
+    near = False  # a junction acts before s + B (its points make their neighbours live)
+    quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady
     for j in range(js_on.shape[0]):
         if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
+            near = True
             for q in range(js_np[j]):
                 if js_f[j, q] != 0.0 or js_mp[j, q] != 0.0 or js_kappa[j, q] != 0.0:
                     forced = True
+        if js_on[j] < until and js_off[j] + js_rel[j] + tail > s:
+            quiet = False
     for c in range(col_n.shape[0]):
         n = col_n[c]
         if n <= n_t or n >= N:
@@ -308,10 +536,12 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
         if not forced:  # the energy bound, tighter near the ends (``collision``)
             d = n - n_t + 1.0
             e2 = ENERGY_SAFETY * 2.0 * slope * d * (span - d) / span
+            if quiet and e2 * (QUIET_MARGIN * QUIET_MARGIN) >= col_ref[c] * col_ref[c]:
+                quiet = False
             if e2 < bound * bound:
                 bound = math.sqrt(e2)
         live = bound * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
-        if not live:
+        if not live and near:
             for j in range(js_on.shape[0]):
                 if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
                     for q in range(js_np[j]):
@@ -323,4 +553,6 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
         if live:
             col_list[nlive] = c
             nlive += 1
-    return nlive
+    if forced or nlive > 0 or not quiet:
+        return nlive, s
+    return nlive, until

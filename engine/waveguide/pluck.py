@@ -164,16 +164,16 @@ def max_damping(rate: float) -> float:
 
 
 @njit(**JIT_INLINE)
-def _msd(uin, st, mp, rho, kp, leak):
+def _msd(uin, jst, j, k, mp, rho, kp, leak):
     """One step of the junction at one point; returns h.  The biquad g = -2 N / (D + N) runs on
     the increments of the arriving displacement ``uin`` and h is their leaky sum,
     h(m) = leak h(m-1) + g(m): the junction scatters the motion (the velocity waves, integrated)
     and never holds a static displacement, which a string between fixed ends cannot keep and a
     damper does not resist (acting on the displacement itself, a steady damper pinned the point
-    to where it was and the string's energy crept up).  State st = [h(m-1), g(m-1), g(m-2),
-    du(m-1), du(m-2), u_in(m-1)] (updated); m', rho, k' as above."""
-    du = uin - st[5]
-    st[5] = uin
+    to where it was and the string's energy crept up).  State jst[j, k] = [h(m-1), g(m-1),
+    g(m-2), du(m-1), du(m-2), u_in(m-1)] (updated); m', rho, k' as above."""
+    du = uin - jst[j, k, 5]
+    jst[j, k, 5] = uin
     if mp == 0.0 and kp == 0.0:  # a damper: g = -2 rho / (1 + rho) du (the biquad would carry
         # the same through a pole-zero pair on the unit circle, z = +-1)
         g = -2.0 * rho / (1.0 + rho) * du
@@ -181,14 +181,14 @@ def _msd(uin, st, mp, rho, kp, leak):
         a0 = mp + rho + kp
         a1 = 2.0 * (kp - mp)
         a2 = mp - rho + kp
-        g = (-2.0 * (a0 * du + a1 * st[3] + a2 * st[4]) - a1 * st[1] - (a2 - 1.0) * st[2]) / (
-            1.0 + a0)
-    st[2] = st[1]
-    st[1] = g
-    st[4] = st[3]
-    st[3] = du
-    h = leak * st[0] + g
-    st[0] = h
+        g = (-2.0 * (a0 * du + a1 * jst[j, k, 3] + a2 * jst[j, k, 4]) - a1 * jst[j, k, 1]
+             - (a2 - 1.0) * jst[j, k, 2]) / (1.0 + a0)
+    jst[j, k, 2] = jst[j, k, 1]
+    jst[j, k, 1] = g
+    jst[j, k, 4] = jst[j, k, 3]
+    jst[j, k, 3] = du
+    h = leak * jst[j, k, 0] + g
+    jst[j, k, 0] = h
     return h
 
 

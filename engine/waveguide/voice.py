@@ -32,17 +32,25 @@ from ..voice import DECAY_CHECK_FRAMES
 from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
-from .fingering import FRET_REFLECTION, rest_height, stopped_frequency
+from .fingering import (
+    FINGER_HOLD_S,
+    FRET_REFLECTION,
+    finger_decay_db_s,
+    finger_reflection,
+    stopped_frequency,
+)
 from .glide import GLIDE_EVERY
 from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
-# the kernel's glide (and collision reach) updates count from the start of each call, and ``run``
-# cuts every call at this global grid: blocks that are whole multiples of it give the same samples
-# however a render is cut
-BLOCK_MULTIPLE = DECAY_CHECK_FRAMES
+# the kernel's glide (and collision reach) updates restart at a call's start and on this global
+# grid, where it also tests the decay stop: blocks that are whole multiples of it give the same
+# samples however a render is cut
+BLOCK_MULTIPLE = K.BLOCK
+assert BLOCK_MULTIPLE == DECAY_CHECK_FRAMES, "the decay stop is tested where the FD voice's is"
 assert BLOCK_MULTIPLE % GLIDE_EVERY == 0 and BLOCK_MULTIPLE % REACH_EVERY == 0
+assert MAX_SECTIONS == K.MAX_SECTIONS
 RELEASE_S = 0.002  # a contact (palm, harmonic touch, light finger) lets go over 2 ms
 LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
 RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
@@ -61,11 +69,11 @@ class WaveguideVoice:
     dispersion: bool = True
     collisions: bool = True
     glide: bool = True
+    finger_damping: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7
     step: int = 0
     stopped: bool = False
-    _decay_peak: float = 0.0  # largest |output| since the last decay check
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
     _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
@@ -84,7 +92,7 @@ class WaveguideVoice:
         self.R = np.zeros(size)
         self.Mb = np.zeros(size)
         self.dcap = float(size - n - 8)
-        self.ist = np.zeros(2, np.int64)
+        self.ist = np.zeros(4, np.int64)
         self.fst = np.zeros(K.F_PICKUP + len(self.pickups))
         self.fst[K.F_GLIDE] = 1.0
         self.dsx = np.zeros(MAX_SECTIONS)
@@ -148,11 +156,17 @@ class WaveguideVoice:
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / X
                         if self.glide else 0.0)
         self.changes = self.timeline.stops(self.preset)
+        # a stop that lasts FINGER_HOLD_S is held by a finger that damps it; the frets a slide
+        # crosses in passing are not (``fingering``)
+        ends = [c[0] for c in self.changes[1:]] + [NEVER]
+        self.held = [e - c[0] >= FINGER_HOLD_S * self.rate
+                     for c, e in zip(self.changes, ends, strict=True)]
         self.change_i = 0
         self.stop_fret: int | None = None
-        self.cfg = np.zeros(10)
+        self.cfg = np.zeros(11)
         self._configure(None)
         self.ist[K.I_NT] = self._place(self.open_loop)
+        self.ist[K.I_STOP_FROM] = self._stop_from()
 
     # -- geometry -------------------------------------------------------------------------------
     def n_of(self, x_m: float) -> float:
@@ -193,32 +207,38 @@ class WaveguideVoice:
         self.col_list = np.zeros(len(self.col_n), np.int64)
 
     # -- configurations ---------------------------------------------------------------------------
-    def loop(self, fret: int | None) -> Loop:
-        if fret in self.loops:
-            return self.loops[fret]
+    def loop(self, fret: int | None, held: bool = False) -> Loop:
+        """The loop stopped at ``fret`` (None: open); ``held``: by a finger that stays there
+        (``fingering.finger_reflection``)."""
+        key = (fret, held)
+        if key in self.loops:
+            return self.loops[key]
         p = self.preset
         x = 0.0 if fret is None else float(p.fret_x_m(fret))
         f1 = stopped_frequency(p, self.phys, self.index, x, fret, self.intonation,
                                p.finger.press_force_n)
         speaking = self.phys.length_m - x
-        loop = design_loop(self.spec, self.phys, self.rate, f1, speaking,
-                           1.0 if fret is None else FRET_REFLECTION, self.dispersion)
-        self.loops[fret] = loop
+        refl = 1.0
+        if fret is not None:
+            refl = FRET_REFLECTION
+            if held and self.finger_damping:
+                refl *= finger_reflection(finger_decay_db_s(p, self.index, self.rate, fret), f1)
+        loop = design_loop(self.spec, self.phys, self.rate, f1, speaking, refl, self.dispersion)
+        self.loops[key] = loop
         return loop
 
-    def _configure(self, fret: int | None) -> None:
-        lp = self.loop(fret)
+    def _configure(self, fret: int | None, held: bool = False) -> None:
+        lp = self.loop(fret, held)
         c = self.cfg
         c[K.C_LOSS_G], c[K.C_LOSS_A] = lp.loss_g, lp.loss_a
         c[K.C_DISP_A], c[K.C_REFL_G], c[K.C_TAU] = lp.disp_a, lp.refl_g, lp.tau
         c[K.C_GAIN], c[K.C_FS], c[K.C_GLIDE_K] = lp.gain_bound, self.rate, self.glide_k
         c[K.C_DCAP], c[K.C_FBASE] = self.dcap, self.rate / lp.period
+        c[K.C_DECAY_V] = self.decay_velocity if self.skip_decayed else 0.0
         self.disp_m = lp.disp_m
         self.stop_fret = fret
-        stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
         if len(self.col_n):
-            rest = np.array([rest_height(self.preset, self.phys.length_m, stop_x, x)
-                             for x in self.x_of(self.col_n)])
+            rest = self._rest(fret, self.x_of(self.col_n))
             self.col_ref = self.col_abs - rest
             self.col_live[:] = 0
 
@@ -240,17 +260,23 @@ class WaveguideVoice:
 
     def _rest(self, fret: int | None, x: np.ndarray) -> np.ndarray:
         stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
-        return np.array([rest_height(self.preset, self.phys.length_m, stop_x, v) for v in x])
+        x = np.asarray(x, float)
+        if stop_x is None:
+            return np.zeros(len(x))
+        # ``fingering.rest_height`` at every x, in the same arithmetic
+        c = float(self.preset.clearance_m(stop_x))
+        length = self.phys.length_m
+        return np.where(x >= stop_x, -c * (length - x) / (length - stop_x), -c * x / stop_x)
 
-    def _change(self, fret: int | None, strike: float) -> None:
+    def _change(self, fret: int | None, strike: float, held: bool) -> None:
         old = self.stop_fret
         if fret == old:
             return
         mask = len(self.R) - 1
         s = self.step
         nt_old = int(self.ist[K.I_NT])
-        self._configure(fret)
-        nt = self._place(self.loop(fret))
+        self._configure(fret, held)
+        nt = self._place(self.loop(fret, held))
         x_old = -1.0 if old is None else float(self.preset.fret_x_m(old))
         x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret))
         release = x_new < x_old
@@ -293,44 +319,47 @@ class WaveguideVoice:
         self.fst[K.F_PICKUP:] += jumps
         self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
 
-    # -- running ----------------------------------------------------------------------------------
+    # -- running ---------------------------------------------------------------------------------
+    def _stop_from(self) -> int:
+        """The first step at which the decay stop may act: after the last event, every finger's
+        release, every junction's release and the leak of what it left on the string
+        (``pluck._msd``), and the last pitch breakpoint.  A finger that stays (a held note) and a
+        steady contact (a damp with no release) hold the string and do not keep it running."""
+        tail = 8.0 * self.rate / (2.0 * math.pi * LEAK_HZ)
+        ends = [self.timeline.last_step + 2]
+        ends += [f.rel + 1 for f in self.timeline.fingers if f.rel < NEVER]
+        ends += [math.ceil(off + rel + tail) for off, rel in zip(self.js_off, self.js_rel,
+                                                                 strict=True) if off < NEVER]
+        if len(self.pb_step):
+            ends.append(int(self.pb_step[-1]) + 1)
+        return int(max(ends))
+
     def run(self, nsteps: int) -> np.ndarray:
         """Advance nsteps samples; the pickups' velocity mix (m/s).
 
-        The samples are run in pieces that end on the global grid of ``BLOCK_MULTIPLE`` samples,
-        and with the decay skip on the string is tested for decay only there, as the
-        finite-difference voice does.  The kernel's glide and reach updates count from the start
-        of a piece, so blocks of whole multiples of ``BLOCK_MULTIPLE`` samples give the same
+        With the decay skip on, the kernel tests the string for decay on the global grid of
+        ``BLOCK_MULTIPLE`` samples, as the finite-difference voice does (from ``_stop_from`` on:
+        every point of the string and the pickups slower than ``decay_velocity``), and a
+        stopped string costs nothing from then on.  The kernel's glide and reach updates restart
+        on that grid, so blocks of whole multiples of ``BLOCK_MULTIPLE`` samples give the same
         samples however they are cut (``service.config`` holds a stream's blocks to that)."""
-        out = np.zeros(nsteps)
         if self.stopped:
             self.step += nsteps
-            return out
-        done = 0
-        while done < nsteps and not self.stopped:
-            m = min(nsteps - done, BLOCK_MULTIPLE - self.step % BLOCK_MULTIPLE)
-            seg = out[done:done + m]
-            self._advance(seg)
-            done += m
-            if not self.skip_decayed:
-                continue
-            self._decay_peak = max(self._decay_peak, float(np.max(np.abs(seg))))
-            if self.step % DECAY_CHECK_FRAMES == 0:
-                if self.step > self.timeline.last_step + 1:
-                    self._maybe_stop(self._decay_peak)
-                self._decay_peak = 0.0
-        self.step += nsteps - done  # stopped: the rest is silence
+            return np.zeros(nsteps)
+        out = np.empty(nsteps)  # the kernel writes every sample it runs (``_advance``)
+        self._advance(out)
         return out
 
     def _advance(self, out: np.ndarray) -> None:
-        """Run len(out) samples into ``out``."""
+        """Run len(out) samples into ``out`` (fewer if the string stops: the rest stays 0)."""
         nsteps = len(out)
         done = 0
-        while done < nsteps:
+        end = self.step + nsteps
+        while done < nsteps and not self.stopped:
             while (self.change_i < len(self.changes)
                    and self.changes[self.change_i][0] <= self.step):
                 _, fret, strike = self.changes[self.change_i]
-                self._change(fret, strike)
+                self._change(fret, strike, self.held[self.change_i])
                 self.change_i += 1
             nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
                    else NEVER)
@@ -346,23 +375,18 @@ class WaveguideVoice:
                     self.col_list, self.seg_p, self.seg_m, self.pk_n, self.pk_w, self.gains)
             if self._run is None:  # the argument types are the same in every call
                 self._run = entry_point(K.run_block, args)
-            ok = self._run(*args)
-            if not ok:
+            ran = self._run(*args)
+            if ran == -2:
+                raise RuntimeError("the cached waveguide kernel was compiled with another "
+                                   "REACH_EVERY: touch engine/waveguide/kernel.py")
+            if ran < 0:
                 raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
-            self.step += m
-            done += m
-
-    def _maybe_stop(self, peak: float) -> None:
-        if any(f.rel < NEVER and f.rel >= self.step for f in self.timeline.fingers):
-            return
-        tail = 8.0 * self.rate / (2.0 * math.pi * LEAK_HZ)
-        if np.any((self.js_off + self.js_rel + tail > self.step) & (self.js_off < NEVER)):
-            return
-        if len(self.pb_step) and self.pb_step[-1] >= self.step:
-            return
-        vmax = max(np.max(np.abs(np.diff(self.R))), np.max(np.abs(np.diff(self.Mb)))) * self.rate
-        if vmax < self.decay_velocity and peak < self.decay_velocity:
-            self.stopped = True
+            self.step += ran
+            done += ran
+            if self.ist[K.I_STOPPED]:
+                self.stopped = True
+                out[done:] = 0.0  # the rest is silence
+        self.step = end
 
     def energy(self) -> float:
         """Stored energy of the sounding grid, J: each travelling wave's mu X (du/dt)^2 summed

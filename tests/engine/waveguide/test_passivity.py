@@ -132,12 +132,12 @@ def test_termination_filters_are_passive():
 
 def _junction_gain(mp, rho, kp, rate=44100.0):
     """max over frequency of |H| = |1 + h / u_in| of the kernel's own junction (impulse response)."""
-    st = np.zeros(6)
+    st = np.zeros((1, 1, 6))
     n = 1 << 14
     x = np.zeros(n)
     x[0] = 1.0
     leak = np.exp(-2 * np.pi * LEAK_HZ / rate)
-    h = np.array([_msd(x[i], st, mp, rho, kp, leak) for i in range(n)])
+    h = np.array([_msd(x[i], st, 0, 0, mp, rho, kp, leak) for i in range(n)])
     return float(np.max(np.abs(1.0 + np.fft.rfft(h))))
 
 

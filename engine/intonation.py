@@ -57,7 +57,7 @@ DECAY_TOLERANCE_DB_S = 0.25  # a finger's damping is refined until the note's de
 # ... once the note's decay is this far from the fine grid's with the preset's damping (closer, the
 # finger keeps it)
 DECAY_CALIBRATE_DB_S = 1.0
-DAMPING_RANGE = (1.0 / 64.0, 64.0)  # the finger's calibrated damping, times the preset's
+DAMPING_RANGE = (1.0 / 256.0, 64.0)  # the finger's calibrated damping, times the preset's
 # a finger that presses with no force of its own presses with at least this multiple of the
 # seating force: the static force leaves the vibrating string no margin.  ``benchmarks/seating.py``
 # (standard, run at afcb369) found rendered strings resting on their fret from at most 1.27

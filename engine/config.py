@@ -23,6 +23,7 @@ JIT = {
     "fastmath": set(FASTMATH),
     "error_model": "numpy",
     "boundscheck": False,
+    "forceinline": False,
 }
 
 # Helpers that the time-step loop calls in every step are inlined into it at numba's IR level.
@@ -43,7 +44,7 @@ JIT_INLINE = {**JIT, "inline": "always"}
 # around it.  A function compiled for a call from such a kernel inherits the setting, so nothing
 # such a kernel calls may create an array either (numba refuses to compile an allocation without
 # NRT).
-JIT_NO_NRT = {**JIT, "_nrt": False}
+
 
 # The step loops (the general path ``_advance``, the quiet run, the held run, and ``_contact``,
 # which decides for the quiet run what the general path decides in its own code) are compiled
@@ -54,4 +55,6 @@ JIT_NO_NRT = {**JIT, "_nrt": False}
 # inline is compiled with the loop's flags; the one hot loop that needs fastmath to vectorise,
 # the linear pass with its float sums, is a kernel of its own (``kernels._pass_kc``) that all
 # three call.  Quiet and held steps are thus bit-identical to the general path by construction.
-JIT_STEP = {**JIT_NO_NRT, "fastmath": set()}
+JIT_STEP = {**JIT, "fastmath": set()}
+
+JIT_HELPER = {**JIT_STEP, "forceinline": True}

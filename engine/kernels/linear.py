@@ -40,15 +40,15 @@ def interp(x: float, h: float, n: int):
     return l + 1, w0, w1
 
 
-# The linear pass, a) of the step, is one compiled kernel (with fastmath, so that LLVM vectorises
-# its float sums: S and the Kirchhoff-Carrier dot products) that the quiet run, the held run and
-# the general path all call, through the inlined wrappers ``_linear_pass_kc`` and
-# ``_linear_pass``.  The three loops therefore get the same sums to the last bit by construction;
-# inlined into each loop (as they were up to 6e8d8bc), they relied on LLVM vectorising every copy
-# the same way, which held for the quiet run and not for the held run.  The call costs each step
-# a few ns (``docs/engine.md``); without reference counting (``config.JIT_NO_NRT``) it no longer
-# counts the six arrays it passes.  The kernels take the coefficients they use, not ``Coefs``:
-# every field passed is an argument to marshal in each call.
+# The linear pass, a) of the step, is one compiled kernel, not inlined (with fastmath, so that LLVM
+# vectorises its float sums: S and the Kirchhoff-Carrier dot products), that the quiet run, the
+# held run and the general path each call themselves (a helper around the call counted the
+# references of the arrays it passed in every step: ``config.JIT_HELPER``).  The three loops
+# therefore get the same sums to the last bit by construction; inlined into each loop (as they
+# were up to 6e8d8bc), they relied on LLVM vectorising every copy the same way, which held for the
+# quiet run and not for the held run.  The call costs each step a few ns (``docs/engine.md``).
+# The kernels take the coefficients they use, not ``Coefs``: every field passed is an argument to
+# marshal in each call.
 @njit(**JIT)
 def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over

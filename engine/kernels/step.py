@@ -55,8 +55,7 @@ def step_block(c, geo, ctl, st, pol, step0, nsteps, out, diag, e_h, e_q, e_p):
     finger brings or takes away when it is put down or removed and the work of a changing tension.
     Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit;
     ``pol`` (``Policy``) says whether quiet and held steps may take their own loops.
-    Allocates the block's scratch (``Work``) and hands over to ``_advance``, which is compiled
-    without reference counting and so may not allocate (config.JIT_NO_NRT).
+    Allocates the block's scratch (``Work``) and hands over to ``_advance``.
     """
     n = c.n
     nfret = geo.fret_p.shape[0]
@@ -494,7 +493,7 @@ def _restore(U0, U1, UF, r):
     """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
     # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
     # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
-    # node by node, in place (no allocation: see JIT_NO_NRT)
+    # node by node, in place
     if r == 1:
         # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
         for j in range(U0.shape[0]):

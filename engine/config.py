@@ -23,35 +23,47 @@ JIT = {
     "fastmath": set(FASTMATH),
     "error_model": "numpy",
     "boundscheck": False,
+    "forceinline": False,
 }
 
-# Helpers that the time-step loop calls in every step are inlined into it at numba's IR level.
-# A call to a compiled helper passes the NamedTuples and arrays it takes as structs and (with NRT,
-# see ``JIT_NO_NRT``) counts the arrays' references: when ``_quiet_until`` (not inlined) took
-# ``Controls``, a fretted string's step went from 285 to 473 ns in ``benchmarks.speed``'s
-# component table.  The helpers that are not inlined and count references therefore take arrays
-# and scalars, never a NamedTuple of arrays; those compiled with ``JIT_NO_NRT`` count none and may
-# (``_advance`` takes step_block's and hands them on to the quiet and held runs).
-JIT_INLINE = {**JIT, "inline": "always"}
+# ``forceinline`` is set in every dict: numba hands a flag that a function does not set down to the
+# functions compiled for its calls, so a kernel first compiled from an inlined helper would be
+# inlined too (the linear pass must stay one compiled kernel: see ``JIT_STEP``).
 
-# Kernels that allocate no array and return none are compiled without numba's reference counting
-# (NRT): the caller owns every array they touch (``step_block`` allocates the block's scratch and
-# hands over to ``_advance``).  With it, each call of an inlined helper that takes an array counted
-# a reference up on the way in and down after the helper's loop, and numba's refcount pruning
-# could not pair them across the loop: a held step did six such pairs (read off its LLVM IR),
-# each an atomic read-modify-write (``lock xadd`` on x86) that also orders the memory operations
-# around it.  A function compiled for a call from such a kernel inherits the setting, so nothing
-# such a kernel calls may create an array either (numba refuses to compile an allocation without
-# NRT).
-JIT_NO_NRT = {**JIT, "_nrt": False}
+# IR-level inlining (numba's ``inline="always"``), for the waveguide's kernels.  The string's step
+# loops do not use it (``JIT_HELPER``).
+JIT_INLINE = {**JIT, "inline": "always"}
 
 # The step loops (the general path ``_advance``, the quiet run, the held run, and ``_contact``,
 # which decides for the quiet run what the general path decides in its own code) are compiled
 # without fastmath: the quiet and held runs repeat the general path's arithmetic in loops of
 # their own, and with re-association or contraction allowed LLVM rounded each copy its own way
 # (with these flags, 2 of 204 random scenes with held steps came out bit-identical with held
-# steps on and off; without them, all: ``tools/held_soak.py``).  Everything the loops
-# inline is compiled with the loop's flags; the one hot loop that needs fastmath to vectorise,
-# the linear pass with its float sums, is a kernel of its own (``kernels._pass_kc``) that all
-# three call.  Quiet and held steps are thus bit-identical to the general path by construction.
-JIT_STEP = {**JIT_NO_NRT, "fastmath": set()}
+# steps on and off; without them, all: ``tools/held_soak.py``).  The helpers the loops call are
+# compiled without them too (``JIT_HELPER``); the one hot loop that needs fastmath to vectorise,
+# the linear pass with its float sums, is a kernel of its own (``kernels._pass_kc``, not inlined)
+# that all three call.  Quiet and held steps are thus bit-identical to the general path by
+# construction.
+JIT_STEP = {**JIT, "fastmath": set()}
+
+# The helpers of the step loops (``_eta``, ``_gram``, ``_solve``, ``_pickups``, ...): ordinary
+# compiled functions that LLVM always inlines (numba's ``forceinline``), compiled like the loops.
+# The loops run with numba's reference counting (NRT), which counts an array's references up and
+# down with an atomic read-modify-write (``lock xadd`` on x86) wherever a variable that holds it
+# is bound and dies, and prunes the pairs it can prove redundant.  Three rules keep the counts out of
+# the quiet and held runs' loops (read off the LLVM IR: ``dispatcher.inspect_llvm()``, calls of
+# ``NRT_incref``; the general path's loop keeps some on its branches, around the runs' calls, the
+# rigid frets' active set and the diagnostics):
+# * helpers are inlined by LLVM, not at numba's IR level: IR-inlining copies each parameter into a
+#   variable of the loop that is bound and dies in every step, and the pruner paired few of those
+#   counts (with numba 0.68.1, 31 counts up and 65 down stayed in the held run's loop);
+# * the loops take the arrays out of the NamedTuples once, before the loop, and pass arrays, not
+#   NamedTuples of arrays (``Geo``), to the helpers they call in every step: a NamedTuple counts
+#   every array it holds;
+# * a helper that takes arrays calls no kernel that is not inlined (the linear pass, ``_contact``):
+#   numba's check of such a call's status leaves the helper by a path without the counts down,
+#   and the pruner keeps every pair on such a path.  The loops call those kernels themselves
+#   (``_step_energy``, which calls ``_energy``, still counts: only with diagnostics).
+# The kernels the loops call without inlining (the linear pass, the quiet and held runs, ...) take
+# their arrays from the loop, whose own variables are counted only around the loop.
+JIT_HELPER = {**JIT_STEP, "forceinline": True}

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT_INLINE, JIT_STEP
+from ..config import JIT_HELPER, JIT_STEP
 from .data import EPS, RIGID
 from .linear import _q_index
 from .sav import _apply_gamma
@@ -31,7 +31,7 @@ def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret
                      kq) >= 0
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
     """The rigid frets' active-set check: the fret outside the active set that the predicted
     u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
@@ -55,7 +55,7 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
     return add
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx, cval, nent,
                scr):
     """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used, gamma,
@@ -91,7 +91,7 @@ def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx
     return _apply_gamma(c, UF, U1, psi, 0, contact, joint, cidx, cval, start, nent)
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, fret_m0,
                joint, cidx, cval, nent, scr):
     """Penalty frets as one SAV, eqs. (24b), (54), (55b) (NOTES.md form); returns (nent, used,
@@ -143,7 +143,7 @@ def _sav_frets(c, U0, U1, UF, psi, gprev, has_gprev, fret_p, fret_w0, fret_w1, f
     return nent, used, gm, s, contact
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _rigid_row(q, fret_p, fret_w0, fret_w1, UF, U1):
     """A rigid fret's j_q.u_free and j_q.u^(n-1): (v_free, v1) of its row."""
     p_ = fret_p[q]
@@ -151,7 +151,7 @@ def _rigid_row(q, fret_p, fret_w0, fret_w1, UF, U1):
             fret_w0[q] * U1[p_] + fret_w1[q] * U1[p_ + 1])
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret_w0, fret_w1,
                fret_m0, UF, U1, ca, vfree, v1):
     p_ = fret_p[q]
@@ -168,7 +168,7 @@ def _add_rigid(q, nc, kind, cslot, cfret, cstart, cidx, cval, nent, fret_p, fret
     return nent + 2
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _remove_col(i, nc, kind, cslot, cfret, cstart, cidx, cval, ca, cc, vfree, v1, xp):
     """Remove column i (a rigid fret, always stored after the others) and compact the storage."""
     width = cstart[i + 1] - cstart[i]

@@ -57,7 +57,7 @@ class Coefs(NamedTuple):
     lam2: float  # T0 k^2 / (rho A h^2): the tension's share of B, for bends
     den: float  # 1 + sigma0 k
     gamma_rule: int = GAMMA_JOINT  # sec. 4.7 variant, see ``_gamma`` (a knob of the accuracy study)
-    # quiet steps leave the Kirchhoff-Carrier column out while S (``_linear_pass_kc``) of the step
+    # quiet steps leave the Kirchhoff-Carrier column out while S (``_pass_kc``) of the step
     # before is below this: its tension rise E A S / (2 L h) is then below a stated share of T0
     # (``string.kc_skip_level``); 0 keeps it in every step
     kc_s_skip: float = 0.0
@@ -137,7 +137,7 @@ class State(NamedTuple):
     f_psi: np.ndarray
     f_bprev: np.ndarray
     tens: np.ndarray  # [T^(n-1), W^(n-1/2)] for the work done by a changing tension
-    # [S of u^(n-1) (``_linear_pass_kc``), 1.0 if no contact acted in the last step, 1.0 if the
+    # [S of u^(n-1) (``_pass_kc``), 1.0 if no contact acted in the last step, 1.0 if the
     # next step may be held]: decide quiet and held steps and the KC skip
     s_last: np.ndarray
     # [steps the quiet run has taken, steps the held run has taken] (for the tests and

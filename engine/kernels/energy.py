@@ -7,12 +7,12 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..config import JIT_INLINE, JIT_NO_NRT
+from ..config import JIT, JIT_HELPER
 from .data import ACTIVE
 from .excitation import _pluck_force
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w, f_w1, pl_start,
                  pl_len, pl_amp, pl_p, pl_w0, pl_w1, pin, inject, qloss, tens, e_h, e_q, e_p):
     """Diagnostics of step ``it``: e_h = H^(n+1/2), e_q = k Q^n (``qloss``: the losses the step
@@ -38,7 +38,7 @@ def _step_energy(c, ratio, step, step0, it, UF, U0, U1, psi, f_state, f_psi, f_w
     e_p[it] = pin + inject + ptens
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _energy(c, tension, UN, U0, U1, psi, f_state, f_psi, f_w, f_w1):
     """H^(n+1/2) of eqs. (43)-(45), k Q^n of eq. (46a) (string and fingers), and
     W^(n+1/2) = -(h/2) u^(n+1)^T D u^n, so that V_L = T^n W^(n+1/2) + (h/2) E I (D u^n).(D u^(n+1))."""

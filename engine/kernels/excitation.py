@@ -8,11 +8,11 @@ import math
 
 from numba import njit
 
-from ..config import JIT_INLINE
+from ..config import JIT_HELPER
 from .linear import _q_index
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _pluck_force(step, e, pl_start, pl_len, pl_amp):
     """(acting, f): whether pluck e acts at this step, and its raised-sine force, eq. (5)."""
     m = step - pl_start[e]
@@ -22,7 +22,7 @@ def _pluck_force(step, e, pl_start, pl_len, pl_amp):
     return True, pl_amp[e] * s_ * s_
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1):
     """b) The plucks' forces f_e^n of eq. (5) added to u_free through their interpolants, eq. (19);
     returns q.u_free kept current (with Kirchhoff-Carrier)."""

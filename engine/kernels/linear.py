@@ -14,10 +14,10 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT_INLINE, JIT_NO_NRT
+from ..config import JIT, JIT_HELPER
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def interp(x: float, h: float, n: int):
     """Linear interpolant j^(x) (eq. (15)-(16)): padded index of the left node and two weights.
 
@@ -40,16 +40,16 @@ def interp(x: float, h: float, n: int):
     return l + 1, w0, w1
 
 
-# The linear pass, a) of the step, is one compiled kernel (with fastmath, so that LLVM vectorises
-# its float sums: S and the Kirchhoff-Carrier dot products) that the quiet run, the held run and
-# the general path all call, through the inlined wrappers ``_linear_pass_kc`` and
-# ``_linear_pass``.  The three loops therefore get the same sums to the last bit by construction;
-# inlined into each loop (as they were up to 6e8d8bc), they relied on LLVM vectorising every copy
-# the same way, which held for the quiet run and not for the held run.  The call costs each step
-# a few ns (``docs/engine.md``); without reference counting (``config.JIT_NO_NRT``) it no longer
-# counts the six arrays it passes.  The kernels take the coefficients they use, not ``Coefs``:
-# every field passed is an argument to marshal in each call.
-@njit(**JIT_NO_NRT)
+# The linear pass, a) of the step, is one compiled kernel, not inlined (with fastmath, so that LLVM
+# vectorises its float sums: S and the Kirchhoff-Carrier dot products), that the quiet run, the
+# held run and the general path each call themselves (a helper around the call counted the
+# references of the arrays it passed in every step: ``config.JIT_HELPER``).  The three loops
+# therefore get the same sums to the last bit by construction; inlined into each loop (as they
+# were up to 6e8d8bc), they relied on LLVM vectorising every copy the same way, which held for the
+# quiet run and not for the held run.  The call costs each step a few ns (``docs/engine.md``).
+# The kernels take the coefficients they use, not ``Coefs``: every field passed is an argument to
+# marshal in each call.
+@njit(**JIT)
 def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     """a) + KC: u_free, q = D u^n, q.q, q.u_free, q.u^(n-1), S = sum of (u_(i+1) - u_i)^2 over
     the N intervals of u^n, and the nodes of u^n below the fretboard and within reach of a fret
@@ -90,7 +90,7 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     return qq, quf, qu1, s2 + last * last, below, close
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count):
     """a) without Kirchhoff-Carrier: u_free, S and the counts (see ``_pass_kc``); returns
     (S, below, close)."""
@@ -116,7 +116,7 @@ def _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count):
     return s2 + last * last, below, close
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _counted(c, geo):
     """Does the linear pass count the nodes near a contact?  Not on a string without fretboard
     and frets (``benchmarks.speed``'s linear string), which has none to count; a property of the
@@ -124,56 +124,27 @@ def _counted(c, geo):
     return c.board_k > 0.0 or geo.fret_p.shape[0] > 0
 
 
-@njit(**JIT_INLINE)
-def _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q):
-    """``_pass_kc`` with the string's coefficients (b0, b1: the stencil's, bent or not) and
-    geometry."""
-    return _pass_kc(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, Q, geo.board, geo.near,
-                    _counted(c, geo))
-
-
-@njit(**JIT_INLINE)
-def _linear_pass(c, geo, b0, b1, U0, U1, UF):
-    """``_pass`` with the string's coefficients and geometry."""
-    return _pass(c.n, b0, b1, c.b2, c.c0, c.c1, c.ih2, U0, U1, UF, geo.board, geo.near,
-                 _counted(c, geo))
-
-
-@njit(**JIT_INLINE)
-def _step_start(c, geo, tb_step, tb_ratio, step, ratio, b0, b1, with_kc, U0, U1, UF, Q):
-    """The start of a step in every loop (the general path, the quiet and the held run): the ghost
-    cells of the simply supported ends (eq. (2)), the stencil under a bend's tension at this step
-    (ratio, b0, b1 are kept without a bend), and the linear pass a), with the Kirchhoff-Carrier
-    sums if ``with_kc``; returns (ratio, b0, b1, q.q, q.u_free, q.u^(n-1), S, below, close)."""
-    n = c.n
+@njit(**JIT_HELPER)
+def _ends(U0, n):
+    """The ghost cells of the simply supported ends (eq. (2)), set at the start of every step."""
     U0[0] = -U0[2]
     U0[n + 2] = -U0[n]
-    if tb_step.shape[0] > 0:
-        ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
-    qq = 0.0
-    quf = 0.0
-    qu1 = 0.0
-    if with_kc:
-        qq, quf, qu1, s, below, close = _linear_pass_kc(c, geo, b0, b1, U0, U1, UF, Q)
-    else:
-        s, below, close = _linear_pass(c, geo, b0, b1, U0, U1, UF)
-    return ratio, b0, b1, qq, quf, qu1, s, below, close
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _kc_multiplier(c, qq, quf, qu1):
     """The Kirchhoff-Carrier column alone (the common free-vibration step): a 1x1 system."""
     return -c.kc * (qu1 + quf) / (1.0 + c.kc * c.lam * qq)
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _add_kc(n, UF, Q, a_):
     """z^(n+1) += Lambda x_KC q."""
     for j in range(n - 1):
         UF[j + 2] += a_ * Q[j]
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
     """Output: the string velocity (u^(n+1) - u^n) / k at each pickup."""
     for pk in range(out_p.shape[0]):
@@ -183,7 +154,7 @@ def _pickups(out_p, out_w0, out_w1, UF, U0, k, out, it):
         ) / k
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _q_index(p):
     """Index into Q (q = D u^n; Q[j] at node j + 1, so at padded node p = j + 2) of padded node p,
     unsigned so that numba leaves out the wrap-around of negative indices.  An interpolant in the
@@ -194,7 +165,7 @@ def _q_index(p):
     return np.uint64(max(p - 2, 0))
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _bent_stencil(c, tb_step, tb_ratio, step):
     """Bends and vibrato: T^n = T0 * ratio(step) enters B of eq. (50a); returns (ratio, b0, b1)."""
     ratio = _tension_ratio(tb_step, tb_ratio, step)
@@ -202,7 +173,7 @@ def _bent_stencil(c, tb_step, tb_ratio, step):
     return ratio, c.b0 - 2.0 * dl / c.den, c.b1 + dl / c.den
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _tension_ratio(tb_step, tb_ratio, step):
     """Piecewise-linear T / T0 between breakpoints (constant outside)."""
     m = tb_step.shape[0]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..config import JIT_NO_NRT, JIT_STEP
+from ..config import JIT, JIT_STEP
 from .collisions import _add_rigid, _contact, _fret_hit, _rigid_row
 from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
@@ -18,15 +18,19 @@ from .excitation import _pluck_forces
 from .finger import _beta, _eta, _finger_row, _w_free
 from .linear import (
     _add_kc,
+    _bent_stencil,
+    _counted,
+    _ends,
     _kc_multiplier,
+    _pass,
+    _pass_kc,
     _pickups,
-    _step_start,
 )
 from .sav import _joint_gamma
 from .system import _assemble, _gram, _gram_kc, _scatter, _solve, _unscatter
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _quiet_until(s, ctl, st):
     """The first step >= s at which a quiet step is not allowed (s itself if step s is not quiet).
 
@@ -90,6 +94,8 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
+    board, near, count = geo.board, geo.near, _counted(c, geo)
+    b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     n = c.n
     b0 = c.b0
     b1 = c.b1
@@ -98,8 +104,15 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     done = 0
     for i in range(it, it_end):
         with_kc = c.kc > 0.0 and s_last >= c.kc_s_skip
-        ratio, b0, b1, qq, quf, qu1, s, below, close = _step_start(
-            c, geo, tb_step, tb_ratio, step0 + i, ratio, b0, b1, with_kc, U0, U1, UF, Q)
+        _ends(U0, n)
+        if tb_step.shape[0] > 0:  # a bend: the stencil under this step's tension
+            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step0 + i)
+        qq = quf = qu1 = 0.0
+        if with_kc:
+            qq, quf, qu1, s, below, close = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q,
+                                                     board, near, count)
+        else:
+            s, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count)
         xk = _kc_multiplier(c, qq, quf, qu1) if with_kc else 0.0
         if (below > 0 or close > 0) and _contact(c, below, close, UF, du, Q, fret_p, fret_w0,
                                                  fret_w1, fret_m0, fret_active, lam * xk):
@@ -113,7 +126,7 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     return done, s_last
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _held_until(s, ctl, st):
     """The first step >= s at which a held step is not allowed, and the finger slot that holds the
     string; (s, -1) if step s may not be held.
@@ -194,6 +207,8 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
         ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
+    board, near, count = geo.board, geo.near, _counted(c, geo)
+    b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     force = ctl.fs_force[slot]
     kind, cslot, cfret, cstart, cidx, cval, ca, cc = (
         w.kind, w.cslot, w.cfret, w.cstart, w.cidx, w.cval, w.ca, w.cc)
@@ -241,8 +256,15 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     done = 0
     for i in range(it, it_end):
         step = step0 + i
-        ratio, b0, b1, qq, quf, qu1, s, below, _ = _step_start(
-            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, c.kc > 0.0, U0, U1, UF, Q)
+        _ends(U0, n)
+        if tb_step.shape[0] > 0:  # a bend: the stencil under this step's tension
+            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
+        qq = quf = qu1 = 0.0
+        if c.kc > 0.0:
+            qq, quf, qu1, s, below, _ = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board,
+                                                 near, count)
+        else:
+            s, below, _ = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count)
         if c.board_k > 0.0 and below > 0:
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)

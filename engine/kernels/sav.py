@@ -11,12 +11,12 @@ import math
 
 from numba import njit
 
-from ..config import JIT_INLINE
+from ..config import JIT_HELPER
 from .data import BOARD, FINGER, FRETPEN, GAMMA_JOINT, GAMMA_NONE, GAMMA_PAPER
 from .finger import _finger_row
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
     """Gradient correction of sec. 4.7, written so that its aim is explicit.
 
@@ -53,7 +53,7 @@ def _gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
     return cc / qv
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _apply_gamma(c, UF, U1, psi, which, contact, joint, cidx, cval, start, nent):
     """Scale the SAV column g~ in cval[start:nent] by its gamma; returns (nent, used, gamma, s~).
 
@@ -79,7 +79,7 @@ def _apply_gamma(c, UF, U1, psi, which, contact, joint, cidx, cval, start, nent)
     return nent, True, gm, s
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _joint_gamma(nbase, kind, cslot, cstart, cval, ca, cc, vfree, v1, x, G, cgam, cs, cbt, ccon,
                  psi, f_psi, fbeta, fchi, fr, k, nc):
     """The gradient correction of sec. 4.7 for columns that act together; True if any changed.

@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_NO_NRT, JIT_STEP
+from ..config import JIT, JIT_STEP
 from .collisions import _add_rigid, _fret_hit, _remove_col, _sav_board, _sav_frets
 from .data import (
     ACTIVE,
@@ -32,9 +32,13 @@ from .excitation import _pluck_forces
 from .finger import _beta, _eta, _finger_row, _finger_x, _w_free
 from .linear import (
     _add_kc,
+    _bent_stencil,
+    _counted,
+    _ends,
     _kc_multiplier,
+    _pass,
+    _pass_kc,
     _pickups,
-    _step_start,
     interp,
 )
 from .runs import _held_run, _held_until, _quiet_run, _quiet_until
@@ -51,8 +55,7 @@ def step_block(c, geo, ctl, st, pol, step0, nsteps, out, diag, e_h, e_q, e_p):
     finger brings or takes away when it is put down or removed and the work of a changing tension.
     Returns a status code.  ``st`` holds u^n, u^(n-1) and the contact state on entry and on exit;
     ``pol`` (``Policy``) says whether quiet and held steps may take their own loops.
-    Allocates the block's scratch (``Work``) and hands over to ``_advance``, which is compiled
-    without reference counting and so may not allocate (config.JIT_NO_NRT).
+    Allocates the block's scratch (``Work``) and hands over to ``_advance``.
     """
     n = c.n
     nfret = geo.fret_p.shape[0]
@@ -82,7 +85,8 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     psi, gprev_b, gprev_f, has_gprev = st.psi, st.gprev_b, st.gprev_f, st.has_gprev
     fret_active, f_state, f_w, f_w1, f_psi, f_bprev = (
         st.fret_active, st.f_state, st.f_w, st.f_w1, st.f_psi, st.f_bprev)
-    board = geo.board
+    board, near, count = geo.board, geo.near, _counted(c, geo)
+    b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
         ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
@@ -162,8 +166,16 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                 if done > 0:
                     continue
         # ---- a) linear update (+ KC vector, + S and the counts of nodes near a contact) ------
-        ratio, b0, b1, qq, quf, qu1, s_last, below, close = _step_start(
-            c, geo, tb_step, tb_ratio, step, ratio, b0, b1, c.kc > 0.0, U0, U1, UF, Q)
+        _ends(U0, n)
+        if tb_step.shape[0] > 0:  # a bend: the stencil under this step's tension
+            ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
+        qq = quf = qu1 = 0.0
+        if c.kc > 0.0:
+            qq, quf, qu1, s_last, below, close = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF,
+                                                          Q, board, near, count)
+        else:
+            s_last, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near,
+                                         count)
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
@@ -477,12 +489,12 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     return status
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _restore(U0, U1, UF, r):
     """After r (1 or 2) rotations, the caller's (u, u1, uf) hold (u^n, ...) in a rotated order."""
     # the caller's arrays, in order (a, b, c), started as (u^n, u^(n-1), scratch).  After one
     # rotation the local U0 is the caller's c, U1 the caller's a; after two, U0 = b, U1 = c.
-    # node by node, in place (no allocation: see JIT_NO_NRT)
+    # node by node, in place
     if r == 1:
         # local (U0, U1, UF) = (c, a, b): caller wants a <- u^n (=c), b <- u^(n-1) (=a)
         for j in range(U0.shape[0]):

@@ -14,12 +14,12 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT_INLINE, JIT_NO_NRT
+from ..config import JIT, JIT_HELPER
 from .data import KC, RIGID
 from .linear import _q_index
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _solve(A, r, n):
     """Solve A x = r in place (x into r); returns False if A is singular.
 
@@ -42,7 +42,7 @@ def _solve(A, r, n):
     return _solve_sized(A, r, n)
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _solve_sized(A, r, n):
     """``_solve`` for a size that is a literal where the caller can make it one."""
     if _is_arrow(A, n):
@@ -50,7 +50,7 @@ def _solve_sized(A, r, n):
     return _solve_n(A, r, n)
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _is_arrow(A, n):
     """Do rows and columns 1..n-1 of A meet only in row and column 0, on a diagonal of non-zero
     entries?"""
@@ -63,7 +63,7 @@ def _is_arrow(A, n):
     return True
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _solve_arrow(A, r, n):
     """An arrowhead system, in place: x_1..x_(n-1) eliminated into row 0, whose Schur complement
     s = A_00 - sum_i A_0i A_i0 / A_ii gives x_0, then x_i = (r_i - A_i0 x_0) / A_ii.  Without
@@ -85,7 +85,7 @@ def _solve_arrow(A, r, n):
     return True
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _solve_n(A, r, n):
     """Gaussian elimination with partial pivoting, in place; returns False if singular."""
     for i in range(n):
@@ -120,7 +120,7 @@ def _solve_n(A, r, n):
     return True
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _assemble(nc, kind, ca, cc, vfree, G, A, b):
     """The system of the multipliers from the Gram matrix: rows of the non-rigid columns
     x + c (G x + v_free) = -a (eqs. (55)-(56)), rigid rows G x = m0 - v_free."""
@@ -137,7 +137,7 @@ def _assemble(nc, kind, ca, cc, vfree, G, A, b):
             b[i] = -ca[i] - cc[i] * vfree[i]
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _step_to_zero(x, xp, nbase, nc):
     """Lawson and Hanson's step: xp (every rigid reaction >= 0) moves towards the solve x, which
     has a negative one, until the first rigid reaction reaches zero; returns that column.  Not
@@ -157,7 +157,7 @@ def _step_to_zero(x, xp, nbase, nc):
     return worst
 
 
-@njit(**JIT_NO_NRT)
+@njit(**JIT)
 def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, ca, cc, vfree,
                  xp, G, A, b, scr, d, A2):
     """A rigid fret (the last of the nc columns) was just added to xp, a solution of the others
@@ -208,7 +208,7 @@ def _ray_blocked(nc, nbase, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, 
     return blk
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _gram_kc(i, nc, cstart, cidx, cval, Q, qq, lam, G):
     """Row and column i of G, the Kirchhoff-Carrier column's: q.q, and q against each sparse
     column on its nodes."""
@@ -223,7 +223,7 @@ def _gram_kc(i, nc, cstart, cidx, cval, Q, qq, lam, G):
         G[j, i] = lam * t
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
     """G[i, j] = v_i^T Lambda v_j for the active columns (the Woodbury core matrix).
 
@@ -263,7 +263,7 @@ def _gram(nc, kind, cstart, cidx, cval, cslot, Q, qq, lam, lam_f, G, scr):
             G[j, i] = lam * s
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _scatter(nc, kind, cstart, cidx, cval, x, lam, du):
     """du += Lambda * sum of the sparse columns' forces (du: a scratch, or z itself); returns the
     KC multiplier."""
@@ -277,7 +277,7 @@ def _scatter(nc, kind, cstart, cidx, cval, x, lam, du):
     return xk
 
 
-@njit(**JIT_INLINE)
+@njit(**JIT_HELPER)
 def _unscatter(nc, cstart, cidx, du):
     for e in range(cstart[0], cstart[nc]):
         du[cidx[e]] = 0.0

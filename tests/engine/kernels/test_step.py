@@ -35,8 +35,8 @@ def test_kernels_stay_inside_their_arrays_at_the_fixed_ends():
 
 
 def test_kernels_free_every_array_they_allocate():
-    """The step loops run without numba's reference counting (``config.JIT_NO_NRT``): the arrays
-    ``step_block`` allocates for them, and those the other kernels return, must all be freed.
+    """The arrays ``step_block`` allocates for the step loops, and those the other kernels return,
+    must all be freed.
     numba's allocation counters (``NUMBA_NRT_STATS=1``, in a child) balance over renders that
     take the quiet, held and general paths, a fret added under a hard pluck, and diagnostics."""
     code = (

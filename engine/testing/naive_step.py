@@ -335,16 +335,19 @@ def naive_step(c, geo, ctl, st, step: int, rule: int | None = None) -> dict:
     # ---- apply: z^(n+1) = z_free + Lambda V x; psi updates, eq. (48) -------------------------
     z = _predict(all_cols, x, zfree, lam_z)
     un = z[:ni]
-    # the size of the terms each psi is summed from (its rounding is relative to that)
+    # the size of the terms each psi is summed from (its rounding is relative to that): a column's
+    # v.z is itself a sum, whose terms (for a finger, the string under it and the finger's own
+    # position, each far larger than their difference, the compression) set its rounding
     psi_scale = np.abs(psi)
     f_psi_scale = np.abs(f_psi)
     for col in cols:
         if col.kind == "sav":
             psi[col.which] += 0.5 * (col.v @ z - col.v @ z1)
-            psi_scale[col.which] += 0.5 * (abs(col.v @ z) + abs(col.v @ z1))
+            psi_scale[col.which] += 0.5 * (np.abs(col.v) @ (np.abs(z) + np.abs(z1)))
         elif col.kind == "finger":
             f_psi[col.slot] += 0.5 * col.beta * (col.v @ z - col.v @ z1)
-            f_psi_scale[col.slot] += 0.5 * abs(col.beta) * (abs(col.v @ z) + abs(col.v @ z1))
+            f_psi_scale[col.slot] += (0.5 * abs(col.beta)
+                                      * (np.abs(col.v) @ (np.abs(z) + np.abs(z1))))
     for s in range(nslot):
         if f_state[s] == ACTIVE:
             f_w1[s] = f_w[s]

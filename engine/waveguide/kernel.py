@@ -45,7 +45,7 @@ import math
 
 from numba import njit
 
-from ..config import JIT_INLINE, JIT_STEP
+from ..config import JIT_HELPER, JIT_INLINE, JIT_STEP
 from .collision import REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
 from .pluck import LEAK_HZ, _blow, _envelope, _msd
@@ -156,40 +156,10 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             fst[F_GLIDE] = g_new
         else:
             period += dper
-        d = period - 2.0 * (N - n_t) - tau
-        walk = 0
-        if d < 1.0 and n_t < N - 1:
-            n_t += 1
-            d += 2.0
-            walk = 1
-        elif d >= 3.0 and n_t > 0:
-            n_t -= 1
-            d -= 2.0
-            walk = -1
-        if d < 1.0:
-            d = 1.0
-        if d > dcap:
-            d = dcap
-        if d != d_taps:
-            j0, h0, h1, h2, h3 = _taps(d)
-            d_taps = d
-        # 2. the termination at n_t.  A step towards the bridge leaves the loop two samples
-        # shorter on the grid and D two longer: the sample the termination would write now is
-        # the one it wrote a step ago (now one point further on), and its input the one it read
-        # then, so it does nothing this step.  A step towards the nut writes two samples, the
-        # old place's and the new one's, from two consecutive inputs.
-        if walk == -1:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(s - n_t - 1) & mask] = v
-        if walk <= 0:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(s - n_t) & mask] = v
-        # 3. the bridge
-        Mb[(s + N) & mask] = -R[(s - N) & mask]
+        # 2. the termination at n_t, 3. the bridge
+        (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _terminate_step(
+            R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
+            loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
         # 4. junctions (none before the first onset or after the last one is gone)
         if slot_lo <= s < slot_hi:
             for j in range(nslot):
@@ -307,6 +277,49 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     return i
 
 
+@njit(**JIT_HELPER)
+def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3,
+                    loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """Steps 2 and 3 of sample s, the same in the general step and in ``_plain``: the termination
+    at n_t, with the loop's period ``period``, and the bridge.  Returns the state they change.
+
+    The termination's fractional delay d = period - 2 (N - n_t) - tau is kept in [1, 3) by walking
+    n_t one point.  A step towards the bridge leaves the loop two samples shorter on the grid and
+    d two longer: the sample the termination would write now is the one it wrote a step ago (now
+    one point further on), and its input the one it read then, so it does nothing this step.  A
+    step towards the nut writes two samples, the old place's and the new one's, from two
+    consecutive inputs."""
+    d = period - 2.0 * (N - n_t) - tau
+    walk = 0
+    if d < 1.0 and n_t < N - 1:
+        n_t += 1
+        d += 2.0
+        walk = 1
+    elif d >= 3.0 and n_t > 0:
+        n_t -= 1
+        d -= 2.0
+        walk = -1
+    if d < 1.0:
+        d = 1.0
+    if d > dcap:
+        d = dcap
+    if d != d_taps:
+        j0, h0, h1, h2, h3 = _taps(d)
+        d_taps = d
+    if walk == -1:
+        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+            Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+            ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        R[(s - n_t - 1) & mask] = v
+    if walk <= 0:
+        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+            Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+            ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        R[(s - n_t) & mask] = v
+    Mb[(s + N) & mask] = -R[(s - N) & mask]
+    return n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
 @njit(**JIT_STEP)
 def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0, h1,
            h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst,
@@ -318,34 +331,9 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     mask &= NONNEG  # known >= 0 here too
     for s in range(s1, e):
         period += dper
-        d = period - 2.0 * (N - n_t) - tau
-        walk = 0
-        if d < 1.0 and n_t < N - 1:
-            n_t += 1
-            d += 2.0
-            walk = 1
-        elif d >= 3.0 and n_t > 0:
-            n_t -= 1
-            d -= 2.0
-            walk = -1
-        if d < 1.0:
-            d = 1.0
-        if d > dcap:
-            d = dcap
-        if d != d_taps:
-            j0, h0, h1, h2, h3 = _taps(d)
-            d_taps = d
-        if walk == -1:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
-                refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(s - n_t - 1) & mask] = v
-        if walk <= 0:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
-                refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(s - n_t) & mask] = v
-        Mb[(s + N) & mask] = -R[(s - N) & mask]
+        (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _terminate_step(
+            R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
+            loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
         for q in range(nlive):
             c = col_list[q]
             n = col_n[c]

@@ -383,27 +383,23 @@ def _terminate(Mb, mask, at, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m
          + h3 * Mb[(base - 3) & mask])
     y = loss_gg * y - loss_a * ly
     ly = y
-    if disp_m > 0:
-        v = disp_a * y + x0 - disp_a * y0
-        x0 = y
-        y0 = v
-        y = v
+    if disp_m > 0:  # the sections' states are scalars, so that they stay in registers
+        y, x0, y0 = _allpass(disp_a, y, x0, y0)
         if disp_m > 1:
-            v = disp_a * y + x1 - disp_a * y1
-            x1 = y
-            y1 = v
-            y = v
+            y, x1, y1 = _allpass(disp_a, y, x1, y1)
             if disp_m > 2:
-                v = disp_a * y + x2 - disp_a * y2
-                x2 = y
-                y2 = v
-                y = v
+                y, x2, y2 = _allpass(disp_a, y, x2, y2)
                 if disp_m > 3:
-                    v = disp_a * y + x3 - disp_a * y3
-                    x3 = y
-                    y3 = v
-                    y = v
+                    y, x3, y3 = _allpass(disp_a, y, x3, y3)
     return refl * y, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _allpass(a, y, x, yo):
+    """One first-order allpass section on input y, its last input x and output yo: returns its
+    output a y + x - a yo and its new state (y, that output)."""
+    v = a * y + x - a * yo
+    return v, y, v
 
 
 @njit(**JIT_INLINE)

@@ -352,13 +352,17 @@ def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float =
     finger's damping drains the note (``benchmarks/fret_modes.py``).  Where the note lies above the
     finger's own resonance (its mass on its contact spring: 318 Hz for the guitars' fingers, 252 Hz
     for the bass's) less damping drains less; near and below it the finger rides the string, and
-    more damping holds it still and drains less.  The search starts at the preset's damping, goes
-    that way (down above the resonance, up below it; the other way where the grid drains less than
-    the fine grid) in factors of 2 up to ``DAMPING_RANGE``, then, without a bracket, the other
-    way, and refines a bracket by regula falsi (on the log of the damping) to
-    ``DECAY_TOLERANCE_DB_S``.  A note within ``DECAY_CALIBRATE_DB_S`` of the fine grid, or one for
-    which no damping in the range brackets the fine grid's decay, keeps the preset's damping.  Any
-    damping >= 0 keeps the energy balance exact (it is booked as a loss).  Cached per process."""
+    more damping holds it still and drains less, but less damping may also match (the finger's
+    resonance then takes part in the note).  The search starts at the preset's damping, goes that
+    way (down above the resonance, up below it; the other way where the grid drains less than the
+    fine grid) in factors of 2 up to ``DAMPING_RANGE``, refines the first bracket by regula falsi
+    (on the log of the damping) to ``DECAY_TOLERANCE_DB_S``, then searches the other way no
+    further out: the root nearest the preset's damping is taken (on the nylon set's string 3 at
+    frets 1-2 the roots far above rendered further from the fine grid than the model said, the
+    ones below near it: ``benchmarks/fret_modes.py``).  A note within ``DECAY_CALIBRATE_DB_S`` of
+    the fine grid, or one for which no damping in the range brackets the fine grid's decay, keeps
+    the preset's damping.  Any damping >= 0 keeps the energy balance exact (it is booked as a
+    loss).  Cached per process."""
     r0 = preset.finger.damping_n_s_m
     spec = model.spec
     target = spec.frequency_hz * 2.0 ** (fret / 12.0)
@@ -378,26 +382,30 @@ def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float =
     step = math.log(2.0)
     # above the finger's resonance (its mass on its contact spring, linearised at its force as in
     # ``held_note``) less damping drains less; near and below it more damping holds the finger
-    # still, and less lets it ring and bounce (a note below it that the model put within 0.2 dB/s
-    # of the fine grid at an eighth of the damping rendered 4.3 dB/s off)
+    # still
     fg = preset.finger
     force = press_force(model, preset, fret)
     kf = fg.alpha * force / (force / fg.stiffness) ** (1.0 / fg.alpha)
     direction = -1.0 if target > math.sqrt(kf / fg.mass_kg) / (2.0 * math.pi) else 1.0
     if e0 > 0.0:  # the grid drains less than the fine grid: the other way
         direction = -direction
-    for way in (direction, -direction):  # then the other way, if that one finds no bracket
+    # the root nearest the preset's damping (in its log): that way first, then the other way no
+    # further out than a root found already
+    root = None
+    for way in (direction, -direction):
+        bound = (hi if way > 0.0 else lo) if root is None else way * abs(root)
         a, ea = 0.0, e0
-        while lo < a + way * 0.5 * step < hi:
-            b = min(max(a + way * step, lo), hi)
+        while way * (bound - a) > 1e-12:
+            b = a + way * min(step, way * (bound - a))
             eb = err(b)
             if not math.isfinite(eb):
                 break
             if eb * ea <= 0.0:
                 best = (b, eb) if abs(eb) < abs(ea) else (a, ea)
-                return r0 * math.exp(_illinois(err, a, ea, b, eb, DECAY_TOLERANCE_DB_S, best)[0])
+                root = _illinois(err, a, ea, b, eb, DECAY_TOLERANCE_DB_S, best)[0]
+                break
             a, ea = b, eb
-    return r0
+    return r0 if root is None else r0 * math.exp(root)
 
 
 class FretCalibration(NamedTuple):

@@ -177,6 +177,31 @@ def frets_pressed(e) -> range:
     return range(e.fret, e.fret + 1)
 
 
+def bend_points(e: Bend, on: int, step, ratio: float) -> tuple[list[tuple[int, float]], int]:
+    """A bend's breakpoints (step, ratio), linear between them: up to ``ratio`` over its duration
+    from step ``on``, held, and back over the same time from its release; and the step it ends
+    on.  ``step(t)`` maps seconds to steps; the models differ in what the ratio scales (the
+    tension here, the pitch in the waveguide)."""
+    up = max(step(e.duration), 1)
+    points = [(on, 1.0), (on + up, ratio)]
+    end = on + up
+    if e.release is not None:
+        rel = max(step(e.release), on + up)
+        points += [(rel, ratio), (rel + up, 1.0)]
+        end = rel + up
+    return points, end
+
+
+def vibrato_points(e: Vibrato, step, ratio_for_cents) -> tuple[list[tuple[int, float]], int]:
+    """A vibrato's breakpoints (step, ``ratio_for_cents`` of its sine's cents at that time),
+    ``VIBRATO_POINTS_PER_CYCLE`` per cycle, and the step it ends on."""
+    npts = max(int(math.ceil(e.rate_hz * e.duration * VIBRATO_POINTS_PER_CYCLE)), 2)
+    points = [(step(e.time + t),
+               ratio_for_cents(e.depth_cents * math.sin(2.0 * math.pi * e.rate_hz * t)))
+              for t in np.linspace(0.0, e.duration, npts + 1)]
+    return points, step(e.time + e.duration)
+
+
 def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
                     impedance: float, ratio_for_cents,
                     fret_shifts: dict[int, float] | None = None,
@@ -301,23 +326,13 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
                 xk = min(x + k * DAMP_SPACING_M, 0.9 * length_m)
                 damps.append([on, off, DAMP_DAMPING * impedance, [(xk, 1.0)]])
         elif isinstance(e, Bend):
-            r = ratio_for_cents(100.0 * e.semitones)
-            up = max(step(e.duration), 1)
-            bends += [(on, 1.0), (on + up, r)]
-            end = on + up
-            if e.release is not None:
-                rel = max(step(e.release), on + up)
-                bends += [(rel, r), (rel + up, 1.0)]
-                end = rel + up
+            points, end = bend_points(e, on, step, ratio_for_cents(100.0 * e.semitones))
+            bends += points
             last = max(last, end)
         elif isinstance(e, Vibrato):
-            cycles = e.rate_hz * e.duration
-            npts = max(int(math.ceil(cycles * VIBRATO_POINTS_PER_CYCLE)), 2)
-            ts = np.linspace(0.0, e.duration, npts + 1)
-            for t in ts:
-                cents = e.depth_cents * math.sin(2.0 * math.pi * e.rate_hz * t)
-                bends.append((step(e.time + t), ratio_for_cents(cents)))
-            last = max(last, step(e.time + e.duration))
+            points, end = vibrato_points(e, step, ratio_for_cents)
+            bends += points
+            last = max(last, end)
     fingers = tuple(FingerMotion(s["v0"], s["force"], s["gap"],
                                  abs(s["x1"] - s["x0"]) * rate / max(s["me"] - s["ms"], 1))
                     for s in slots)

@@ -47,8 +47,10 @@ from ..controls import (
     DAMP_OPEN_FRET,
     DAMP_SPACING_M,
     PLUCK_STYLES,
+    bend_points,
     expand,
     finger_x_m,
+    vibrato_points,
 )
 from ..presets import Preset
 
@@ -62,7 +64,6 @@ PALM_WIDTH_M = 0.02
 # absorbs most of a passing wave (R = 2 sqrt(T mu) at one point)
 DEAD_DAMPING = 3.0
 FINGER_PAD_M = 0.015
-VIBRATO_POINTS_PER_CYCLE = 32
 NEVER = np.iinfo(np.int64).max // 4
 
 
@@ -226,21 +227,13 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
                 tl.slots.append(Slot(on, off, 0, float(xv), 0.0, 0.0,
                                      0.2 * e.amount * PALM_DAMPING * impedance, 0.0, 0.0, "split"))
         elif kind == "bend":
-            r = 2.0 ** (e.semitones / 12.0)
-            up = max(step(e.duration), 1)
-            bends += [(on, 1.0), (on + up, r)]
-            end = on + up
-            if e.release is not None:
-                rel = max(step(e.release), on + up)
-                bends += [(rel, r), (rel + up, 1.0)]
-                end = rel + up
+            points, end = bend_points(e, on, step, 2.0 ** (e.semitones / 12.0))
+            bends += points
             tl.last_step = max(tl.last_step, end)
         elif kind == "vibrato":
-            npts = max(int(math.ceil(e.rate_hz * e.duration * VIBRATO_POINTS_PER_CYCLE)), 2)
-            for t in np.linspace(0.0, e.duration, npts + 1):
-                cents = e.depth_cents * math.sin(2.0 * math.pi * e.rate_hz * t)
-                bends.append((step(e.time + t), 2.0 ** (cents / 1200.0)))
-            tl.last_step = max(tl.last_step, step(e.time + e.duration))
+            points, end = vibrato_points(e, step, lambda cents: 2.0 ** (cents / 1200.0))
+            bends += points
+            tl.last_step = max(tl.last_step, end)
         elif kind == "damp":
             _damp(tl, e, on, events, preset, length, impedance, step)
         else:

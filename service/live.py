@@ -21,13 +21,12 @@ import asyncio
 import itertools
 import logging
 import multiprocessing as mp
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
 from . import live_worker
 from .config import Settings
-from .processes import PipedProcess
+from .processes import PipedProcess, stop_all
 
 log = logging.getLogger("service.live")
 
@@ -96,19 +95,7 @@ class LivePool:
 
     async def close(self, timeout_s: float = 5.0) -> None:
         self._closing = True
-        for w in self._workers:
-            try:
-                w.send(None)
-            except OSError:
-                pass
-        deadline = time.monotonic() + timeout_s
-        for w in list(self._workers):
-            await asyncio.to_thread(w.proc.join, max(0.0, deadline - time.monotonic()))
-            if w.proc.is_alive():
-                w.proc.kill()
-            await asyncio.to_thread(w.proc.join, 1.0)
-            w.conn.close()
-        self._workers.clear()
+        await stop_all(self._workers, timeout_s)
 
     @property
     def ready(self) -> bool:

@@ -36,7 +36,7 @@ from typing import Any
 
 from . import worker as worker_module
 from .config import Settings
-from .processes import PipedProcess
+from .processes import PipedProcess, stop_all
 
 log = logging.getLogger("service.pool")
 
@@ -165,18 +165,7 @@ class WorkerPool:
         self._closing = True
         if self._watchdog is not None:
             self._watchdog.cancel()
-        for w in self._workers:
-            try:
-                w.send(None)
-            except OSError:
-                pass
-        deadline = time.monotonic() + timeout_s
-        for w in list(self._workers):
-            await asyncio.to_thread(w.proc.join, max(0.0, deadline - time.monotonic()))
-            w.kill()
-            await asyncio.to_thread(w.proc.join, 1.0)
-            w.conn.close()
-        self._workers.clear()
+        await stop_all(self._workers, timeout_s)
 
     def _spawn(self) -> None:
         w = _Worker(self, self._ctx, next(self._numbers))

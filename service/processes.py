@@ -10,6 +10,7 @@ event loop), and are daemons, so they never outlive the server.
 
 from __future__ import annotations
 
+import asyncio
 import threading
 import time
 from collections.abc import Callable
@@ -69,3 +70,20 @@ class PipedProcess:
     def kill(self) -> None:
         if self.proc.is_alive():
             self.proc.kill()  # SIGKILL: also ends a stopped (SIGSTOP) process
+
+
+async def stop_all(workers: list[PipedProcess], timeout_s: float) -> None:
+    """Ask every worker to exit (``None`` on its pipe), give them ``timeout_s`` together, kill the
+    ones still running and close their pipes; ``workers`` is emptied."""
+    for w in workers:
+        try:
+            w.send(None)
+        except OSError:
+            pass
+    deadline = time.monotonic() + timeout_s
+    for w in list(workers):
+        await asyncio.to_thread(w.proc.join, max(0.0, deadline - time.monotonic()))
+        w.kill()
+        await asyncio.to_thread(w.proc.join, 1.0)
+        w.conn.close()
+    workers.clear()

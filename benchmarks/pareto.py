@@ -228,9 +228,10 @@ class SinkProbe:
     def __call__(self, eng):
         for v in eng.voices:
             g, u, n = v.geom, v.state.u, v.coefs.n
-            if len(g.fret_p):
-                pos = g.fret_w0 * u[g.fret_p] + g.fret_w1 * u[g.fret_p + 1]
-                self.fret = max(self.fret, float(np.max(g.fret_m0 - pos)))
+            if g.nfret:
+                f = slice(0, g.nfret)  # the frets (a rigid board's nodes follow them)
+                pos = g.fret_w0[f] * u[g.fret_p[f]] + g.fret_w1[f] * u[g.fret_p[f] + 1]
+                self.fret = max(self.fret, float(np.max(g.fret_m0[f] - pos)))
             self.board = max(self.board, float(np.max(g.board - u[2:n + 1])))
 
 

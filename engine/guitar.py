@@ -9,11 +9,12 @@ fretting depth).
 
 Skips (each bounded by a test in ``tests/engine/test_skips.py`` and measured in ``benchmarks/``):
 * a string with no events is never simulated (its output is exactly zero);
-* contact work is done only where contact is possible: the linear pass counts the nodes below the
-  fretboard and within reach of a fret tip (its height plus a bound on how far a node moves in
-  one step, ``string.fret_margin``); a quiet step looks at the frets only when one is within
-  reach.  The fretboard column is formed only when a node is below the board (or a residual psi
-  remains), a finger only while it exists, rigid frets only while active or within reach;
+* contact work is done only where contact is possible: the linear pass counts the nodes within
+  reach of the fretboard and of a fret tip (its height plus a bound on how far a node moves in
+  one step, ``string.fret_margin``); a quiet step looks at the frets and the board's nodes only
+  when they are within reach.  A finger's column is formed only while it exists, rigid frets and
+  the rigid board's nodes only while active or within reach (the Hertzian fretboard's column
+  only when a node is below the board, or a residual psi remains);
 * quiet steps (nothing but the string's own forces act, no contact happens) run in a loop of
   their own that computes the same samples (``kernels._quiet_run``);
 * held steps (one finger presses the string onto its frets, nothing changes which forces act) run
@@ -126,7 +127,10 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
             continue
         os_, model, rmax = string_model(preset, i, events, rate, q, opts)
         fret_mode = q.fret_mode if opts.frets else 0
-        coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard)
+        rigid_board = (fret_mode == FRET_RIGID and opts.fretboard
+                       and (q.rigid_board if opts.rigid_board is None else opts.rigid_board))
+        coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard,
+                             rigid_board)
         coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
                                kc_s_skip=kc_skip_level(model, kc_tol))
         calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
@@ -142,7 +146,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
         # the default pressing force of each fret (a small static solve), once per string
         press = cache(partial(press_force, model, preset, tension_ratio=rmax))
         build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, damping,
-                        press, pickups, fret_mode, opts)
+                        press, pickups, fret_mode, rigid_board, opts)
         ctl, geom = build(events)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, policy,
@@ -156,7 +160,8 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
 
 
 def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, damping, press,
-                           pickups: list[float], fret_mode: int, opts: RenderOptions, events: list):
+                           pickups: list[float], fret_mode: int, rigid_board: bool,
+                           opts: RenderOptions, events: list):
     """String ``i``'s control arrays for ``events`` (those on it, sorted) on the grid of ``model``
     at the internal ``rate``, and its geometry with the contact margin those events need."""
     impedance = math.sqrt(model.tension_n * model.rho_a)
@@ -165,5 +170,5 @@ def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, d
     margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
               if opts.skip_contacts else 1.0)
     geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                    fretboard=opts.fretboard, fret_shifts=shifts)
+                    fretboard=opts.fretboard, fret_shifts=shifts, rigid_board=rigid_board)
     return ctl, geom

@@ -31,6 +31,10 @@ class Quality:
     # held note decays as on the fine grid (``intonation.finger_damping``: on a coarse grid the
     # finger's damping reaches the sounding string and drains it)
     calibrate_damping: bool = False
+    # with rigid frets: the fretboard a rigid constraint at each node over it, in the frets'
+    # active set (``string.geometry``), instead of the Hertzian contact of eq. (7), which a hard
+    # tap drives through by a millimetre or more at the grids of the quality levels
+    rigid_board: bool = True
 
 
 QUALITY = {
@@ -69,6 +73,7 @@ class RenderOptions:
     compensate_dispersion: bool = True
     calibrate_frets: bool | None = None  # overrides ``Quality.calibrate_frets``
     calibrate_damping: bool | None = None  # overrides ``Quality.calibrate_damping``
+    rigid_board: bool | None = None  # overrides ``Quality.rigid_board``
     # keep each voice's per-step energy series (``Voice.energy_h`` ...; tests and benchmarks read
     # them); off, a render with diagnostics keeps only running figures, in memory that does not
     # grow with the scene's duration

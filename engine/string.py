@@ -233,8 +233,10 @@ def _secant(err, x0: float) -> float:
 
 
 def coefficients(model: StringModel, preset: Preset, fret_mode: int,
-                 kirchhoff_carrier: bool = True, fretboard: bool = True) -> Coefs:
-    """The kernel's constants, eqs. (50a)-(52) written as stencils."""
+                 kirchhoff_carrier: bool = True, fretboard: bool = True,
+                 rigid_board: bool = False) -> Coefs:
+    """The kernel's constants, eqs. (50a)-(52) written as stencils.  K_B is 0 without a fretboard
+    and with a rigid one (which is no SAV column: ``geometry``)."""
     k, h, n = model.k, model.h, model.n
     rho_a = model.rho_a
     s0, s1 = model.sigma0, model.sigma1
@@ -260,7 +262,7 @@ def coefficients(model: StringModel, preset: Preset, fret_mode: int,
         ei=model.ei,
         sigma0=s0,
         sigma1=s1,
-        board_k=preset.fretboard_stiffness if fretboard else 0.0,
+        board_k=preset.fretboard_stiffness if fretboard and not rigid_board else 0.0,
         board_alpha=preset.fretboard_alpha,
         fret_mode=fret_mode,
         fret_k=preset.fret_stiffness,
@@ -338,14 +340,16 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
 
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
              margin: float = math.inf, fretboard: bool = True,
-             fret_shifts: dict[int, float] | None = None) -> Geo:
+             fret_shifts: dict[int, float] | None = None, rigid_board: bool = False) -> Geo:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
     ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  Without
     ``fretboard`` the board is out of reach everywhere, so that no node counts as below it (the
     kernel forms no board column then, and quiet steps do not stop for it).  ``fret_shifts``
     (fret -> metres, ``engine.intonation.fret_shifts``) moves those frets' interpolants along the
-    string; their heights stay those at x_q."""
+    string; their heights stay those at x_q.  With ``rigid_board`` (rigid frets only) the
+    fretboard is one rigid constraint per node over it, after the frets (``Geo``), within reach
+    where a node of u^n is below the board plus ``margin`` (``Geo.bnear``)."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q, model.spec)
@@ -368,8 +372,17 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
             if w > 0.0:
                 near[node - 1] = max(near[node - 1], m0[i] + margin)
     pk = [interp(x * model.length_m, h, n) for x in pickups]
+    nfret = len(q)
+    bnear = board
+    if rigid_board and with_frets:
+        on = np.flatnonzero(board > NO_BOARD)  # array index j: node j + 1, padded j + 2
+        p = np.concatenate([p, on + 2])
+        w0 = np.concatenate([w0, np.ones(len(on))])
+        w1 = np.concatenate([w1, np.zeros(len(on))])
+        m0 = np.concatenate([m0, board[on]])
+        bnear = np.where(board > NO_BOARD, board + margin, NO_BOARD)
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
-               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]))
+               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), bnear, nfret)
 
 
 def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:

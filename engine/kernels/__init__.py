@@ -4,9 +4,10 @@ One step n -> n+1, in the order of the paper's sec. 5 breakdown:
 
 a) linear update u_free = B u^n + C u^(n-1) + E f^n            eqs. (36), (50a-c)
    fused with q = D u^n and its dot products for the Kirchhoff-Carrier column    eqs. (37), (52)
-   and with the smallest gap u^n - b to the fretboard (is a contact possible at all?)
+   and with the counts of nodes near the fretboard and the frets (is a contact possible at all?)
 b) the excitation f_e^n of eq. (5), spread by its interpolant                    eqs. (4), (19)
 c) fretboard: SAV gradient g_B from eq. (54)-(55a), gradient correction gamma      sec. 4.7
+   (the Hertzian board), or one rigid constraint per node, in the frets' active set
 d) frets: either penalty SAV (eqs. (24b), (55b)) or one-sided rigid constraints (the K_F -> inf
    limit; see below), finger(s): SAV contact with damping, eqs. (25)-(27), (39)-(41), (55c-d)
 f) the small linear system, solved directly for the column multipliers (Woodbury without forming
@@ -22,7 +23,8 @@ x_c.  Each multiplier obeys one linear equation:
 
 so the whole nonlinear part of a step is one dense solve of the size of the active set (usually 1 to
 4).  The rigid frets use a warm-started active set (x_q >= 0 and j_q^T u^(n+1) >= m0_q); their
-reaction does non-positive work, which the energy balance books as a loss (exactly).
+reaction does non-positive work, which the energy balance books as a loss (exactly).  A rigid
+fretboard is more of the same constraints, one per node over the board (j_q = e_p, m0_q = b_p).
 
 Indexing: a string of N intervals has interior nodes 1..N-1.  Arrays ``U`` hold them with two ghost
 cells each side: node i lives at U[i+1]; U[1] = U[N+1] = 0 are the fixed ends and U[0] = -U[2],

@@ -19,29 +19,32 @@ from .sav import _apply_gamma
 
 
 @njit(**JIT_STEP)
-def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
+def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, nfret,
+             kq):
     """Does a contact act in a step with no other force (see ``_quiet_run``), given the counts of
     the linear pass, of which one is not 0?  Not inlined: a branch that the quiet steps of a
     soft pluck rarely take (inlined, it slowed their loop)."""
-    if below > 0:
+    if below > 0 and c.board_k > 0.0:  # below the Hertzian board is contact
         return True
     if c.fret_mode != 1:  # penalty frets act on u^n: within reach is all there is to know
         return True
-    return _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
-                     kq) >= 0
+    return _fret_hit(c.kc > 0.0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
+                     fret_active, nfret, kq) >= 0
 
 
 @njit(**JIT_HELPER)
-def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active, kq):
-    """The rigid frets' active-set check: the fret outside the active set that the predicted
+def _fret_hit(with_q, with_board, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
+              nfret, kq):
+    """The rigid constraints' active-set check: the one outside the active set that the predicted
     u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
-    fret is looked at: which fret is added must not depend on the skip's margin.
+    fret is looked at, and with ``with_board`` (a node is within reach of a rigid board) every
+    node of the board: which constraint is added must not depend on the skip's margin.
 
     The indices are unsigned (see ``_q_index``): numba's wrap-around of negative indices cost a
     measurable share of a fretted step in this loop (``benchmarks.speed``)."""
     add = -1
     wval = -1e-12
-    for q in range(fret_p.shape[0]):
+    for q in range(nfret):
         p_ = fret_p[q]
         p0 = np.uint64(p_)
         p1 = np.uint64(p_ + 1)
@@ -52,6 +55,16 @@ def _fret_hit(with_q, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
         if viol < wval and fret_active[q] == 0:
             wval = viol
             add = q
+    if with_board:  # the board's nodes: weight 1 on node p (``Geo``)
+        for q in range(nfret, fret_p.shape[0]):
+            p0 = np.uint64(fret_p[q])
+            pv = UF[p0] + du[p0]
+            if with_q:
+                pv += kq * Q[p0 - np.uint64(2)]
+            viol = pv - fret_m0[q]
+            if viol < wval and fret_active[q] == 0:
+                wval = viol
+                add = q
     return add
 
 

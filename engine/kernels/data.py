@@ -64,17 +64,27 @@ class Coefs(NamedTuple):
 
 
 class Geo(NamedTuple):
-    """Static geometry on the grid: fretboard, frets, pickups (built by ``engine.string``)."""
+    """Static geometry on the grid: fretboard, frets, pickups (built by ``engine.string``).
+
+    The rigid constraints are the frets, then (a rigid fretboard) one per node over the board:
+    the fret arrays hold both, the first ``nfret`` entries the frets, each further one a node p
+    with weights (1, 0) and m0 the board's height there.  The kernels treat them alike, except
+    that the active-set check looks at the board's nodes only while one is within reach."""
 
     board: np.ndarray  # b at nodes 1..N-1 (array index = node - 1)
     near: np.ndarray  # per node: level below which a rigid fret may be reached this step
-    fret_p: np.ndarray  # per fret: padded index of the interpolant's left node
+    fret_p: np.ndarray  # per rigid constraint: padded index of the interpolant's left node
     fret_w0: np.ndarray
     fret_w1: np.ndarray
-    fret_m0: np.ndarray  # fret tip heights m0 (<= 0)
+    fret_m0: np.ndarray  # fret tip heights m0 (<= 0), then the rigid board's heights
     out_p: np.ndarray  # per pickup: interpolant
     out_w0: np.ndarray
     out_w1: np.ndarray
+    # per node: the level the linear pass counts nodes below (``below``): the board itself under
+    # a Hertzian board (below it is contact), the board plus the contact margin under a rigid one
+    # (below it, the board may be reached this step)
+    bnear: np.ndarray
+    nfret: int  # the frets among the rigid constraints (the rest are the board's nodes)
 
 
 class Policy(NamedTuple):

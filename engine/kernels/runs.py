@@ -36,7 +36,7 @@ def _quiet_until(s, ctl, st):
 
     A step may be quiet when nothing acts on the string but its own forces: no pluck force, no
     finger on the string or about to be put down, no damper, no residual psi of a contact, no
-    rigid fret in the active set.  If no contact happens either (``_quiet_run`` checks each step),
+    rigid constraint in the active set.  If no contact happens either (``_quiet_run`` checks each step),
     the step is the linear update plus the Kirchhoff-Carrier column, and ``_quiet_run`` takes it.
     Nothing of this changes in a quiet step, so the answer holds until the next general step.
     """
@@ -82,10 +82,10 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     update, the Kirchhoff-Carrier column (left out while S of u^(n-1) is below
     ``Coefs.kc_s_skip``) and the pickups, the same operations, on the same helpers compiled the
     same way (``config.JIT_STEP``), as ``step_block``'s general path, provided no contact acts:
-    no node of u^n is below the fretboard, and either none is within reach of a fret tip (the
-    counts of ``_pass_kc``) or (rigid frets) ``_fret_hit`` finds no fret penetrated by u^(n+1):
-    the general path would look at the frets, find none to add and keep the Kirchhoff-Carrier
-    column alone.
+    no node of u^n is below a Hertzian fretboard, and either none is within reach of a fret tip
+    or of a rigid board (the counts of ``_pass_kc``) or (rigid frets) ``_fret_hit`` finds no
+    fret and no node of the board penetrated by u^(n+1): the general path would look at them,
+    find none to add and keep the Kirchhoff-Carrier column alone.
     The first step with a contact is not taken (its u_free is scratch) and goes to the general
     path.  A loop of its own: as a branch of ``step_block``'s loop the same step was slower (the
     general path's many variables crowd the loop).
@@ -94,7 +94,7 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     out_p, out_w0, out_w1 = geo.out_p, geo.out_w0, geo.out_w1
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
-    board, near, count = geo.board, geo.near, _counted(c, geo)
+    bnear, near, count = geo.bnear, geo.near, _counted(c, geo)
     b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     n = c.n
     b0 = c.b0
@@ -110,12 +110,13 @@ def _quiet_run(c, geo, ctl, st, w, U0, U1, UF, out, it, it_end, step0, s_last):
         qq = quf = qu1 = 0.0
         if with_kc:
             qq, quf, qu1, s, below, close = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q,
-                                                     board, near, count)
+                                                     bnear, near, count)
         else:
-            s, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count)
+            s, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, bnear, near, count)
         xk = _kc_multiplier(c, qq, quf, qu1) if with_kc else 0.0
         if (below > 0 or close > 0) and _contact(c, below, close, UF, du, Q, fret_p, fret_w0,
-                                                 fret_w1, fret_m0, fret_active, lam * xk):
+                                                 fret_w1, fret_m0, fret_active, geo.nfret,
+                                                 lam * xk):
             return done, s
         s_last = s
         if xk != 0.0:
@@ -183,13 +184,15 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
 
     A held step is the general step of a held note, whose kind does not change from one step to
     the next: the Kirchhoff-Carrier column (if on), one finger in contact pressing the string,
-    the rigid frets of the active set (those the string rests on), and nothing else.  The caller
+    the rigid constraints of the active set (the frets the string rests on, any node resting on
+    a rigid board), and nothing else.  The caller
     guarantees what acts on the string (``_held_until``); each step checks what the general path
     would decide, and the first step on which any of it differs is not taken (its u_free is
     scratch) and goes to the general path:
-    * no node of u^n below the fretboard (no fretboard column);
+    * no node of u^n below a Hertzian fretboard (no fretboard column);
     * the finger in contact (gamma = 1 under the joint rule of sec. 4.7);
-    * every rigid reaction >= 0 and no other fret penetrated (the active set stays);
+    * every rigid reaction >= 0 and no other fret or node of a rigid board penetrated (the
+      active set stays);
     * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
     The step is then the general path's arithmetic on the same helpers, in the same order, and
     both loops are compiled without fastmath and call the same linear pass (``config.JIT_STEP``),
@@ -207,7 +210,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
         ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
-    board, near, count = geo.board, geo.near, _counted(c, geo)
+    bnear, near, count = geo.bnear, geo.near, _counted(c, geo)
     b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     force = ctl.fs_force[slot]
     kind, cslot, cfret, cstart, cidx, cval, ca, cc = (
@@ -261,11 +264,11 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
             ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         qq = quf = qu1 = 0.0
         if c.kc > 0.0:
-            qq, quf, qu1, s, below, _ = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board,
+            qq, quf, qu1, s, below, _ = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, bnear,
                                                  near, count)
         else:
-            s, below, _ = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near, count)
-        if c.board_k > 0.0 and below > 0:
+            s, below, _ = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, bnear, near, count)
+        if c.board_k > 0.0 and below > 0:  # the Hertzian board's column
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
         # the finger, eqs. (39), (25)-(27), (55c-d), as in the general path
@@ -295,8 +298,8 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
                 return done, s_last
         if c.fret_mode == 1:
             xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-            add = _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
-                            fret_active, lam * xk)
+            add = _fret_hit(c.kc > 0.0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
+                            fret_m0, fret_active, geo.nfret, lam * xk)
             _unscatter(nc, cstart, cidx, du)
             if add >= 0:  # a fret would join it
                 return done, s_last

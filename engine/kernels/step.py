@@ -85,7 +85,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
     psi, gprev_b, gprev_f, has_gprev = st.psi, st.gprev_b, st.gprev_f, st.has_gprev
     fret_active, f_state, f_w, f_w1, f_psi, f_bprev = (
         st.fret_active, st.f_state, st.f_w, st.f_w1, st.f_psi, st.f_bprev)
-    board, near, count = geo.board, geo.near, _counted(c, geo)
+    board, bnear, near, count = geo.board, geo.bnear, geo.near, _counted(c, geo)
     b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     fret_p, fret_w0, fret_w1, fret_m0 = geo.fret_p, geo.fret_w0, geo.fret_w1, geo.fret_m0
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
@@ -172,10 +172,12 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         qq = quf = qu1 = 0.0
         if c.kc > 0.0:
             qq, quf, qu1, s_last, below, close = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF,
-                                                          Q, board, near, count)
+                                                          Q, bnear, near, count)
         else:
-            s_last, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, board, near,
+            s_last, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, bnear, near,
                                          count)
+        # ``below``: nodes below the Hertzian board (contact), or within reach of the rigid one
+        hertz = c.board_k > 0.0
         # ---- b) excitation, eq. (5) ------------------------------------------------------------
         pin = 0.0  # k P^n of the plucks is formed after the update: keep the forces
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
@@ -225,7 +227,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
             nc += 1
             cstart[nc] = nent
         # c) fretboard, eq. (24a), (55a)
-        if c.board_k > 0.0 and (below > 0 or psi[0] != 0.0):
+        if hertz and (below > 0 or psi[0] != 0.0):
             nent, used, cgam[nc], cs[nc] = _sav_board(c, U0, U1, UF, board, psi, gprev_b,
                                                       has_gprev, below > 0, joint, cidx, cval,
                                                       nent, scr)
@@ -331,8 +333,10 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
         nbase = nc
         # ---- f) solve; rigid frets by a warm-started active set -------------------------------
         # Rigid frets are looked at only when one can be reached this step: some node of u^n is
-        # within FRET_MARGIN of a fret tip (``near``), a fret is active, or a finger touches.
-        rigid = c.fret_mode == 1 and (close > 0 or nc > (1 if c.kc > 0.0 else 0))
+        # within the margin of a fret tip (``near``) or of a rigid board (``bnear``), a rigid
+        # constraint is active, or a finger touches.
+        rigid = c.fret_mode == 1 and (close > 0 or nc > (1 if c.kc > 0.0 else 0)
+                                      or (below > 0 and not hertz))
         if rigid:
             for q in range(nfret):
                 if fret_active[q]:
@@ -389,8 +393,8 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                     continue
                 # every reaction >= 0: add the fret the prediction penetrates deepest, if any
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-                add = _fret_hit(c.kc > 0.0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
-                                fret_active, lam * xk)
+                add = _fret_hit(c.kc > 0.0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
+                                fret_m0, fret_active, geo.nfret, lam * xk)
                 _unscatter(nc, cstart, cidx, du)
                 if add < 0:
                     break
@@ -420,7 +424,7 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                                 cs, cbt, ccon, psi, f_psi, fbeta, fchi, fr, k, nc):
                 break
         # no contact acted (the Kirchhoff-Carrier column at most): the next step may be quiet
-        free = pol.quiet and below == 0 and nc == (1 if c.kc > 0.0 else 0)
+        free = pol.quiet and not (hertz and below > 0) and nc == (1 if c.kc > 0.0 else 0)
         # a finger in contact held the string, alone or with rigid frets: the next step may be held
         nk = 1 if c.kc > 0.0 else 0
         held = (pol.held and joint and c.fret_mode != 2 and status == OK

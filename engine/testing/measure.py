@@ -30,19 +30,25 @@ from engine.testing.scenes import pluck as pluck_at
 # ---- the fretboard ------------------------------------------------------------------------------
 
 
-def board_depth(velocity: float, oversample: int, rule: str = "joint",
-                force: float = 10.0, fret: int = 12) -> tuple[float, float]:
-    """A tap at ``fret`` of string 1, stepped one internal step at a time: the deepest any node
-    goes below the fretboard (m) and the static depth of the whole force on one grid cell (m)."""
-    sc = Scene.model_validate(scene([tap(1, fret, force=force, velocity=velocity)], 0.015))
-    eng = prepare(sc, RenderOptions(oversample=oversample, gamma_rule=rule))
+def board_depth(velocity: float, oversample: int | None, rule: str = "joint",
+                force: float = 10.0, fret: int = 12, string: int = 1, rigid_board: bool = True,
+                quality: str = "standard") -> tuple[float, float]:
+    """A tap at ``fret`` of ``string``, stepped one internal step at a time (``oversample`` None:
+    the quality's): the deepest any node goes below the fretboard (m; negative if none reaches
+    it) and, on the Hertzian board, the static depth of the whole force on one grid cell (m; 0
+    on the rigid board)."""
+    sc = Scene.model_validate(scene([tap(string, fret, force=force, velocity=velocity)], 0.015,
+                                    quality=quality))
+    eng = prepare(sc, RenderOptions(oversample=oversample, gamma_rule=rule,
+                                    rigid_board=rigid_board))
     v = eng.voices[0]
     c = v.coefs
-    deepest = 0.0
-    for _ in range(round(sc.duration * SR) * oversample):
+    deepest = -np.inf
+    for _ in range(round(sc.duration * SR) * v.oversample):
         v.run(1)
         deepest = max(deepest, float(np.max(v.geom.board - v.state.u[2:c.n + 1])))
-    return deepest, (force / (c.board_k * c.h)) ** (1.0 / c.board_alpha)
+    static = (force / (c.board_k * c.h)) ** (1.0 / c.board_alpha) if c.board_k > 0.0 else 0.0
+    return deepest, static
 
 
 # ---- a fretted note holds ---------------------------------------------------------------------

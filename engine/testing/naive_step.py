@@ -18,6 +18,7 @@ Ducceschi 2024), not from the kernels' code:
                         eta = j.u - w, d_eta = eta^(n+1) - eta^(n-1)   eqs. (25)-(27), (55c-d)
     damper              x = -R d(v.u) / (2 k)
     rigid fret          j_q.u^(n+1) = m0_q, x_q >= 0 (the K_F -> infinity limit of eq. (8));
+    rigid board         u_p^(n+1) = b_p, x_p >= 0 at a node p (the K_B -> infinity limit of eq. (7))
 * the multipliers from the dense matrix I + diag(c) V^T Lambda V (rigid rows V^T Lambda V),
   solved with ``numpy.linalg.solve``; the rigid frets' active set by the plain sign rule (drop the
   most negative reaction, else add the deepest penetrated fret), which reaches the same unique
@@ -28,8 +29,9 @@ Ducceschi 2024), not from the kernels' code:
   other columns' forces, then one more solve;
 * the psi updates of eq. (48), the fingers' positions, the pickups' velocity.
 
-Every fret is checked in every step (the kernels look at them only within a margin of a tip), so
-a skip that missed a contact would show as a difference.  ``naive_step`` takes the kernels' own
+Every fret and node of a rigid board is checked in every step (the kernels look at them only
+within a margin of a tip or of the board), so a skip that missed a contact would show as a
+difference.  ``naive_step`` takes the kernels' own
 inputs (``Coefs``, ``Geo``, ``Controls``, ``State``) and returns the state after the step as a
 dict; ``tests/engine/kernels/test_naive_step.py`` compares it with ``kernels.step_block``.
 """
@@ -129,7 +131,7 @@ def _solve(cols, zfree, lam_z):
     A = np.empty((m, m))
     r = np.empty(m)
     for i, c in enumerate(cols):
-        if c.kind == "rigid":
+        if c.kind.startswith("rigid"):
             A[i] = G[i]
             r[i] = c.m0 - c.v @ zfree
         else:
@@ -310,7 +312,8 @@ def naive_step(c, geo, ctl, st, step: int, rule: int | None = None) -> dict:
     x = None
     for gpass in range(2):
         for _ in range(200):
-            all_cols = cols + [_Col("rigid", on_string(frets_j[q_]), m0=geo.fret_m0[q_])
+            all_cols = cols + [_Col("rigid" if q_ < geo.nfret else "rigid board",
+                                    on_string(frets_j[q_]), m0=geo.fret_m0[q_])
                                for q_ in active]
             x = _solve(all_cols, zfree, lam_z)
             if not rigid:
@@ -423,7 +426,7 @@ CASES = {
     "pluck": ([pluck(6, force=8.0)], 0.004, {"kc"}),
     "fretted": ([fret(3, 5), pluck(3, time=0.003, force=4.0)], 0.008, {"finger", "rigid"}),
     "tap": ([tap(2, 7, velocity=1.0)], 0.006, {"finger", "rigid"}),
-    "slam": ([tap(1, 12, force=10.0, velocity=5.0)], 0.004, {"finger", "sav", "rigid"}),
+    "slam": ([tap(1, 12, force=10.0, velocity=5.0)], 0.004, {"finger", "rigid board"}),
     "slide": ([fret(3, 5), pluck(3, time=0.002, force=4.0),
                {"type": "slide", "time": 0.003, "string": 3, "from_fret": 5, "to_fret": 7,
                 "duration": 0.003}], 0.008, {"finger", "rigid"}),

@@ -39,6 +39,16 @@ def test_finger_lift_and_replace():
     assert 0.0 < r.energy_error <= TOL
 
 
+@pytest.mark.parametrize("rigid_board", [True, False])
+def test_a_slam_onto_the_fretboard_balances(rigid_board):
+    """A 10 N tap at 5 m/s drives the string onto the fretboard: the rigid board's reactions
+    (booked as a loss, as the frets') and the Hertzian board's SAV both balance."""
+    sc = scene([tap(1, 5, force=10.0, velocity=5.0)], duration=0.1, diagnostics=True)
+    r = engine.render(sc, options=RenderOptions(rigid_board=rigid_board))
+    assert np.isfinite(r.audio).all()
+    assert 0.0 < r.energy_error <= TOL
+
+
 def test_penalty_frets_of_the_paper_also_balance():
     q = Quality(max_h_m=QUALITY["standard"].max_h_m, fret_mode=FRET_PENALTY)
     sc = scene([fret(3, 5), pluck(3, time=0.05, force=8.0)], duration=0.4, diagnostics=True)

@@ -35,6 +35,16 @@ def test_penalty_frets_match_the_naive_reference():
         assert err <= TOL, (field, r)
 
 
+def test_the_hertzian_fretboard_matches_the_naive_reference():
+    """The slam of ``CASES`` on the fretboard of eq. (7) (the SAV column), not the rigid one."""
+    events, seconds, _ = CASES["slam"]
+    r = compare_steps(scene(events, seconds), seconds, RenderOptions(rigid_board=False))
+    assert r["kinds"].get("sav", 0) > 10 and "rigid board" not in r["kinds"], r["kinds"]
+    assert r["decisions"] == 0, r
+    for field, err in r["worst"].items():
+        assert err <= TOL, (field, r)
+
+
 def test_a_landed_fingers_calibrated_damping_matches_the_naive_reference():
     """String 4 at fret 10: the finger lands with the preset's damping and holds with the one
     calibrated for that fret (``intonation.finger_damping``, several times the preset's there)

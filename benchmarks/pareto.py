@@ -85,6 +85,7 @@ class Config:
     kirchhoff_carrier: bool = True
     gamma: str = "joint"
     compensate: bool = True
+    rigid_board: bool = True
 
     def options(self, **kw) -> RenderOptions:
         q = QUALITY[self.quality] if isinstance(self.quality, str) else self.quality
@@ -92,7 +93,8 @@ class Config:
             q = replace(q, fret_mode=self.fret_mode)
         return RenderOptions(quality=q, oversample=self.oversample,
                              kirchhoff_carrier=self.kirchhoff_carrier, gamma_rule=self.gamma,
-                             compensate_dispersion=self.compensate, **kw)
+                             compensate_dispersion=self.compensate,
+                             rigid_board=self.rigid_board, **kw)
 
 
 def _forced(os_: int, grid_scale: float = 1.0, **kw) -> Quality:
@@ -119,6 +121,9 @@ CONFIGS = [
            gamma="paper"),
     Config("x4, penalty frets", "contact formulation", _forced(4), oversample=4,
            fret_mode=FRET_PENALTY),
+    Config("standard, Hertzian fretboard", "contact formulation", rigid_board=False),
+    Config("x4, Hertzian fretboard", "contact formulation", _forced(4), oversample=4,
+           rigid_board=False),
     Config("standard, gamma eq. 61 (lambda)", "gamma rule (sec. 4.7)", gamma="paper"),
     Config("standard, gamma per column", "gamma rule (sec. 4.7)", gamma="own"),
     Config("standard, gamma = 1", "gamma rule (sec. 4.7)", gamma="none"),

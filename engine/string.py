@@ -376,13 +376,16 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     bnear = board
     if rigid_board and with_frets:
         on = np.flatnonzero(board > NO_BOARD)  # array index j: node j + 1, padded j + 2
+        if np.any(np.diff(on) != 1):  # the kernels index the board's nodes as one run
+            raise ValueError("the fretboard must cover consecutive nodes")
         p = np.concatenate([p, on + 2])
         w0 = np.concatenate([w0, np.ones(len(on))])
         w1 = np.concatenate([w1, np.zeros(len(on))])
         m0 = np.concatenate([m0, board[on]])
         bnear = np.where(board > NO_BOARD, board + margin, NO_BOARD)
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
-               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), bnear, nfret)
+               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), bnear, nfret,
+               float(margin))
 
 
 def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:

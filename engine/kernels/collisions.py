@@ -38,7 +38,9 @@ def _fret_hit(with_q, with_board, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, 
     """The rigid constraints' active-set check: the one outside the active set that the predicted
     u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
     fret is looked at, and with ``with_board`` (a node is within reach of a rigid board) every
-    node of the board: which constraint is added must not depend on the skip's margin.
+    node of the board: which constraint is added must not depend on the skip's margin.  (The
+    arithmetic of the prediction is the same in both loops of the board, so the count and the
+    search agree.)
 
     The indices are unsigned (see ``_q_index``): numba's wrap-around of negative indices cost a
     measurable share of a fretted step in this loop (``benchmarks.speed``)."""
@@ -55,17 +57,46 @@ def _fret_hit(with_q, with_board, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, 
         if viol < wval and fret_active[q] == 0:
             wval = viol
             add = q
-    if with_board:  # the board's nodes: weight 1 on node p (``Geo``)
-        for q in range(nfret, fret_p.shape[0]):
-            p0 = np.uint64(fret_p[q])
-            pv = UF[p0] + du[p0]
+    nb = fret_p.shape[0] - nfret
+    if with_board and nb > 0:
+        # the board's nodes: weight 1 on consecutive nodes (``Geo``), first counted in a loop
+        # LLVM vectorises (an integer sum), then searched only if one is penetrated
+        j0 = fret_p[nfret]
+        hit = 0
+        for i in range(nb):
+            pv = UF[j0 + i] + du[j0 + i]
             if with_q:
-                pv += kq * Q[p0 - np.uint64(2)]
-            viol = pv - fret_m0[q]
-            if viol < wval and fret_active[q] == 0:
-                wval = viol
-                add = q
+                pv += kq * Q[j0 - 2 + i]
+            hit += pv - fret_m0[nfret + i] < -1e-12
+        if hit > 0:
+            for i in range(nb):
+                pv = UF[j0 + i] + du[j0 + i]
+                if with_q:
+                    pv += kq * Q[j0 - 2 + i]
+                viol = pv - fret_m0[nfret + i]
+                if viol < wval and fret_active[nfret + i] == 0:
+                    wval = viol
+                    add = nfret + i
     return add
+
+
+@njit(**JIT_HELPER)
+def _near_inactive(fret_p, fret_w0, fret_w1, fret_m0, fret_active, nfret, margin, out):
+    """``Geo.near`` without the frets of the active set: per node, the level below which a node of
+    u^n is within reach of a fret outside it (-inf: of none).  A held run counts the nodes
+    against it, and a step in which none is counted, and none is within reach of a rigid board,
+    needs no active-set check: no fret it does not already hold can be penetrated (the margin's
+    bound, as for every skip of the check)."""
+    out[:] = -np.inf
+    for q in range(nfret):
+        if fret_active[q]:
+            continue
+        lvl = fret_m0[q] + margin
+        j = fret_p[q] - 2  # padded index -> array index of the left node
+        if fret_w0[q] > 0.0 and lvl > out[j]:
+            out[j] = lvl
+        if fret_w1[q] > 0.0 and lvl > out[j + 1]:
+            out[j + 1] = lvl
 
 
 @njit(**JIT_HELPER)

@@ -28,53 +28,59 @@ def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret
         return True
     if c.fret_mode != 1:  # penalty frets act on u^n: within reach is all there is to know
         return True
-    return _fret_hit(c.kc > 0.0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
-                     fret_active, nfret, kq) >= 0
+    return _fret_hit(c.kc > 0.0, close > 0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
+                     fret_m0, fret_active, nfret, kq) >= 0
 
 
 @njit(**JIT_HELPER)
-def _fret_hit(with_q, with_board, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret_active,
-              nfret, kq):
+def _fret_hit(with_q, with_frets, with_board, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0,
+              fret_active, nfret, kq):
     """The rigid constraints' active-set check: the one outside the active set that the predicted
-    u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  Every
-    fret is looked at, and with ``with_board`` (a node is within reach of a rigid board) every
-    node of the board: which constraint is added must not depend on the skip's margin.  (The
-    arithmetic of the prediction is the same in both loops of the board, so the count and the
-    search agree.)
+    u^(n+1) = u_free + du + kq q penetrates deepest (by more than 1e-12 m); -1 if none.  With
+    ``with_frets`` (a fret outside the active set is within reach) every fret is looked at, and
+    with ``with_board`` (a node is within reach of a rigid board) every node of the board: which
+    constraint is added must not depend on the skip's margin.
 
     The indices are unsigned (see ``_q_index``): numba's wrap-around of negative indices cost a
-    measurable share of a fretted step in this loop (``benchmarks.speed``)."""
+    measurable share of a fretted step in this loop (``benchmarks.speed``), and kept LLVM from
+    vectorising the board's count."""
     add = -1
     wval = -1e-12
-    for q in range(nfret):
-        p_ = fret_p[q]
-        p0 = np.uint64(p_)
-        p1 = np.uint64(p_ + 1)
-        pv = fret_w0[q] * (UF[p0] + du[p0]) + fret_w1[q] * (UF[p1] + du[p1])
-        if with_q:
-            pv += kq * (fret_w0[q] * Q[_q_index(p_)] + fret_w1[q] * Q[_q_index(p_ + 1)])
-        viol = pv - fret_m0[q]
-        if viol < wval and fret_active[q] == 0:
-            wval = viol
-            add = q
+    if with_frets:
+        for q in range(nfret):
+            p_ = fret_p[q]
+            p0 = np.uint64(p_)
+            p1 = np.uint64(p_ + 1)
+            pv = fret_w0[q] * (UF[p0] + du[p0]) + fret_w1[q] * (UF[p1] + du[p1])
+            if with_q:
+                pv += kq * (fret_w0[q] * Q[_q_index(p_)] + fret_w1[q] * Q[_q_index(p_ + 1)])
+            viol = pv - fret_m0[q]
+            if viol < wval and fret_active[q] == 0:
+                wval = viol
+                add = q
     nb = fret_p.shape[0] - nfret
     if with_board and nb > 0:
         # the board's nodes: weight 1 on consecutive nodes (``Geo``), first counted in a loop
-        # LLVM vectorises (an integer sum), then searched only if one is penetrated
-        j0 = fret_p[nfret]
+        # LLVM vectorises (an integer sum), then searched only if one is penetrated; the same
+        # arithmetic in both loops, so the count and the search agree
+        j0 = np.uint64(fret_p[nfret])
+        q0 = j0 - np.uint64(2)
+        m0 = np.uint64(nfret)
         hit = 0
         for i in range(nb):
-            pv = UF[j0 + i] + du[j0 + i]
+            ui = np.uint64(i)
+            pv = UF[j0 + ui] + du[j0 + ui]
             if with_q:
-                pv += kq * Q[j0 - 2 + i]
-            hit += pv - fret_m0[nfret + i] < -1e-12
+                pv += kq * Q[q0 + ui]
+            hit += pv - fret_m0[m0 + ui] < -1e-12
         if hit > 0:
             for i in range(nb):
-                pv = UF[j0 + i] + du[j0 + i]
+                ui = np.uint64(i)
+                pv = UF[j0 + ui] + du[j0 + ui]
                 if with_q:
-                    pv += kq * Q[j0 - 2 + i]
-                viol = pv - fret_m0[nfret + i]
-                if viol < wval and fret_active[nfret + i] == 0:
+                    pv += kq * Q[q0 + ui]
+                viol = pv - fret_m0[m0 + ui]
+                if viol < wval and fret_active[m0 + ui] == 0:
                     wval = viol
                     add = nfret + i
     return add

@@ -300,8 +300,8 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
                 return done, s_last
         if c.fret_mode == 1 and (close > 0 or below > 0):  # a constraint not held is in reach
             xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-            add = _fret_hit(c.kc > 0.0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
-                            fret_m0, fret_active, geo.nfret, lam * xk)
+            add = _fret_hit(c.kc > 0.0, close > 0, below > 0, UF, du, Q, fret_p, fret_w0,
+                            fret_w1, fret_m0, fret_active, geo.nfret, lam * xk)
             _unscatter(nc, cstart, cidx, du)
             if add >= 0:  # a fret would join it
                 return done, s_last

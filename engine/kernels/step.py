@@ -394,8 +394,8 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                     continue
                 # every reaction >= 0: add the fret the prediction penetrates deepest, if any
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-                add = _fret_hit(c.kc > 0.0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
-                                fret_m0, fret_active, geo.nfret, lam * xk)
+                add = _fret_hit(c.kc > 0.0, True, below > 0, UF, du, Q, fret_p, fret_w0,
+                                fret_w1, fret_m0, fret_active, geo.nfret, lam * xk)
                 _unscatter(nc, cstart, cidx, du)
                 if add < 0:
                     break

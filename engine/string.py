@@ -384,8 +384,7 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
         m0 = np.concatenate([m0, board[on]])
         bnear = np.where(board > NO_BOARD, board + margin, NO_BOARD)
     return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
-               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), bnear, nfret,
-               float(margin))
+               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), bnear, nfret)
 
 
 def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:

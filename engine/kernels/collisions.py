@@ -87,25 +87,6 @@ def _fret_hit(with_q, with_frets, with_board, UF, du, Q, fret_p, fret_w0, fret_w
 
 
 @njit(**JIT_HELPER)
-def _near_inactive(fret_p, fret_w0, fret_w1, fret_m0, fret_active, nfret, margin, out):
-    """``Geo.near`` without the frets of the active set: per node, the level below which a node of
-    u^n is within reach of a fret outside it (-inf: of none).  A held run counts the nodes
-    against it, and a step in which none is counted, and none is within reach of a rigid board,
-    needs no active-set check: no fret it does not already hold can be penetrated (the margin's
-    bound, as for every skip of the check)."""
-    out[:] = -np.inf
-    for q in range(nfret):
-        if fret_active[q]:
-            continue
-        lvl = fret_m0[q] + margin
-        j = fret_p[q] - 2  # padded index -> array index of the left node
-        if fret_w0[q] > 0.0 and lvl > out[j]:
-            out[j] = lvl
-        if fret_w1[q] > 0.0 and lvl > out[j + 1]:
-            out[j + 1] = lvl
-
-
-@njit(**JIT_HELPER)
 def _sav_board(c, U0, U1, UF, board, psi, gprev, has_gprev, contact, joint, cidx, cval, nent,
                scr):
     """Fretboard column g_B = gamma * g~_B, eqs. (24a), (54), (55a); returns (nent, used, gamma,

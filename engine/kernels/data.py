@@ -85,7 +85,6 @@ class Geo(NamedTuple):
     # (below it, the board may be reached this step)
     bnear: np.ndarray
     nfret: int  # the frets among the rigid constraints (the rest are the board's nodes)
-    margin: float  # the contact margin of ``near`` and ``bnear`` (``string.fret_margin``)
 
 
 class Policy(NamedTuple):
@@ -179,7 +178,6 @@ class Work(NamedTuple):
     ccon: np.ndarray  # in contact at u^n
     scr: np.ndarray  # a string-sized scratch (zero between uses)
     du: np.ndarray  # the columns' sum Lambda v x, scattered onto the string (``_scatter``)
-    nearh: np.ndarray  # ``Geo.near`` without a held run's active frets (``_near_inactive``)
     wfree: np.ndarray  # per finger slot: w_free
     fext: np.ndarray  # its external force in this step
     fp: np.ndarray  # the finger's interpolant: left node, weights

@@ -11,7 +11,7 @@ from __future__ import annotations
 from numba import njit
 
 from ..config import JIT, JIT_STEP
-from .collisions import _add_rigid, _contact, _fret_hit, _near_inactive, _rigid_row
+from .collisions import _add_rigid, _contact, _fret_hit, _rigid_row
 from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
 from .excitation import _pluck_forces
@@ -192,7 +192,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     * no node of u^n below a Hertzian fretboard (no fretboard column);
     * the finger in contact (gamma = 1 under the joint rule of sec. 4.7);
     * every rigid reaction >= 0 and no other fret or node of a rigid board penetrated (the
-      active set stays; looked at only in a step where one is within reach, ``_near_inactive``);
+      active set stays);
     * the joint rule leaves the finger's gamma at 1 (``_joint_gamma`` would change nothing).
     The step is then the general path's arithmetic on the same helpers, in the same order, and
     both loops are compiled without fastmath and call the same linear pass (``config.JIT_STEP``),
@@ -210,7 +210,7 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
     pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1 = (
         ctl.pl_start, ctl.pl_len, ctl.pl_amp, ctl.pl_p, ctl.pl_w0, ctl.pl_w1)
     tb_step, tb_ratio = ctl.tb_step, ctl.tb_ratio
-    bnear, nearh, count = geo.bnear, w.nearh, _counted(c, geo)
+    bnear, near, count = geo.bnear, geo.near, _counted(c, geo)
     b2, c0, c1, ih2 = c.b2, c.c0, c.c1, c.ih2
     force = ctl.fs_force[slot]
     kind, cslot, cfret, cstart, cidx, cval, ca, cc = (
@@ -250,8 +250,6 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
                               fret_w0, fret_w1, fret_m0, UF, U1, ca, vfree, v1)
             nc += 1
     _gram(nc, kind, cstart, cidx, cval, cslot, Q, 0.0, lam, lam_f, G, scr)  # the fixed entries
-    # the pass counts the nodes within reach of a fret the run does not hold (``close``)
-    _near_inactive(fret_p, fret_w0, fret_w1, fret_m0, fret_active, geo.nfret, geo.margin, nearh)
     vlv = lam * (fw0 * fw0 + fw1 * fw1) + lam_f
     # the finger's contact damping: a run does not straddle the step where it changes
     # (``_held_until``)
@@ -266,10 +264,10 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
             ratio, b0, b1 = _bent_stencil(c, tb_step, tb_ratio, step)
         qq = quf = qu1 = 0.0
         if c.kc > 0.0:
-            qq, quf, qu1, s, below, close = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q,
-                                                     bnear, nearh, count)
+            qq, quf, qu1, s, below, _ = _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, bnear,
+                                                 near, count)
         else:
-            s, below, close = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, bnear, nearh, count)
+            s, below, _ = _pass(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, bnear, near, count)
         if c.board_k > 0.0 and below > 0:  # the Hertzian board's column
             return done, s_last
         quf = _pluck_forces(c, step, UF, Q, quf, pl_start, pl_len, pl_amp, pl_p, pl_w0, pl_w1)
@@ -298,10 +296,10 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
         for ci in range(fc + 1, nc):
             if x[ci] < 0.0:  # a fret would leave the active set
                 return done, s_last
-        if c.fret_mode == 1 and (close > 0 or below > 0):  # a constraint not held is in reach
+        if c.fret_mode == 1:
             xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-            add = _fret_hit(c.kc > 0.0, close > 0, below > 0, UF, du, Q, fret_p, fret_w0,
-                            fret_w1, fret_m0, fret_active, geo.nfret, lam * xk)
+            add = _fret_hit(c.kc > 0.0, True, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
+                            fret_m0, fret_active, geo.nfret, lam * xk)
             _unscatter(nc, cstart, cidx, du)
             if add >= 0:  # a fret would join it
                 return done, s_last

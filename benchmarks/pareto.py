@@ -487,6 +487,15 @@ def comparison(rows: dict, a: str, b: str) -> list[str]:
     return [f"{a} against {b}:", *[f"  * {line}" for line in out]]
 
 
+def spectral_table(st: Study, rows: dict, configs: list[Config], ref_check: dict) -> list[str]:
+    spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in st.spectral]]
+            for c in configs]
+    spec.append([f"*reference check: {FINE} against x16*", *[f"{ref_check[k]:.1f}"
+                                                            for k in st.spectral]])
+    return ["### Spectral error against the x16 reference, per scene (dB)",
+            md_table(["configuration", *st.spectral], spec)]
+
+
 def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
                   detail: bool) -> list[str]:
     """Cost per string, spectral error per scene, fretted pitch and decay per string and fret (the
@@ -497,12 +506,7 @@ def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
                     [[c.name, *[f"{x:.1f}" for x in rows[c.name]["cost_strings"]]]
                      for c in configs])]
 
-    spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in st.spectral]]
-            for c in configs]
-    spec.append([f"*reference check: {FINE} against x16*", *[f"{ref_check[k]:.1f}"
-                                                            for k in st.spectral]])
-    out += ["### Spectral error against the x16 reference, per scene (dB)",
-            md_table(["configuration", *st.spectral], spec)]
+    out += spectral_table(st, rows, configs, ref_check)
 
     fr = []
     for c in configs if detail else [c for c in configs if c.knob == LEVEL]:
@@ -591,6 +595,7 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                                               for row in rows[c.name][key]]])
         out += ["Fretted notes, frets 1-12: the worst of each string",
                 md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worst)]
+        out += spectral_table(st, rows, configs, ref_check)
     else:
         out += detail_tables(st, rows, configs, ref_check, detail)
 

@@ -500,7 +500,7 @@ def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
                   detail: bool) -> list[str]:
     """Cost per string, spectral error per scene, fretted pitch and decay per string and fret (the
     levels', or with ``detail`` every configuration's), the Pareto fronts."""
-    chord = "six strings" if len(st.strings) == 6 else f"{len(st.strings)} strings"
+    kind = "six-string" if len(st.strings) == 6 else f"{len(st.strings)}-string"
     out = ["### Cost per string (ms per second of audio; finger at fret 5, 8 N pluck)",
            md_table(["configuration", *[f"string {s}" for s in st.strings]],
                     [[c.name, *[f"{x:.1f}" for x in rows[c.name]["cost_strings"]]]
@@ -530,7 +530,7 @@ def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
             f" (dB/s of the fundamental against {FINE}; negative: dies faster)",
             md_table(["configuration", "string", *[f"fret {q}" for q in FRETS], "worst"], dec)]
 
-    out += [f"### Pareto fronts ({chord} cost against each error, cheapest first)",
+    out += [f"### Pareto fronts ({kind} cost against each error, cheapest first)",
             md_table(["error", "configurations on the front"],
                      [[label, " -> ".join(front(rows, key))] for key, label, _ in METRICS + SLAM])]
     return out
@@ -608,7 +608,8 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
     std = rows.get("standard")
     if std is not None:
         notes.append(
-            f"standard: {std['cost_six']:.1f} ms per second of audio for the {chord} scene, "
+            f"standard: {std['cost_six']:.1f} ms per second of audio for the "
+            f"{'six' if n == 6 else n}-string scene, "
             f"{std['cost_string']:.1f} per fingered string; fretted notes within "
             f"{std['fretted']:.2f} cents of 12-TET ({std['fretted_vs_fine']:.2f} from {FINE}) "
             f"and their decay within {std['decay_vs_fine']:.1f} dB/s of {FINE}'s, "
@@ -804,7 +805,8 @@ def main() -> None:
     elif args.only:
         marker = f"pareto-{st.preset}-{st.rate}" + ("-live" if st.live_grid else "")
         short = tables(st, rows, configs, ref_check, timing_noise(cost), detail=True,
-                       compact=True)
+                       compact=True).replace("\n### ", "\n#### ")  # under a run's own heading
+        short = "#" + short if short.startswith("### ") else short
         write_docs(f"Measured: {st.label()}", marker,
                    f"Printed by `{command.strip()}` ({st.label()}; costs: CPU time, best of "
                    f"{args.repeat} rounds; {elapsed:.0f} s on this machine; the per-string "

@@ -40,6 +40,7 @@ from __future__ import annotations
 import argparse
 import math
 import pathlib
+import sys
 import time
 from dataclasses import dataclass, replace
 from multiprocessing import Pool
@@ -56,19 +57,19 @@ from benchmarks.intonation import FRETS
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
 from engine.guitar import prepare
 from engine.options import QUALITY, Quality, RenderOptions
-from engine.presets import get_preset
+from engine.presets import PRESETS, get_preset
 from engine.scene import Scene
 from engine.string import FRET_PENALTY
 from engine.testing import scenes as shared
 from engine.testing.scenes import fret, pluck, tap
+from engine.voice import string_model
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = pathlib.Path(__file__).parent / "out"
 DOCS = ROOT / "docs" / "accuracy.md"
 IMG = ROOT / "docs" / "img"
-SR = 44100
+SR = 44100  # the study's sample rate and preset (``--sample-rate``, ``--preset``: another)
 PRESET = "steel-acoustic"
-STRINGS = tuple(range(1, 7))
 BAND_HZ = (20.0, 14000.0)
 
 # ------------------------------------------------------------------------------------------------
@@ -87,6 +88,12 @@ class Config:
     compensate: bool = True
     rigid_board: bool = True
 
+    @property
+    def reference(self) -> bool:
+        """A forced factor on every string (the x8 and x16 references and the oversampling knob):
+        the live grid (``Study.live_grid``) leaves them as they are."""
+        return self.oversample is not None
+
     def options(self, **kw) -> RenderOptions:
         q = QUALITY[self.quality] if isinstance(self.quality, str) else self.quality
         if self.fret_mode is not None:
@@ -102,6 +109,9 @@ def _forced(os_: int, grid_scale: float = 1.0, **kw) -> Quality:
 
 
 LEVEL = "quality level"
+# the contact grid rules tried around standard's (the one equal to standard's is left out of the
+# full study, which has standard itself; ``--only`` can still name it)
+CONTACT_H_MM = (7.0, 5.5, 4.5, 3.5)
 CONFIGS = [
     Config("draft", LEVEL, "draft"),
     Config("standard", LEVEL, "standard"),
@@ -110,7 +120,7 @@ CONFIGS = [
     # standard and high with one knob turned (their other knobs as they are: Kirchhoff-Carrier's
     # skip tolerance, the fret calibration)
     *[Config(f"fingered h <= {h:g} mm", "contact grid rule",
-             replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in (7.0, 4.5, 3.5)],
+             replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in CONTACT_H_MM],
     Config("high, open strings too (dispersion <= 0.004 c)", "dispersion bound",
            replace(QUALITY["high"], max_dispersion_cents=0.004)),
     Config("x1, h = 1.25 h_min", "grid spacing", _forced(1, 1.25), oversample=1),
@@ -135,6 +145,8 @@ QUICK = ("draft", "standard", "high", "x4 everywhere", "standard, gamma = 1",
 REFERENCE = Config("reference x16", "reference", _forced(16), oversample=16)
 FINE = "x8 everywhere"  # the converged reference for fretted pitch (x16 would cost 4x more)
 BY_NAME = {c.name: c for c in [*CONFIGS, REFERENCE]}
+CONFIGS = [c for c in CONFIGS if not (c.knob == "contact grid rule" and isinstance(c.quality, Quality)
+                                      and c.quality == QUALITY["standard"])]
 
 # ------------------------------------------------------------------------------------------------
 # scenes
@@ -145,43 +157,95 @@ BY_NAME = {c.name: c for c in [*CONFIGS, REFERENCE]}
 # 3 N at 1.5 m/s; every scene names the preset and leaves the output at the fixed gain.
 
 
-def scene(events: list, duration: float, guitar: dict | None = None) -> dict:
-    return shared.scene(events, duration, guitar={"preset": PRESET, **(guitar or {})},
-                        output={"body": "none", "normalize": False})
-
-
 LOW_ACTION = {"action_nut_m": 1e-4, "action_12th_m": 5e-4}
-F_BARRE = {6: 1, 5: 3, 4: 3, 3: 2, 2: 1, 1: 1}
-SIX_STRING = scene([fret(s, q, force=None) for s, q in F_BARRE.items()]
-                   + [pluck(7 - i, 0.05 + 0.02 * i, force=2.0) for i in range(1, 7)], 1.0)
-SPECTRAL = {
-    "hard pluck": scene([pluck(6, force=10.0, position=0.9)], 0.5),
-    "fretted note": scene([fret(2, 5, force=None), pluck(2, 0.05, force=2.0)], 0.5),
-    "tap": scene([tap(3, 7, force=3.0, velocity=1.5)], 0.5),
-    "fret buzz": scene([fret(5, 2, force=None), pluck(5, 0.02, force=12.0, position=0.85)], 0.5,
-                       LOW_ACTION),
-}
-SINK = {
-    **{f"pressed s{s} f{q}": scene([fret(s, q, force=None), pluck(s, 0.05, force=2.0)], 0.2)
-       for s in STRINGS for q in (5, 12)},
-    **{f"slam s{s}": scene([tap(s, 5, force=10.0, velocity=5.0)], 0.1) for s in (1, 3, 6)},
-    "fret buzz": SPECTRAL["fret buzz"],
-}
-ENERGY = scene(ENERGY_SCENES["fret + 8 N pluck + tap (every nonlinearity)"], 0.5)
+F_BARRE = {6: 1, 5: 3, 4: 3, 3: 2, 2: 1, 1: 1}  # on six strings, 6 the lowest
 
 
-def per_string_scene(s: int) -> dict:
-    """benchmarks.speed's full-model scene: a finger at fret 5 and an 8 N pluck."""
-    return scene([fret(s, 5, force=None), pluck(s, 0.05, force=8.0)], 1.0)
+@dataclass(frozen=True)
+class Study:
+    """The study's scenes on one preset at one sample rate.  They were chosen on the six-string
+    steel-acoustic; on a guitar with fewer strings each keeps its role counted from the lowest
+    string: the chord is the F barre's lowest strings (on the four-string bass E A D G at frets 1,
+    3, 3, 2), the hard pluck is on the lowest string and fret buzz on the next (the A string on
+    both); the fretted note, the tap and the energy scene keep strings 2 and 3 (the lowest string
+    for the energy scene's string 6), the slams strings 1, 3 and the lowest.  ``live_grid``: the
+    configurations (not the forced-factor references) build every string on a live session's grid
+    (``RenderOptions.live_grid``: fingered, with the largest bend's headroom)."""
+
+    preset: str = PRESET
+    rate: int = SR
+    live_grid: bool = False
+
+    @property
+    def strings(self) -> tuple[int, ...]:
+        return tuple(range(1, get_preset(self.preset).n_strings + 1))
+
+    def scene(self, events: list, duration: float, guitar: dict | None = None) -> dict:
+        """The shared builders (engine.testing.scenes), with this study's values passed wherever
+        they differ from the builders' defaults: plucks of 2 N, fingers with the engine's default
+        force (None), taps of 3 N at 1.5 m/s; every scene names the preset and leaves the output at
+        the fixed gain."""
+        return {**shared.scene(events, duration, guitar={"preset": self.preset, **(guitar or {})},
+                               output={"body": "none", "normalize": False}),
+                "sample_rate": self.rate}
+
+    def options(self, cfg: Config, **kw) -> RenderOptions:
+        return cfg.options(live_grid=self.live_grid and not cfg.reference, **kw)
+
+    @property
+    def chord(self) -> dict:
+        """The F barre chord, strummed (every string fingered)."""
+        n = len(self.strings)
+        return self.scene([fret(s, F_BARRE[s + 6 - n], force=None) for s in self.strings]
+                          + [pluck(n + 1 - i, 0.05 + 0.02 * i, force=2.0)
+                             for i in range(1, n + 1)], 1.0)
+
+    @property
+    def spectral(self) -> dict:
+        n = len(self.strings)
+        return {
+            "hard pluck": self.scene([pluck(n, force=10.0, position=0.9)], 0.5),
+            "fretted note": self.scene([fret(2, 5, force=None), pluck(2, 0.05, force=2.0)], 0.5),
+            "tap": self.scene([tap(3, 7, force=3.0, velocity=1.5)], 0.5),
+            "fret buzz": self.scene([fret(n - 1, 2, force=None),
+                                     pluck(n - 1, 0.02, force=12.0, position=0.85)], 0.5,
+                                    LOW_ACTION),
+        }
+
+    @property
+    def sink(self) -> dict:
+        n = len(self.strings)
+        return {
+            **{f"pressed s{s} f{q}": self.scene([fret(s, q, force=None),
+                                                 pluck(s, 0.05, force=2.0)], 0.2)
+               for s in self.strings for q in (5, 12)},
+            **{f"slam s{s}": self.scene([tap(s, 5, force=10.0, velocity=5.0)], 0.1)
+               for s in (1, 3, n)},
+            "fret buzz": self.spectral["fret buzz"],
+        }
+
+    @property
+    def energy(self) -> dict:
+        n = len(self.strings)
+        evs = ENERGY_SCENES["fret + 8 N pluck + tap (every nonlinearity)"]
+        return self.scene([{**e, "string": min(e["string"], n)} for e in evs], 0.5)
+
+    def per_string_scene(self, s: int) -> dict:
+        """benchmarks.speed's full-model scene: a finger at fret 5 and an 8 N pluck."""
+        return self.scene([fret(s, 5, force=None), pluck(s, 0.05, force=8.0)], 1.0)
+
+    def label(self) -> str:
+        live = ", every string on the live grid" if self.live_grid else ""
+        return f"{self.preset}, {self.rate / 1000:g} kHz, no body{live}"
 
 
 # ------------------------------------------------------------------------------------------------
 # measurements (each one a pool job)
 
 
-def render(cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
+def render(st: Study, cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
     s = Scene.model_validate({**sc, "diagnostics": diagnostics})
-    eng = prepare(s, cfg.options(skip_decayed=False))
+    eng = prepare(s, st.options(cfg, skip_decayed=False))
     parts = []
     for block in eng.blocks(1 if probe else None):
         parts.append(block)
@@ -190,31 +254,33 @@ def render(cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
     return np.concatenate(parts), eng
 
 
-def job_fretted(name: str, s: int, q: int):
+def job_fretted(name: str, s: int, q: int, st: Study):
     """The benchmarks.intonation scene: finger pressed behind fret q, pluck; pitch from 0.2 s and
     the fundamental's decay."""
     cfg = BY_NAME[name]
-    audio, _ = render(cfg, scene([fret(s, q, force=None), pluck(s, 0.05, force=1.0)], 1.2))
-    target = get_preset(PRESET).strings[s - 1].frequency_hz * 2 ** (q / 12)
-    f = spectrum_peak(audio[int(0.2 * SR):], SR, target, 0.08)
-    return ("fretted", name, (s, q)), (float(cents(f, target)), decay_db_per_s(audio, SR, f))
+    audio, _ = render(st, cfg, st.scene([fret(s, q, force=None), pluck(s, 0.05, force=1.0)], 1.2))
+    target = get_preset(st.preset).strings[s - 1].frequency_hz * 2 ** (q / 12)
+    sr = st.rate
+    f = spectrum_peak(audio[int(0.2 * sr):], sr, target, 0.08)
+    return ("fretted", name, (s, q)), (float(cents(f, target)), decay_db_per_s(audio, sr, f))
 
 
-def job_open(name: str, s: int):
+def job_open(name: str, s: int, st: Study):
     """Open string, 0.2 N pluck (benchmarks.accuracy's scene): the fundamental against nominal and
     partials 1-10 measured; partials 1-20 from the scheme's dispersion relation."""
     cfg = BY_NAME[name]
-    sc = scene([{**pluck(s, force=0.2, position=0.83)}], 2.0)
+    sc = st.scene([{**pluck(s, force=0.2, position=0.83)}], 2.0)
     sc["output"]["pickup_position"] = 0.913
-    audio, eng = render(cfg, sc)
+    audio, eng = render(st, cfg, sc)
     m = eng.voices[0].model
-    x = audio[int(0.05 * SR):]
+    sr = st.rate
+    x = audio[int(0.05 * sr):]
     f0 = m.spec.frequency_hz
-    meas = partials(x, SR, f0, 10, m.inharmonicity())
+    meas = partials(x, sr, f0, 10, m.inharmonicity())
     want = np.array([m.target_frequency(i) for i in range(1, 11)])
     exact = np.array([cents(m.frequency(i), m.target_frequency(i)) for i in range(1, 21)])
     return ("open", name, s), {
-        "f0": float(cents(spectrum_peak(x, SR, f0), f0)),
+        "f0": float(cents(spectrum_peak(x, sr, f0), f0)),
         "p10_measured": float(np.max(np.abs(cents(meas, want)))),
         "p10": float(np.max(np.abs(exact[:10]))),
         "p20": float(np.max(np.abs(exact))),
@@ -240,19 +306,19 @@ class SinkProbe:
             self.board = max(self.board, float(np.max(g.board - u[2:n + 1])))
 
 
-def job_sink(name: str, key: str):
+def job_sink(name: str, key: str, st: Study):
     probe = SinkProbe()
-    render(BY_NAME[name], SINK[key], probe=probe)
+    render(st, BY_NAME[name], st.sink[key], probe=probe)
     return ("sink", name, key), (probe.fret * 1e6, probe.board * 1e6)
 
 
-def job_spectral(name: str, key: str):
-    audio, eng = render(BY_NAME[name], SPECTRAL[key])
+def job_spectral(name: str, key: str, st: Study):
+    audio, eng = render(st, BY_NAME[name], st.spectral[key])
     return ("audio", name, key), (audio, eng.voices[0].oversample)
 
 
-def job_energy(name: str):
-    r = engine.render(ENERGY, diagnostics=True, options=BY_NAME[name].options())
+def job_energy(name: str, st: Study):
+    r = engine.render(st.energy, diagnostics=True, options=st.options(BY_NAME[name]))
     return ("energy", name, None), r.energy_error
 
 
@@ -261,10 +327,10 @@ def _run(job):
     return fn(*args)
 
 
-def spectral_error_db(x: np.ndarray, ref: np.ndarray) -> float:
+def spectral_error_db(x: np.ndarray, ref: np.ndarray, sr: int = SR) -> float:
     """20 log10 of || |X| - |R| || / || |R| || over STFT frames, BAND_HZ only."""
-    f, _, X = signal.stft(x, SR, nperseg=2048, noverlap=1536)
-    _, _, R = signal.stft(ref, SR, nperseg=2048, noverlap=1536)
+    f, _, X = signal.stft(x, sr, nperseg=2048, noverlap=1536)
+    _, _, R = signal.stft(ref, sr, nperseg=2048, noverlap=1536)
     band = (f >= BAND_HZ[0]) & (f <= BAND_HZ[1])
     num = np.linalg.norm(np.abs(X[band]) - np.abs(R[band]))
     return float(20.0 * np.log10(num / np.linalg.norm(np.abs(R[band])) + 1e-300))
@@ -280,18 +346,19 @@ def cpu_time(sc: dict, options: RenderOptions) -> tuple[float, object]:
     return time.thread_time() - t, eng
 
 
-def costs(configs: list[Config], repeat: int, seconds: float) -> dict:
-    """ms of compute per second of audio, per string (``per_string_scene``) and for the six-string
-    scene; the best of ``repeat`` rounds, each round timing every configuration once."""
-    scenes = [(s, {**per_string_scene(s), "duration": seconds}) for s in STRINGS]
-    scenes.append(("six", {**SIX_STRING, "duration": seconds}))
+def costs(st: Study, configs: list[Config], repeat: int, seconds: float) -> dict:
+    """ms of compute per second of audio, per string (``Study.per_string_scene``) and for the chord
+    on every string ("six"); the best of ``repeat`` rounds, each round timing every configuration
+    once."""
+    scenes = [(s, {**st.per_string_scene(s), "duration": seconds}) for s in st.strings]
+    scenes.append(("six", {**st.chord, "duration": seconds}))
     res = {c.name: {key: math.inf for key, _ in scenes} for c in configs}
     for c in configs:
         res[c.name]["six_rounds"] = []
     for _ in range(repeat):
         for c in configs:
             for key, sc in scenes:
-                t, eng = cpu_time(sc, c.options(skip_decayed=False))
+                t, eng = cpu_time(sc, st.options(c, skip_decayed=False))
                 res[c.name][key] = min(res[c.name][key], t / seconds * 1e3)
                 if key == "six":
                     res[c.name]["os"] = {v.index: v.oversample for v in eng.voices}
@@ -324,26 +391,26 @@ SLAM = [("slam_fret_sink", "sink below a fret tip, 5 m/s taps (um)", 0.5),
         ("slam_board_sink", "sink below the fretboard, 5 m/s taps (um)", 0.5)]
 
 
-def fretted_table(res, name, i: int = 0) -> np.ndarray:
+def fretted_table(st: Study, res, name, i: int = 0) -> np.ndarray:
     """Cents from 12-TET (i = 0) or decay in dB/s (i = 1) of the fretted notes."""
-    return np.array([[res["fretted", name, (s, q)][i] for q in FRETS] for s in STRINGS])
+    return np.array([[res["fretted", name, (s, q)][i] for q in FRETS] for s in st.strings])
 
 
-def summarise(names, res, cost) -> dict:
+def summarise(st: Study, names, res, cost) -> dict:
     rows = {}
-    fine = fretted_table(res, FINE)
-    fine_decay = fretted_table(res, FINE, 1)
+    fine = fretted_table(st, res, FINE)
+    fine_decay = fretted_table(st, res, FINE, 1)
     for name in names:
-        fr = fretted_table(res, name)
-        decay = fretted_table(res, name, 1) - fine_decay
-        op = [res["open", name, s] for s in STRINGS]
-        sinks = [res["sink", name, k] for k in SINK if not k.startswith("slam")]
-        slams = [res["sink", name, k] for k in SINK if k.startswith("slam")]
-        spec = {k: res["spectral", name, k] for k in SPECTRAL}
+        fr = fretted_table(st, res, name)
+        decay = fretted_table(st, res, name, 1) - fine_decay
+        op = [res["open", name, s] for s in st.strings]
+        sinks = [res["sink", name, k] for k in st.sink if not k.startswith("slam")]
+        slams = [res["sink", name, k] for k in st.sink if k.startswith("slam")]
+        spec = {k: res["spectral", name, k] for k in st.spectral}
         rows[name] = {
             "cost_six": cost[name]["six"],
-            "cost_string": float(np.mean([cost[name][s] for s in STRINGS])),
-            "cost_strings": [cost[name][s] for s in STRINGS],
+            "cost_string": float(np.mean([cost[name][s] for s in st.strings])),
+            "cost_strings": [cost[name][s] for s in st.strings],
             "os": cost[name]["os"],
             "fretted_table": fr,
             "fretted": float(np.max(np.abs(fr))),
@@ -400,11 +467,92 @@ def md_table(head: list[str], rows: list[list[str]]) -> str:
     return "\n".join([line(head), "|" + "---|" * len(head)] + [line(r) for r in rows])
 
 
-def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> str:
-    """The markdown tables and the conclusions about standard (printed and written to docs)."""
+def targets(r: dict) -> list[tuple[str, float, float]]:
+    """The engine's targets for a default level (issue 27's for the fretted notes): (what, measured,
+    limit)."""
+    return [("open strings within +-1 cent", r["f0"], 1.0),
+            ("partials 1-10 within 1 cent of the stiff-string formula",
+             max(r["p10"], r["p10_measured"]), 1.0),
+            ("fretted notes, frets 1-12, every string, within +-3 cents of 12-TET", r["fretted"],
+             3.0),
+            (f"fretted notes' decay within 3 dB/s of {FINE}'s", r["decay_vs_fine"], 3.0),
+            ("energy balance <= 1e-11", r["energy"], 1e-11)]
+
+
+def comparison(rows: dict, a: str, b: str) -> list[str]:
+    """a against b, error by error: larger, smaller or equal within the tolerances of ``dominates``."""
     out = []
+    for key, label, tol in METRICS + SLAM:
+        x, y = rows[a][key], rows[b][key]
+        verdict = "larger" if x > y + tol else "smaller" if x < y - tol else "equal"
+        out.append(f"{label}: {x:.3g} against {y:.3g}, {verdict} (tolerance {tol:g})")
+    x, y = rows[a]["energy"], rows[b]["energy"]
+    out.append(f"energy balance: {x:.1e} against {y:.1e}")
+    x, y = rows[a]["cost_six"], rows[b]["cost_six"]
+    out.append(f"cost, every string fingered: {x:.1f} against {y:.1f} ms/s ({x / y:.2f}x)")
+    return [f"{a} against {b}:", *[f"  * {line}" for line in out]]
+
+
+def spectral_table(st: Study, rows: dict, configs: list[Config], ref_check: dict) -> list[str]:
+    spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in st.spectral]]
+            for c in configs]
+    spec.append([f"*reference check: {FINE} against x16*", *[f"{ref_check[k]:.1f}"
+                                                            for k in st.spectral]])
+    return ["### Spectral error against the x16 reference, per scene (dB)",
+            md_table(["configuration", *st.spectral], spec)]
+
+
+def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
+                  detail: bool) -> list[str]:
+    """Cost per string, spectral error per scene, fretted pitch and decay per string and fret (the
+    levels', or with ``detail`` every configuration's), the Pareto fronts."""
+    kind = "six-string" if len(st.strings) == 6 else f"{len(st.strings)}-string"
+    out = ["### Cost per string (ms per second of audio; finger at fret 5, 8 N pluck)",
+           md_table(["configuration", *[f"string {s}" for s in st.strings]],
+                    [[c.name, *[f"{x:.1f}" for x in rows[c.name]["cost_strings"]]]
+                     for c in configs])]
+
+    out += spectral_table(st, rows, configs, ref_check)
+
+    fr = []
+    for c in configs if detail else [c for c in configs if c.knob == LEVEL]:
+        for s in st.strings:
+            row = rows[c.name]["fretted_table"][s - 1]
+            fr.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
+                       f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    which = "configurations" if detail else "quality levels"
+    out += [f"### Fretted pitch per string and fret, {which} (cents from 12-TET)",
+            md_table(["configuration" if detail else "level", "string",
+                      *[f"fret {q}" for q in FRETS], "worst"], fr)]
+
+    dec = []
+    decay_strings = st.strings if detail else st.strings[:3]
+    for c in configs if detail else [c for c in configs if c.knob in (LEVEL, "contact grid rule")]:
+        for s in decay_strings:
+            row = rows[c.name]["decay_table"][s - 1]
+            dec.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
+                        f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    out += [f"### Fretted decay per string and fret, strings {decay_strings[0]}-{decay_strings[-1]}"
+            f" (dB/s of the fundamental against {FINE}; negative: dies faster)",
+            md_table(["configuration", "string", *[f"fret {q}" for q in FRETS], "worst"], dec)]
+
+    out += [f"### Pareto fronts ({kind} cost against each error, cheapest first)",
+            md_table(["error", "configurations on the front"],
+                     [[label, " -> ".join(front(rows, key))] for key, label, _ in METRICS + SLAM])]
+    return out
+
+
+def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise: float,
+           detail: bool = False, compact: bool = False) -> str:
+    """The markdown tables and the conclusions about standard (printed and written to docs).
+    ``detail`` (a run of chosen configurations): every configuration's targets, fretted pitch and
+    decay on every string, and the first two compared error by error; ``compact``: of the tables
+    after the targets only each string's worst fretted pitch and decay, and the conclusions."""
+    out = []
+    n = len(st.strings)
+    chord = "six strings" if n == 6 else f"{n} strings"
     head = ["configuration", "knob", "x per string (fingered)", "ms/s per string",
-            "ms/s six strings", "partials 1-20 (c)", "partials 1-10 meas. (c)", "open f0 (c)",
+            f"ms/s {chord}", "partials 1-20 (c)", "partials 1-10 meas. (c)", "open f0 (c)",
             "fretted vs 12-TET (c)", "fretted rms (c)", "fretted vs x8 (c)",
             "fretted decay vs x8 (dB/s)", "spectral (dB)", "fret sink (um)", "board sink (um)",
             "slam: fret sink (um)", "slam: board sink (um)", "energy"]
@@ -412,7 +560,7 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
     for c in configs:
         r = rows[c.name]
         body.append([
-            c.name, c.knob, ",".join(str(r["os"].get(s, "-")) for s in STRINGS),
+            c.name, c.knob, ",".join(str(r["os"].get(s, "-")) for s in st.strings),
             f"{r['cost_string']:.1f}", f"{r['cost_six']:.1f}", f"{r['p20']:.3f}",
             f"{r['p10_measured']:.3f}", f"{r['f0']:.3f}", f"{r['fretted']:.2f}",
             f"{r['fretted_rms']:.2f}", f"{r['fretted_vs_fine']:.2f}",
@@ -427,62 +575,35 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
         params = (f"max_h_m {q.max_h_m:g}, max_dispersion_cents {q.max_dispersion_cents:g}, "
                   f"max_oversample {q.max_oversample}, fret_mode {q.fret_mode}, "
                   f"grid_scale {q.grid_scale:g}")
-        levels.append([c.name, params, ",".join(str(r["os"].get(s, "-")) for s in STRINGS),
+        levels.append([c.name, params, ",".join(str(r["os"].get(s, "-")) for s in st.strings),
                        f"{r['cost_six']:.1f}", f"{r['cost_string']:.1f}", f"{r['f0']:.3f}",
                        f"{r['p10']:.3f} / {r['p10_measured']:.3f}", f"{r['p20']:.3f}",
                        f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}",
                        f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", f"{r['energy']:.1e}"])
-    out += ["### Quality levels (the scene's `quality`; `engine.options.QUALITY`)",
-            md_table(["level", "Quality", "x per string (fingered)", "ms/s six strings",
+    out += [] if not levels else [
+            "### Quality levels (the scene's `quality`; `engine.options.QUALITY`)",
+            md_table(["level", "Quality", "x per string (fingered)", f"ms/s {chord}",
                       "ms/s per string", "open f0 (c)", "partials 1-10 exact / measured (c)",
                       "partials 1-20 (c)", "fretted vs 12-TET (c)", "fretted vs x8 (c)",
                       "fretted decay vs x8 (dB/s)", "spectral (dB)", "energy"], levels)]
-    if "standard" in rows:
-        r = rows["standard"]
-        targets = [("open strings within +-1 cent", r["f0"], 1.0),
-                   ("partials 1-10 within 1 cent of the stiff-string formula",
-                    max(r["p10"], r["p10_measured"]), 1.0),
-                   ("fretted notes, frets 1-12, all six strings, within +-3 cents", r["fretted"], 3.0),
-                   ("energy balance <= 1e-11", r["energy"], 1e-11)]
-        out += ["Engine targets at the standard level (steel-acoustic):",
+    for c in configs if detail else [c for c in configs if c.name == "standard"]:
+        out += [f"Engine targets, {c.name} ({st.label()}):",
                 md_table(["target", "measured", "limit", "met"],
                          [[t, f"{v:.3g}", f"{lim:g}", "yes" if v <= lim else "NO"]
-                          for t, v, lim in targets])]
+                          for t, v, lim in targets(rows[c.name])])]
 
-    out += ["### Cost per string (ms per second of audio; finger at fret 5, 8 N pluck)",
-            md_table(["configuration", *[f"string {s}" for s in STRINGS]],
-                     [[c.name, *[f"{x:.1f}" for x in rows[c.name]["cost_strings"]]]
-                      for c in configs])]
-
-    spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in SPECTRAL]]
-            for c in configs]
-    spec.append([f"*reference check: {FINE} against x16*", *[f"{ref_check[k]:.1f}"
-                                                            for k in SPECTRAL]])
-    out += ["### Spectral error against the x16 reference, per scene (dB)",
-            md_table(["configuration", *SPECTRAL], spec)]
-
-    fr = []
-    for c in [c for c in configs if c.knob == LEVEL]:
-        for s in STRINGS:
-            row = rows[c.name]["fretted_table"][s - 1]
-            fr.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
-                       f"{row[np.argmax(np.abs(row))]:+.1f}"])
-    out += ["### Fretted pitch per string and fret, quality levels (cents from 12-TET)",
-            md_table(["level", "string", *[f"fret {q}" for q in FRETS], "worst"], fr)]
-
-    dec = []
-    for c in [c for c in configs if c.knob in (LEVEL, "contact grid rule")]:
-        for s in STRINGS[:3]:
-            row = rows[c.name]["decay_table"][s - 1]
-            dec.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
-                        f"{row[np.argmax(np.abs(row))]:+.1f}"])
-    out += [f"### Fretted decay per string and fret, strings 1-3 (dB/s of the fundamental against "
-            f"{FINE}; negative: dies faster)",
-            md_table(["configuration", "string", *[f"fret {q}" for q in FRETS], "worst"], dec)]
-
-    out += ["### Pareto fronts (six-string cost against each error, cheapest first)",
-            md_table(["error", "configurations on the front"],
-                     [[label, " -> ".join(front(rows, key))] for key, label, _ in METRICS + SLAM])]
+    if compact:
+        worst = []
+        for c in configs:
+            for key, what in (("fretted_table", "pitch vs 12-TET (c)"),
+                              ("decay_table", f"decay vs {FINE} (dB/s)")):
+                worst.append([c.name, what, *[f"{row[np.argmax(np.abs(row))]:+.1f}"
+                                              for row in rows[c.name][key]]])
+        out += ["Fretted notes, frets 1-12: the worst of each string",
+                md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worst)]
+        out += spectral_table(st, rows, configs, ref_check)
+    else:
+        out += detail_tables(st, rows, configs, ref_check, detail)
 
     margin = max(FASTER, 2.0 * noise)
     notes = [f"timing noise in this run: two measurements of the same work differ by "
@@ -493,7 +614,8 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
     std = rows.get("standard")
     if std is not None:
         notes.append(
-            f"standard: {std['cost_six']:.1f} ms per second of audio for the six-string scene, "
+            f"standard: {std['cost_six']:.1f} ms per second of audio for the "
+            f"{'six' if n == 6 else n}-string scene, "
             f"{std['cost_string']:.1f} per fingered string; fretted notes within "
             f"{std['fretted']:.2f} cents of 12-TET ({std['fretted_vs_fine']:.2f} from {FINE}) "
             f"and their decay within {std['decay_vs_fine']:.1f} dB/s of {FINE}'s, "
@@ -513,12 +635,15 @@ def tables(rows: dict, configs: list[Config], ref_check: dict, noise: float) -> 
                    if c.name != "standard" and dominates(rows[c.name], std, 0.0)]
         notes.append("configurations cheaper than standard by any amount and more accurate "
                      f"(5 m/s taps excluded): {', '.join(cheaper) if cheaper else 'none'}.")
-        for c in configs:
-            by = [d.name for d in configs
-                  if d.name != c.name and dominates(rows[d.name], rows[c.name], margin)]
-            if by:
-                notes.append(f"{c.name} is dominated by {', '.join(by)} (5 m/s taps excluded).")
-    out += ["### Conclusions printed by the script", "\n".join(f"* {x}" for x in notes)]
+    for c in configs:
+        by = [d.name for d in configs
+              if d.name != c.name and dominates(rows[d.name], rows[c.name], margin)]
+        if by:
+            notes.append(f"{c.name} is dominated by {', '.join(by)} (5 m/s taps excluded).")
+    if detail and len(configs) >= 2:
+        notes += comparison(rows, configs[0].name, configs[1].name)
+    out += ["### Conclusions printed by the script",
+            "\n".join(x if x.startswith("  ") else f"* {x}" for x in notes)]
     return "\n\n".join(out) + "\n"
 
 
@@ -583,28 +708,73 @@ def write_docs(section: str, marker: str, text: str) -> None:
     DOCS.write_text(doc)
 
 
+def grids(configs: list[Config], rates=(22050, 32000, 44100, 48000, 88200, 96000)) -> str:
+    """Each configuration's oversampling factor for every string with a finger on it, on every
+    preset at each rate, plain and on the live grid: where two configurations' rows are equal,
+    they render the same samples (no scene of the study bends a string).  No rendering."""
+    head = ["preset", "sample rate", "grid", *[c.name for c in configs], "same"]
+    body = []
+    for preset in sorted(PRESETS):
+        for rate in rates:
+            for live in (False, True):
+                st = Study(preset, rate, live)
+                sc = Scene.model_validate(st.chord)
+                factors = [",".join(str(string_model(
+                    sc.preset(), s, [e for e in sc.events if e.string == s], rate,
+                    st.options(c).quality, st.options(c))[0]) for s in st.strings)
+                    for c in configs]
+                body.append([preset, str(rate), "live" if live else "offline", *factors,
+                             "yes" if len(set(factors)) == 1 else "no"])
+    return ("Oversampling factor of every fingered string (string 1 first), from the grid rule "
+            "alone:\n\n" + md_table(head, body) + "\n")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3, help="timing: best of this many runs")
     ap.add_argument("--seconds", type=float, default=1.0, help="timing: seconds of audio")
     ap.add_argument("--quick", action="store_true", help="a few configurations only")
+    ap.add_argument("--only", nargs="+", metavar="NAME", choices=sorted(BY_NAME),
+                    help="these configurations only (the first two compared error by error); "
+                         "writes the section pareto-PRESET-RATE of docs/accuracy.md")
+    ap.add_argument("--preset", default=PRESET, choices=sorted(PRESETS))
+    ap.add_argument("--sample-rate", type=int, default=SR)
+    ap.add_argument("--live-grid", action="store_true",
+                    help="the configurations on the live grid (RenderOptions.live_grid)")
+    ap.add_argument("--grids", action="store_true",
+                    help="print the --only configurations' grids on every preset and rate (no "
+                         "rendering) and write the section pareto-grids")
     ap.add_argument("--no-docs", action="store_true", help="print only; leave docs/ alone")
     args = ap.parse_args()
     t0 = time.perf_counter()
-    configs = [c for c in CONFIGS if not args.quick or c.name in QUICK]
+    st = Study(args.preset, args.sample_rate, args.live_grid)
+    if args.only:
+        configs = [BY_NAME[n] for n in args.only]
+    else:
+        configs = [c for c in CONFIGS if not args.quick or c.name in QUICK]
+    command = "python -m benchmarks.pareto " + " ".join(
+        f'"{a}"' if " " in a else a for a in sys.argv[1:])
+    if args.grids:
+        text = grids(configs)
+        print(text)
+        if not args.no_docs:
+            write_docs("Measured: the contact grid rules' grids", "pareto-grids",
+                       f"Printed by `{command.strip()}`.\n\n{text}")
+        return
+    full = st == Study() and not args.only
     names = [c.name for c in configs]
     engine.warmup()  # compile once, before forking
-    jobs = [(job_spectral, (REFERENCE.name, k)) for k in SPECTRAL]
+    jobs = [(job_spectral, (REFERENCE.name, k, st)) for k in st.spectral]
     if FINE not in names:  # the fine configuration is the fretted reference and the x16 check
-        jobs += [(job_spectral, (FINE, k)) for k in SPECTRAL]
-        jobs += [(job_fretted, (FINE, s, q)) for s in STRINGS for q in FRETS]
+        jobs += [(job_spectral, (FINE, k, st)) for k in st.spectral]
+        jobs += [(job_fretted, (FINE, s, q, st)) for s in st.strings for q in FRETS]
     for n in names:
-        jobs += [(job_fretted, (n, s, q)) for s in STRINGS for q in FRETS]
-        jobs += [(job_open, (n, s)) for s in STRINGS]
-        jobs += [(job_sink, (n, k)) for k in SINK]
-        jobs += [(job_spectral, (n, k)) for k in SPECTRAL]
-        jobs += [(job_energy, (n,))]
+        jobs += [(job_fretted, (n, s, q, st)) for s in st.strings for q in FRETS]
+        jobs += [(job_open, (n, s, st)) for s in st.strings]
+        jobs += [(job_sink, (n, k, st)) for k in st.sink]
+        jobs += [(job_spectral, (n, k, st)) for k in st.spectral]
+        jobs += [(job_energy, (n, st))]
     jobs.sort(key=lambda j: 0 if BY_NAME[j[1][0]].oversample in (8, 16) else 1)  # long ones first
     res = {}
     with Pool(args.jobs) as pool:
@@ -612,30 +782,41 @@ def main() -> None:
             res[key] = value
     t_acc = time.perf_counter() - t0
     for n in [*names, FINE]:
-        for k in SPECTRAL:
+        for k in st.spectral:
             if ("audio", n, k) not in res:
                 continue
             x, _ = res["audio", n, k]  # every factor lines up in time (output.Decimator)
             ref, _ = res["audio", REFERENCE.name, k]
-            res["spectral", n, k] = spectral_error_db(x, ref)
-    ref_check = {k: res["spectral", FINE, k] for k in SPECTRAL}
-    cost = costs(configs, args.repeat, args.seconds)
-    rows = summarise(names, res, cost)
-    body = tables(rows, configs, ref_check, timing_noise(cost))
-    print(f"steel-acoustic, 44.1 kHz, no body; {len(configs)} configurations; costs are the CPU "
+            res["spectral", n, k] = spectral_error_db(x, ref, st.rate)
+    ref_check = {k: res["spectral", FINE, k] for k in st.spectral}
+    cost = costs(st, configs, args.repeat, args.seconds)
+    rows = summarise(st, names, res, cost)
+    body = tables(st, rows, configs, ref_check, timing_noise(cost), detail=bool(args.only))
+    print(f"{st.label()}; {len(configs)} configurations; costs are the CPU "
           f"time of the rendering thread, best of {args.repeat} rounds on this machine "
           f"({args.seconds:g} s of audio)\n")
     print(body)
     elapsed = time.perf_counter() - t0
     print(f"\n({t_acc:.0f} s of error measurements on {args.jobs} processes, "
           f"{elapsed - t_acc:.0f} s of timing, {elapsed:.0f} s in all)")
-    if not args.no_docs:
+    if args.no_docs:
+        return
+    if full:
         plot(rows, configs, IMG / "pareto.png")
         write_docs("Measured: run time against error", "pareto",
                    f"Printed by `python -m benchmarks.pareto` ({len(configs)} configurations, "
                    f"costs: CPU time, best of {args.repeat} rounds; {elapsed:.0f} s on this "
                    "machine).\n\n"
                    "![Pareto fronts](img/pareto.png)\n\n" + body)
+    elif args.only:
+        marker = f"pareto-{st.preset}-{st.rate}" + ("-live" if st.live_grid else "")
+        short = tables(st, rows, configs, ref_check, timing_noise(cost), detail=True,
+                       compact=True).replace("\n### ", "\n#### ")  # under a run's own heading
+        short = "#" + short if short.startswith("### ") else short
+        write_docs(f"Measured: {st.label()}", marker,
+                   f"Printed by `{command.strip()}` ({st.label()}; costs: CPU time, best of "
+                   f"{args.repeat} rounds; {elapsed:.0f} s on this machine; the per-string "
+                   "tables are in its printed output).\n\n" + short)
 
 
 if __name__ == "__main__":

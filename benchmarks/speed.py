@@ -3,7 +3,9 @@
 Table 1, per string of the default preset at the chosen quality: the linear string alone (the
 "baseline" of the paper's sec. 7), and the full model (Kirchhoff-Carrier, fretboard, rigid frets, a
 finger pressing at fret 5, an 8 N pluck), with the ratio between them; and an open string's 2 N
-pluck with every nonlinearity on against the same pluck on the linear string.
+pluck with every nonlinearity on against the same pluck on the linear string; then the floor of
+each scene of table 2 (``scene_floor``: the strings it plays on the grids it gives them, linear,
+computed throughout), the most a plain stencil on those grids allows.
 Table 2, whole scenes: a six-string strum (open strings), a fretted chord (with held steps and
 without: what the held run buys), a fretted single-line melody whose notes are damped as a player
 ends them (with sleeping and stopping quiet strings, the default, and without), and the paper's
@@ -129,6 +131,32 @@ def fretted_events(string: int) -> list[dict]:
             {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
 
 
+def linear_time(string: int, oversample: int | None, quality: str, seconds: float,
+                repeat: int) -> Timing:
+    """The linear string (``LINEAR``), an 8 N pluck, at ``oversample`` (None: its own factor as an
+    open string)."""
+    sc = {"duration": seconds, "quality": quality, "output": {"body": "none"},
+          "events": pluck_events(string, 8.0)}
+    return best_time(sc, RenderOptions(oversample=oversample, **LINEAR), repeat)
+
+
+def scene_floor(events: list[dict], quality: str, seconds: float, repeat: int,
+                timed: dict[tuple[int, int], float]) -> float:
+    """The floor of a scene: seconds of compute per second of audio of the strings it plays, each
+    on the grid the scene gives it (fingered or not), linear (no contact, no Kirchhoff-Carrier,
+    no body) and computed throughout (no sleeping or stopping).  ``timed``: seconds per second of
+    the linear string at a factor, by (string, factor), filled as strings are timed."""
+    sc = Scene.model_validate({"duration": seconds, "quality": quality, "events": events,
+                               "output": {"body": "none"}})
+    total = 0.0
+    for v in prepare(sc, RenderOptions(calibrate_frets=False)).voices:  # the grids only
+        if (v.index, v.oversample) not in timed:
+            t = linear_time(v.index, v.oversample, quality, seconds, repeat)
+            timed[v.index, v.oversample] = t.seconds / seconds
+        total += timed[v.index, v.oversample]
+    return total
+
+
 def per_string(quality: str, seconds: float, repeat: int) -> None:
     print(f"\nper string, quality '{quality}', {seconds:g} s of audio at 44.1 kHz (ms of compute per "
           "second of audio; body 'none')")
@@ -138,20 +166,19 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
           "with every nonlinearity on, against the linear string, both at the open string's own x.")
     print("string | x |   N | linear, same x | linear, own x | fretted full | fretted / linear "
           "(same x) | in cycles | in instructions | open full / linear | in instructions")
-    floor = {"chord": 0.0, "strum": 0.0}
+    timed: dict[tuple[int, int], float] = {}  # the linear strings, for the scenes' floors
     for s in range(1, 7):
         base = {"duration": seconds, "quality": quality, "output": {"body": "none"}}
-        lin = {**base, "events": pluck_events(s, 8.0)}
         full = {**base, "events": fretted_events(s)}
         soft = {**base, "events": pluck_events(s, 2.0)}
         t_full = best_time(full, RenderOptions(skip_decayed=False), repeat)
         v = t_full.engine.voices[0]
-        t_same = best_time(lin, RenderOptions(oversample=v.oversample, **LINEAR), repeat)
-        t_own = best_time(lin, RenderOptions(**LINEAR), repeat)
+        t_same = linear_time(s, v.oversample, quality, seconds, repeat)
+        t_own = linear_time(s, None, quality, seconds, repeat)
         t_open = best_time(soft, RenderOptions(skip_decayed=False), repeat)
         t_soft_lin = best_time(soft, RenderOptions(**LINEAR), repeat)
-        floor["chord"] += (t_same if CHORD_FRETS[s] > 0 else t_own).seconds / seconds
-        floor["strum"] += t_own.seconds / seconds
+        timed[s, v.oversample] = t_same.seconds / seconds
+        timed[s, t_own.engine.voices[0].oversample] = t_own.seconds / seconds
         print(f"{s:>6d} | {v.oversample:>1d} | {v.coefs.n:>3d} | "
               f"{t_same.seconds / seconds * 1e3:14.1f} | {t_own.seconds / seconds * 1e3:13.1f} | "
               f"{t_full.seconds / seconds * 1e3:12.1f} | "
@@ -160,11 +187,14 @@ def per_string(quality: str, seconds: float, repeat: int) -> None:
               f"{_ratio(t_full.instructions, t_same.instructions, 15)} | "
               f"{t_open.seconds / t_soft_lin.seconds:18.2f} | "
               f"{_ratio(t_open.instructions, t_soft_lin.instructions, 15)}")
-    print("the floor of a scene: its six strings on its grids, linear (no contact, no "
-          "Kirchhoff-Carrier, no body)")
-    for name, key in (("fretted C chord (fretted strings at x, open at own x)", "chord"),
-                      ("open strum (own x)", "strum")):
-        print(f"  {name}: {floor[key] * 1e3:.1f} ms per s of audio, {1.0 / floor[key]:.1f}x "
+    print("the floor of a scene: the strings it plays on its grids, linear (no contact, no "
+          "Kirchhoff-Carrier, no body), computed throughout")
+    for name, events in (("fretted C chord (fretted strings at x, open at own x)", chord_events()),
+                         ("open strum (own x)", strum_events()),
+                         ("fretted melody, damped note endings (strings 1-3 at x)",
+                          melody_events(seconds / len(MELODY)))):
+        floor = scene_floor(events, quality, seconds, repeat, timed)
+        print(f"  {name}: {floor * 1e3:.1f} ms per s of audio, {1.0 / floor:.1f}x "
               "real time at most")
 
 

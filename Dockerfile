@@ -13,6 +13,7 @@ ENV PYTHONDONTWRITEBYTECODE=1 \
     PATH=/opt/venv/bin:$PATH \
     PYTHONPATH=/app \
     NUMBA_CACHE_DIR=/var/cache/guitar/numba \
+    GUITAR_CACHE_DIR=/var/cache/guitar \
     GUITAR_DATA_DIR=/var/lib/guitar
 
 # A fixed numeric id, so that USER resolves without the image's passwd file.
@@ -20,7 +21,7 @@ RUN groupadd --system --gid 10001 app \
     && useradd --system --uid 10001 --gid 10001 --home-dir /app --no-create-home \
        --shell /usr/sbin/nologin app \
     && mkdir -p /app "$NUMBA_CACHE_DIR" "$GUITAR_DATA_DIR" \
-    && chown 10001:10001 "$NUMBA_CACHE_DIR" "$GUITAR_DATA_DIR"
+    && chown 10001:10001 "$GUITAR_CACHE_DIR" "$NUMBA_CACHE_DIR" "$GUITAR_DATA_DIR"
 
 # Jobs (SQLite and their results) live here: mount a volume to keep them across containers.
 VOLUME /var/lib/guitar

@@ -22,6 +22,7 @@ Layers, each knowing only those below it (docs/architecture.md draws them):
     kernels      the numba time-step loop of one string
     string       one string's grid, coefficients, tuning and geometry (knows kernels, presets)
     controls     events -> one string's control arrays                 (knows scene, kernels)
+    calibration_store  fret calibrations kept on disk across processes  (knows config)
     intonation   fret calibration and seating forces                   (knows string, controls)
     options      quality levels and render switches
     output       decimation, pickups, pan, body, output scale

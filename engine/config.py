@@ -67,3 +67,11 @@ JIT_STEP = {**JIT, "fastmath": set()}
 # The kernels the loops call without inlining (the linear pass, the quiet and held runs, ...) take
 # their arrays from the loop, whose own variables are counted only around the loop.
 JIT_HELPER = {**JIT_STEP, "forceinline": True}
+
+# Fret calibrations kept on disk across processes (``engine.calibration_store``): under
+# ``GUITAR_CACHE_DIR`` (default ``$XDG_CACHE_HOME/guitar-synth``, else ``~/.cache/guitar-synth``);
+# ``GUITAR_CALIBRATION_CACHE=0`` keeps them in memory only.
+CACHE_DIR = os.environ.get("GUITAR_CACHE_DIR") or os.path.join(
+    os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
+    "guitar-synth")
+CALIBRATION_CACHE = os.environ.get("GUITAR_CALIBRATION_CACHE", "1") != "0"

@@ -45,6 +45,7 @@ from scipy import sparse
 from scipy.sparse import linalg as sparse_linalg
 from threadpoolctl import threadpool_limits
 
+from . import calibration_store
 from .controls import finger_x_m
 from .kernels import interp
 from .presets import Preset
@@ -418,12 +419,29 @@ def fret_calibration(model: StringModel, preset: Preset, fret: int) -> FretCalib
     """Pitch and decay of the note at ``fret`` on ``model``'s grid matched to the fine grid's: the
     shift at the preset's damping, the damping at that shift, then the shift again at that damping
     (the damping moves the note's pitch by up to a few cents where the note is near the finger's
-    resonance).  Cached per process."""
+    resonance).  Cached per process, and on disk per machine (``calibration_store``)."""
+    k = calibration_store.key("fret_calibration", model, preset, fret)
+    stored = calibration_store.load(k)
+    if stored is not None and len(stored) == 2:
+        return FretCalibration(*stored)
     shift = fret_shift(model, preset, fret)
     damping = finger_damping(model, preset, fret, shift)
     if damping != preset.finger.damping_n_s_m:
         shift = fret_shift(model, preset, fret, damping)
+    calibration_store.save(k, (shift, damping))
     return FretCalibration(shift, damping)
+
+
+@lru_cache(maxsize=4096)
+def _stored_shift(model: StringModel, preset: Preset, fret: int) -> float:
+    """``fret_shift`` at the preset's damping, kept on disk per machine (``calibration_store``)."""
+    k = calibration_store.key("fret_shift", model, preset, fret)
+    stored = calibration_store.load(k)
+    if stored is not None and len(stored) == 1:
+        return stored[0]
+    shift = fret_shift(model, preset, fret)
+    calibration_store.save(k, (shift,))
+    return shift
 
 
 def fret_calibrations(model: StringModel, preset: Preset,
@@ -446,4 +464,4 @@ def fret_shifts(model: StringModel, preset: Preset, frets: Iterable[int]) -> dic
     if not wanted:
         return {}
     with threadpool_limits(limits=1, user_api="blas"):
-        return {q: fret_shift(model, preset, q) for q in wanted}
+        return {q: _stored_shift(model, preset, q) for q in wanted}

@@ -18,11 +18,12 @@ applied in the next block computed for its session.
 Everything sent is plain data.  An exception in one session ends that session only (``failed``),
 never the process or its other sessions.
 
-Opening a session prepares its guitar (tuning every string, calibrating every fret: a fifth of a
-second at ``draft``), which would stall the other sessions of the process for that long.  So each
-guitar, rate and quality is prepared once and kept (``_TEMPLATES``, the most recent few); a
-session is a copy of it (about a millisecond).  The warm-up prepares the default guitar at 44.1
-and 48 kHz.
+Opening a session prepares its guitar (tuning every string, calibrating every fret: seconds the
+first time on a machine, a fraction of a second once the calibrations are on disk,
+``engine.calibration_store`` and ``benchmarks/calibration.py``), which would stall the other
+sessions of the process for that long.  So each guitar, rate and quality is prepared once and kept
+(``_TEMPLATES``, the most recent few); a session is a copy of it (about a millisecond).  The
+warm-up prepares the default guitar at 44.1 and 48 kHz.
 """
 
 from __future__ import annotations

@@ -13,8 +13,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 # low to high, as engine/__init__.py lists them; a module may import only those before it
 ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "grid", "cost", "kernels",
-         "string", "controls", "intonation", "options", "output", "voice", "playability", "guitar",
-         "waveguide", "effects", "mix", "live", "rendering", "precompile"]
+         "string", "controls", "calibration_store", "intonation", "options", "output", "voice",
+         "playability", "guitar", "waveguide", "effects", "mix", "live", "rendering",
+         "precompile"]
 
 
 def _engine_imports(path: Path) -> set[str]:

@@ -1,0 +1,61 @@
+"""What opening a live session's guitar costs: every fret of every string calibrated on its grid
+(``RenderOptions.live_grid``), in a fresh process, with an empty calibration store and with the
+calibrations on disk (``engine.calibration_store``).
+
+    python -m benchmarks.calibration
+
+Each figure is the wall time of ``engine.guitar.prepare`` in a new Python process (the numba
+kernels already compiled and cached, as in a warm service), best of ``--repeat``.  A store that
+starts empty is filled by the first run; the warm runs read it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+
+CHILD = r"""
+import sys, time
+from engine.scene import Scene
+from engine.guitar import prepare
+from engine.options import RenderOptions
+preset, rate, quality = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+sc = Scene.model_validate({"duration": 0.1, "sample_rate": rate, "events": [],
+                           "quality": quality, "guitar": {"preset": preset}})
+t = time.perf_counter()
+prepare(sc, RenderOptions(live_grid=True, skip_silent=False))
+print(time.perf_counter() - t)
+"""
+
+
+def prepare_seconds(store: str, preset: str, rate: int, quality: str) -> float:
+    env = {**os.environ, "GUITAR_CACHE_DIR": store, "GUITAR_CALIBRATION_CACHE": "1"}
+    out = subprocess.run([sys.executable, "-c", CHILD, preset, str(rate), quality], env=env,
+                         capture_output=True, text=True, check=True)
+    return float(out.stdout.split()[-1])
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--presets", nargs="+", default=["steel-acoustic", "bass"])
+    ap.add_argument("--rate", type=int, default=44100)
+    ap.add_argument("--quality", default="draft")
+    ap.add_argument("--repeat", type=int, default=2)
+    a = ap.parse_args()
+    print(f"a live session's guitar prepared (every fret calibrated), quality '{a.quality}', "
+          f"{a.rate} Hz, wall time of one new process (s)")
+    print("preset | empty store | calibrations on disk")
+    print("--- | --- | ---")
+    for preset in a.presets:
+        with tempfile.TemporaryDirectory() as store:
+            cold = prepare_seconds(store, preset, a.rate, a.quality)
+            warm = min(prepare_seconds(store, preset, a.rate, a.quality)
+                       for _ in range(a.repeat))
+        print(f"{preset} | {cold:.2f} | {warm:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,102 @@
+"""Fret calibrations kept on disk, so that a machine calibrates a string's frets once, not every
+process once.
+
+``engine.intonation`` calibrates each stopped fret on its string's grid (the pitch, and the
+contact damping of the finger stopping it) with a few eigenvalue solves of the held note: tens of
+milliseconds a fret, seconds for every fret of a guitar (the grid of a live session).  The result
+depends only on its inputs (the string model, the preset, the fret) and on the code that computes
+it, so it is kept in a SQLite file under ``config.CACHE_DIR``, keyed by a hash of both: a changed
+input or a changed module computes anew.  The values are stored as written by ``repr``, which
+gives each float back to the last bit, so a render is the same with the store or without it
+(``tests/engine/test_calibration_store.py``).  Reading and writing are best effort: an unwritable,
+locked or damaged file leaves the calibration computed in memory, as without the store.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import sqlite3
+import threading
+from pathlib import Path
+
+from . import config
+
+# the modules whose code a calibration depends on (the held-note model, the grid and tuning,
+# where fingers and frets sit, the presets, the interpolant)
+_SOURCES = ("intonation.py", "string.py", "grid.py", "controls.py", "presets.py",
+            "kernels/linear.py")
+_LOCK = threading.Lock()
+_STATE: dict = {}
+
+
+def _version() -> str:
+    """A hash of the source of ``_SOURCES``: the code part of every key."""
+    if "version" not in _STATE:
+        h = hashlib.sha256()
+        root = Path(__file__).resolve().parent
+        for name in _SOURCES:
+            h.update((root / name).read_bytes())
+        _STATE["version"] = h.hexdigest()
+    return _STATE["version"]
+
+
+def key(kind: str, *inputs) -> str:
+    """The key of a calibration of ``kind`` from ``inputs`` (frozen dataclasses and numbers, whose
+    ``repr`` is exact)."""
+    return hashlib.sha256(repr((_version(), kind, inputs)).encode()).hexdigest()
+
+
+def _connection() -> sqlite3.Connection | None:
+    if "db" not in _STATE or _STATE.get("pid") != os.getpid():  # not across a fork
+        _STATE["pid"] = os.getpid()
+        _STATE["db"] = None
+        if config.CALIBRATION_CACHE:
+            try:
+                path = Path(config.CACHE_DIR)
+                path.mkdir(parents=True, exist_ok=True)
+                db = sqlite3.connect(path / "calibrations.sqlite3", timeout=5.0,
+                                     check_same_thread=False)
+                db.execute("CREATE TABLE IF NOT EXISTS calibration "
+                           "(key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+                db.commit()
+                _STATE["db"] = db
+            except (OSError, sqlite3.Error):
+                pass
+    return _STATE["db"]
+
+
+def load(k: str) -> tuple[float, ...] | None:
+    """The stored values of key ``k``, or None (not stored, or the store cannot be read)."""
+    with _LOCK:
+        db = _connection()
+        if db is None:
+            return None
+        try:
+            row = db.execute("SELECT value FROM calibration WHERE key = ?", (k,)).fetchone()
+            return None if row is None else tuple(float(v) for v in json.loads(row[0]))
+        except (sqlite3.Error, ValueError, TypeError):
+            return None
+
+
+def save(k: str, values: tuple[float, ...]) -> None:
+    """Keep ``values`` under key ``k`` (nothing happens if the store cannot be written)."""
+    with _LOCK:
+        db = _connection()
+        if db is None:
+            return
+        try:
+            db.execute("INSERT OR REPLACE INTO calibration VALUES (?, ?)",
+                       (k, json.dumps([float(v) for v in values])))
+            db.commit()
+        except sqlite3.Error:
+            pass
+
+
+def reset() -> None:
+    """Forget the connection (the next use opens ``config.CACHE_DIR`` again): for tests."""
+    with _LOCK:
+        db = _STATE.pop("db", None)
+        if db is not None:
+            db.close()

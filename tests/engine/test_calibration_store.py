@@ -1,0 +1,89 @@
+"""Fret calibrations on disk (``engine.calibration_store``): a calibration read back is the one
+computed, to the last bit; a render is the same with the store cold, warm or off; a store that
+cannot be written changes nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import engine
+from engine import calibration_store, config, intonation
+from engine.guitar import prepare
+from engine.scene import Scene
+from engine.testing.scenes import fret, pluck, scene
+
+SCENE = scene([fret(2, 7), pluck(2, time=0.01, force=2.0)], 0.1)
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    """A store in a fresh directory, and the process's in-memory caches emptied around the test."""
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(config, "CALIBRATION_CACHE", True)
+    calibration_store.reset()
+    intonation.fret_calibration.cache_clear()
+    intonation._stored_shift.cache_clear()
+    yield tmp_path / "cache"
+    calibration_store.reset()
+    intonation.fret_calibration.cache_clear()
+    intonation._stored_shift.cache_clear()
+
+
+def _model_and_preset():
+    v = prepare(Scene.model_validate(SCENE)).voices[0]
+    return v.model, engine.get_preset("steel-acoustic")
+
+
+def test_a_stored_calibration_is_the_computed_one(store, monkeypatch):
+    model, preset = _model_and_preset()
+    computed = intonation.fret_calibration(model, preset, 7)
+    assert (store / "calibrations.sqlite3").exists()
+    intonation.fret_calibration.cache_clear()
+    calls = []
+    monkeypatch.setattr(intonation, "fret_shift",
+                        lambda *a, **kw: calls.append(a) or 0.0)  # must not be needed
+    assert intonation.fret_calibration(model, preset, 7) == computed
+    assert calls == []
+    # another fret is not in the store: computed (here by the stand-in)
+    intonation.fret_calibration(model, preset, 8)
+    assert calls
+
+
+def test_the_key_follows_every_input():
+    model, preset = _model_and_preset()
+    k = calibration_store.key("fret_calibration", model, preset, 7)
+    assert k != calibration_store.key("fret_calibration", model, preset, 8)
+    from dataclasses import replace
+    assert k != calibration_store.key("fret_calibration", replace(model, tension_n=model.tension_n
+                                                                  * (1 + 1e-15)), preset, 7)
+    assert k != calibration_store.key("fret_shift", model, preset, 7)
+
+
+def test_a_render_is_the_same_cold_warm_and_without_the_store(store, monkeypatch):
+    cold = engine.render(SCENE)
+    intonation.fret_calibration.cache_clear()
+    warm = engine.render(SCENE)
+    monkeypatch.setattr(config, "CALIBRATION_CACHE", False)
+    calibration_store.reset()
+    intonation.fret_calibration.cache_clear()
+    off = engine.render(SCENE)
+    assert np.array_equal(cold, warm) and np.array_equal(cold, off)
+
+
+def test_an_unwritable_store_changes_nothing(tmp_path, monkeypatch):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    monkeypatch.setattr(config, "CACHE_DIR", str(blocker / "cache"))
+    monkeypatch.setattr(config, "CALIBRATION_CACHE", True)
+    calibration_store.reset()
+    intonation.fret_calibration.cache_clear()
+    try:
+        model, preset = _model_and_preset()
+        assert calibration_store.load("anything") is None
+        calibration_store.save("anything", (1.0,))
+        cal = intonation.fret_calibration(model, preset, 7)
+        assert np.isfinite(cal.shift_m) and cal.damping_n_s_m > 0.0
+    finally:
+        calibration_store.reset()
+        intonation.fret_calibration.cache_clear()

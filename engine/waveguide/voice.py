@@ -155,7 +155,7 @@ class WaveguideVoice:
         self.pb_f = np.array(tl.ratios, float)
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / X
                         if self.glide else 0.0)
-        self.changes = self.timeline.stops(self.preset)
+        self.changes = self.timeline.stops(self.preset, self.spec)
         # a stop that lasts FINGER_HOLD_S is held by a finger that damps it; the frets a slide
         # crosses in passing are not (``fingering``)
         ends = [c[0] for c in self.changes[1:]] + [NEVER]
@@ -184,7 +184,7 @@ class WaveguideVoice:
             self.col_abs = np.zeros(0)
             self.col_cr = np.zeros(0)
         else:
-            last = float(p.fret_x_m(p.frets + 0.5))
+            last = float(p.fret_x_m(p.frets + 0.5, self.spec))
             idx = np.arange(1, n)
             x = self.x_of(idx)
             keep = (x > 0.0) & (x <= last)
@@ -192,7 +192,7 @@ class WaveguideVoice:
             board = -(np.asarray(p.clearance_m(x), float) + p.fret_height_m)
             cr = np.full(len(idx), BOARD_RESTITUTION)
             for q in range(1, p.frets + 1):
-                xq = float(p.fret_x_m(q))
+                xq = float(p.fret_x_m(q, self.spec))
                 i = int(round(self.n_of(xq)))
                 hit = np.flatnonzero(idx == i)
                 if hit.size:
@@ -214,7 +214,7 @@ class WaveguideVoice:
         if key in self.loops:
             return self.loops[key]
         p = self.preset
-        x = 0.0 if fret is None else float(p.fret_x_m(fret))
+        x = 0.0 if fret is None else float(p.fret_x_m(fret, self.spec))
         f1 = stopped_frequency(p, self.phys, self.index, x, fret, self.intonation,
                                p.finger.press_force_n)
         speaking = self.phys.length_m - x
@@ -259,7 +259,7 @@ class WaveguideVoice:
         return int(min(max(self.n - half, 0), self.n - 1))
 
     def _rest(self, fret: int | None, x: np.ndarray) -> np.ndarray:
-        stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
+        stop_x = None if fret is None else float(self.preset.fret_x_m(fret, self.spec))
         x = np.asarray(x, float)
         if stop_x is None:
             return np.zeros(len(x))
@@ -277,8 +277,8 @@ class WaveguideVoice:
         nt_old = int(self.ist[K.I_NT])
         self._configure(fret, held)
         nt = self._place(self.loop(fret, held))
-        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old))
-        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret))
+        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old, self.spec))
+        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret, self.spec))
         release = x_new < x_old
         if release and nt < nt_old:
             lo = max(nt - 8, nt - self.n)

@@ -13,7 +13,9 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    allpass cascade, the reflection -g_f, written to u+(n_t, s);
 3. the bridge: u-(N, s) = -u+(N, s);
 4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes),
-   and a pluck's force as a velocity blow (``pluck._blow``);
+   and a pluck's force as a velocity blow (``pluck._blow``); a junction whose point the
+   termination has cut off does nothing and starts afresh when its point is back (``pluck``,
+   "Passivity"), as a collision point forgets its arrival speed (``collision``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
 6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``;
 7. on the grid of ``BLOCK`` steps, from the step ``voice`` computes (no event, release, contact
@@ -46,9 +48,9 @@ import math
 from numba import njit
 
 from ..config import JIT_HELPER, JIT_INLINE, JIT_STEP
-from .collision import REACH_EVERY, _collide
+from .collision import NO_PREV, REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
-from .pluck import LEAK_HZ, _blow, _envelope, _msd
+from .pluck import J_CUT, LEAK_HZ, _blow, _envelope, _msd
 
 # ist: integer state: the termination's place, the bend breakpoint, the first step at which the
 # decay stop may act (``voice``: no event left to come), and whether it has
@@ -179,14 +181,21 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 for k in range(js_np[j]):
                     n = js_idx[j, k]
                     if n <= n_t or n >= N:
+                        # cut off by the termination (a glide, a bend, a stop): what it put
+                        # on the string went with that part; it starts afresh when it is back
+                        jst[j, k, J_CUT] = 1.0
                         continue
                     ip = (s - n) & mask
                     im = (s + n) & mask
                     uin = R[ip] + Mb[im]
-                    if t == 0:  # the junction acts on the motion from its onset on
+                    if t == 0 or jst[j, k, J_CUT] != 0.0:
+                        # the junction acts on the motion from its onset on, or from its
+                        # point's return to the sounding string: a passive filter started at
+                        # rest (``pluck``, "Passivity")
                         for q in range(5):
                             jst[j, k, q] = 0.0
                         jst[j, k, 5] = uin
+                        jst[j, k, J_CUT] = 0.0
                     h = _msd(uin, jst, j, k, env * js_mp[j, k], env * js_rho[j, k],
                              env * js_kappa[j, k], leak)
                     R[ip] += 0.5 * h
@@ -205,6 +214,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 c = col_list[q]
                 n = col_n[c]
                 if n <= n_t or n >= N:
+                    col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
                     continue
                 col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
                                        fs)
@@ -338,6 +348,7 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
             c = col_list[q]
             n = col_n[c]
             if n <= n_t or n >= N:
+                col_prev[c] = NO_PREV
                 continue
             col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
         acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)

@@ -40,7 +40,7 @@ from .fingering import (
     stopped_frequency,
 )
 from .glide import GLIDE_EVERY
-from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
+from .pluck import J_STATE, LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
@@ -114,7 +114,7 @@ class WaveguideVoice:
         self.js_mp = np.zeros((ns, MAX_POINTS))
         self.js_rho = np.zeros((ns, MAX_POINTS))
         self.js_kappa = np.zeros((ns, MAX_POINTS))
-        self.jst = np.zeros((ns, MAX_POINTS, 6))
+        self.jst = np.zeros((ns, MAX_POINTS, J_STATE))
         mu = self.phys.mu
         X = self.x_step
         c = X * self.rate

@@ -46,8 +46,10 @@ load average of about 4.5; the cost columns move by up to a factor 1.5 between r
   and stopped strings (ideal intonation) within 0.07 cents of 12-TET, where the finite-difference
   model sounds the physics of its frets: -4.59..+3.75 cents at ``standard`` (its converged
   reference -4.95..+4.33), compensated by the presets' saddle setbacks.  With ``--intonation``
-  the waveguide's own physical model of the stopped string gives -5.0..+3.5 cents on the steel
-  set.
+  (at 512a93d) the waveguide's own physical model of the stopped string, its frets placed from
+  each string's compensated nut as the finite-difference model places them, gives -0.6..+0.2
+  cents at frets 1-12 of the steel set: the presets' saddle setbacks and nut compensations,
+  fitted to the finite-difference physics, tune this model too.
 * decay of the fundamental: both fitted to the same T60 values, and the waveguide's fingering
   termination to the finite-difference finger's damping of the held note
   (``engine.waveguide.fingering``).  Open strings agree with the reference to 0.01 dB/s; fretted

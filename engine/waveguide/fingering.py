@@ -58,11 +58,9 @@ Pitch of a stopped string.  The termination's delay is tuned so the stopped loop
   stiffness carrying over the crown, which shortens the speaking length by half the clamped-end
   correction, ell / 2 with ell = sqrt(E I / T)
   (``stopped_frequency``).  ``benchmarks/waveguide.py --intonation`` prints where this lands
-  against 12-TET at frets 1-12 of the steel preset: a spread about the finite-difference
-  model's (its saddle setbacks were fitted to the finite-difference physics, not to this).  The
-  waveguide places frets and fingers from the uncompensated nut while its string has the
-  compensated length (``StringSpec.nut_compensation_m``): ``physical`` notes are off by that
-  mismatch until the positions take the string's spec (issue 25).
+  against 12-TET at frets 1-12 of the steel preset: within a cent (its docstring has the
+  figure), as the presets' saddle setbacks and nut compensations, fitted to the
+  finite-difference physics, tune this model too.
 
 Passivity: the termination's reflection has |.| = g_f <= 1 times the passive loop filters of
 ``string``; cutting the string at the crown discards the waves on the nut side (energy lost, never

@@ -147,16 +147,18 @@ def _stopping_fret(preset: Preset, spec: StringSpec, f: Finger, step: int) -> in
 
 
 def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
-             seated) -> Timeline:
-    """The events of ``scene`` on ``string`` compiled at ``rate`` Hz.  ``impedance`` is
+             seated, events: list | None = None) -> Timeline:
+    """The events of ``scene`` on ``string`` compiled at ``rate`` Hz (or ``events``, that
+    string's own, strums already split: a live session's, ``engine.live``).  ``impedance`` is
     sqrt(T mu); ``seated(fret, force)`` says whether a finger pressing ``force`` N (None: the
     default press) rests on ``fret``."""
     from .pluck import STYLES
 
     spec = preset.strings[string - 1]  # positions from its nut, less its nut compensation
     length = preset.string_length_m(string)
-    events = sorted((e for e in expand(scene, preset.n_strings) if e.string == string),
-                    key=lambda e: e.time)
+    if events is None:
+        events = [e for e in expand(scene, preset.n_strings) if e.string == string]
+    events = sorted(events, key=lambda e: e.time)
     tl = Timeline()
 
     def step(t: float) -> int:

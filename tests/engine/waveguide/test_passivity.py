@@ -114,7 +114,7 @@ def test_a_junction_cut_off_by_the_termination_starts_afresh():
     must start afresh when its point is back on the sounding string: resuming with the state it
     had when it was cut off, it injected that old perturbation into the rails every step (the
     random scene 23 of ``test_random_scenes_never_grow``, whose glide swept the termination over
-    two junctions, gained 30x; here the energy rose to 1.8x its peak under the held bend).  The
+    two junctions, gained 30x; here the energy rose to 1.9x its peak under the held bend).  The
     bend's return lowers the pitch, which can only lower the rails' energy."""
     sc = {"duration": 0.06, "output": {"body": "none", "normalize": False},
           "events": [{"type": "pluck", "time": 0.0, "string": 6, "force": 5.0, "position": 0.15,
@@ -128,10 +128,10 @@ def test_a_junction_cut_off_by_the_termination_starts_afresh():
     held, after = [], []
     for _ in inst.blocks(16):
         t = v.step / rate
-        if 0.006 <= t < 0.02:
+        if 0.008 <= t < 0.017:  # held (it starts back towards 0.02 s: ``kernel``'s period)
             held.append(v.energy())
             assert v.ist[0] > max(v.js_idx[0]), "the bend must cut the pluck's point off"
-        elif t >= 0.02:
+        elif t >= 0.017:
             after.append(v.energy())
     assert max(after) <= max(held), (max(after), max(held))
 

@@ -151,9 +151,11 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         for j in range(nslot):
             if step0 <= js_on[j] < quiet_until:
                 quiet_until = -1
-        for b in range(pb_step.shape[0]):
-            if step0 <= pb_step[b] < quiet_until:
-                quiet_until = -1
+        b = ib  # the breakpoints are in order: the first at or after step0
+        while b < pb_step.shape[0] and pb_step[b] < step0:
+            b += 1
+        if b < pb_step.shape[0] and pb_step[b] < quiet_until:
+            quiet_until = -1
     period = fst[F_PERIOD]
     dper = fst[F_DPER]
     d_taps = fst[F_D]  # the delay the taps were computed for (0 before the first call)

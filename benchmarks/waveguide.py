@@ -28,34 +28,35 @@ frets 1, 5 and 12; 1-12 with ``--full``), and the fretted six-string C major str
 ``fd`` with fretted pitch within 3 cents).  ``--intonation`` adds the waveguide's fretted pitch
 with ``intonation="physical"`` (``engine.waveguide.fingering``).
 
-Where each model is better (the default run at 33291ac, on the shared two-core machine at a
-load average of about 4.5; the cost columns move by up to a factor 1.5 between runs with the load):
+Where each model is better (``--intonation`` run at 16722e7, load average about 1; the cost
+columns move by up to a factor 1.5 between runs with the load of the shared two-core machine):
 
-* cost: the waveguide.  Single notes 493-705x real time against the finite-difference model's
-  22.2-135x at ``standard`` (median 578 against 43.2); the fretted C/G strum 164x against 10.7x,
-  15.4x cheaper: short of the issue's 20x.  ``python -m tools.instructions --waveguide`` counts
-  the strum's instructions, which do not move with the load: 79.3 million per second of audio
-  against 988.7 million at
-  ``standard``, 12.5x fewer (at 240c929, before the reach every 256 samples took about 7 % off
-  the waveguide's).  What is left of the waveguide's cost is the loop's own work per sample
-  (the termination's Lagrange read, loss and allpass sections, the bridge, a pickup, and the
-  Lagrange taps recomputed every sample while the glide moves the delay), the checks of the
-  collision points a fretted string's vibration keeps within reach for its first second, the
-  reach bounds, and the Python around each block (``engine/waveguide/kernel.py``).
+* cost: the waveguide.  Single notes 299-880x real time against the finite-difference model's
+  24.6-143x at ``standard`` (median 646 against 42.5); the fretted C/G strum 190x against 11.2x,
+  17.0x cheaper: short of the issue's 20x.  ``python -m tools.instructions --waveguide`` counts
+  the strum's instructions, which do not move with the load: 73.0 million per second of audio
+  against 982.0 million at ``standard``, 13.4x fewer (at 16722e7).  What is left of the
+  waveguide's cost is the loop's own work per sample (the termination's Lagrange read, loss and
+  allpass sections, the walk of the termination, the bridge, a pickup), the checks of the
+  collision points a fretted string's vibration keeps within reach for its first second and
+  their reach bounds (a fretted string's next frets sit a fraction of a millimetre below it, so
+  it is not quiet for long), the glide's slope sums, and the Python around each block
+  (``engine/waveguide/kernel.py``).
 * pitch: the waveguide, by construction.  Its fractional delay puts open strings within 0.09 cents
   and stopped strings (ideal intonation) within 0.07 cents of 12-TET, where the finite-difference
-  model sounds the physics of its frets: -4.59..+3.75 cents at ``standard`` (its converged
-  reference -4.95..+4.33), compensated by the presets' saddle setbacks.  With ``--intonation``
-  the waveguide's own physical model of the stopped string gives -5.0..+3.5 cents on the steel
-  set.
+  model sounds the physics of its frets: -0.67..+0.49 cents at ``standard`` at frets 1, 5 and 12
+  (its converged reference -0.80..+1.35), compensated by the presets' saddle setbacks and nut
+  compensations.  With ``--intonation`` the waveguide's own physical model of the stopped
+  string, its frets placed from each string's compensated nut as the finite-difference model
+  places them, gives -0.6..+0.2 cents at frets 1-12 of the steel set: the presets'
+  compensations, fitted to the finite-difference physics, tune this model too.
 * decay of the fundamental: both fitted to the same T60 values, and the waveguide's fingering
   termination to the finite-difference finger's damping of the held note
   (``engine.waveguide.fingering``).  Open strings agree with the reference to 0.01 dB/s; fretted
-  notes within 1.5 dB/s on the waveguide (4.6 dB/s slower before it took the finger's damping)
-  and within 8.2 dB/s on the finite-difference model at ``standard`` (its coarse grid
-  overstates the finger's damping).
-* spectrum: the finite-difference model (it is the reference's own scheme): median -19.6 dB
-  against -8.8 dB for the waveguide, whose worst notes (-1 to -6 dB) are the wound strings
+  notes within 2.2 dB/s on the waveguide and 2.4 dB/s on the finite-difference model at
+  ``standard`` (both worst on string 1 at fret 12).
+* spectrum: the finite-difference model (it is the reference's own scheme): median -17.9 dB
+  against -8.7 dB for the waveguide, whose worst notes (-0.9 to -4.4 dB) are the wound strings
   stopped by a finger, where the finite-difference string's contact with the finger and the
   frets shapes the upper partials and the waveguide's rigid crown does not.
 """

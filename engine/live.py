@@ -41,6 +41,16 @@ rules that keep it:
 
 Events whose effect is over (plucks past, dampers and bends released and done, fingers gone) are
 dropped from a string's list as it grows, so a long session recompiles only what still acts.
+
+The waveguide model (``model="waveguide"``, ``engine.waveguide``) plays the same way: a string's
+timeline is compiled again from its events when one comes (``waveguide.rebuild``), keeping the
+rails, the filters' and junctions' states and the kernel's schedules, and the samples are those
+of the waveguide render of ``scene()`` with ``RenderOptions(live_grid=True)``, to the bit
+(``tests/engine/test_live.py``; with the decayed-string skip off, as above).  Its ``delay`` is
+``waveguide.LIVE_DELAY`` (256 frames, 5.8 ms at 44.1 kHz): the waveguide kernel fixes the
+period's next stretch and the collision points it checks that far ahead, so an event must act
+no sooner after the block that learns of it.  It has no grids, so ``quality`` does nothing;
+``live_grid`` leaves out the held-note damping of the finger (``engine.waveguide``).
 """
 
 from __future__ import annotations
@@ -50,7 +60,7 @@ from typing import Any
 
 import numpy as np
 
-from . import kernels
+from . import kernels, waveguide
 from .guitar import prepare
 from .live_events import LiveError, LiveEvent, Release, parse_live_event
 from .options import RenderOptions
@@ -71,7 +81,11 @@ from .scene import (
 )
 
 _FINGERS = (Fret, Tap, Slide)  # HammerOn is a Tap
+MODELS = ("fdtd", "waveguide")
 _PRUNE_AT = 64  # a string's event list is pruned when it grows past this many events
+# a waveguide junction's pulse (at most 50 ms), release (at most the pulse) and leak (8 time
+# constants at ``LEAK_HZ``, 64 ms) are over this long after it starts or lets go
+_OVER_S = 0.2
 
 
 class Session:
@@ -79,12 +93,21 @@ class Session:
 
     def __init__(self, guitar: dict | Guitar | str | None = None, sample_rate: int = 44100,
                  block_frames: int = 256, quality: str = "draft",
-                 options: RenderOptions | None = None, record: bool = False):
+                 options: RenderOptions | None = None, record: bool = False,
+                 model: str = "fdtd"):
+        if model not in MODELS:
+            raise ValueError(f"model must be one of {MODELS}, not {model!r}")
         if isinstance(guitar, str):
             guitar = {"preset": guitar}
-        scene = Scene(duration=1.0, sample_rate=sample_rate, guitar=guitar or {}, quality=quality)
+        scene = Scene(duration=1.0, sample_rate=sample_rate, guitar=guitar or {}, quality=quality,
+                      model=model)
         self.options = replace(options or RenderOptions(), skip_silent=False, live_grid=True)
-        g = prepare(scene, self.options)
+        self.model = model
+        self.waveguide = model == "waveguide"
+        if self.waveguide:
+            g = waveguide.prepare(scene, waveguide.options_from(self.options))
+        else:
+            g = prepare(scene, self.options)
         self.guitar_spec = scene.guitar
         self.preset = g.preset
         self.sample_rate = sample_rate
@@ -95,7 +118,8 @@ class Session:
         for v in self.voices:
             v.stopped = True  # at rest: nothing to compute until an event comes
         # frames after the block boundary where an event acts (see the module's docstring)
-        self.delay = max(-(-v.decimator.lead // v.oversample) for v in self.voices)
+        self.delay = (waveguide.LIVE_DELAY if self.waveguide else
+                      max(-(-v.decimator.lead // v.oversample) for v in self.voices))
         self.frame = 0  # frames sent so far
         self._events: dict[int, list] = {v.index: [] for v in self.voices}
         self._pending: list[tuple[int, Any]] = []  # (frame it acts at, event with its time)
@@ -121,16 +145,19 @@ class Session:
             if isinstance(pe, Bend | Vibrato) and pe.string == e.string:
                 raise LiveError("type", f"string {e.string} already has a {pe.type} in this block")
         v = self._voice(e.string)
-        tb = v.ctl.arrays
-        step = at * v.oversample
-        if tb.tb_step.size and (tb.tb_step[-1] > step or tb.tb_ratio[-1] != 1.0):
+        if self.waveguide:  # the pitch ratio's breakpoints, at the scene's rate
+            t_step, t_ratio, over = v.pb_step, v.pb_f, 1
+        else:
+            t_step, t_ratio, over = v.ctl.arrays.tb_step, v.ctl.arrays.tb_ratio, v.oversample
+        step = at * over
+        if t_step.size and (t_step[-1] > step or t_ratio[-1] != 1.0):
             held = next((x for x in reversed(self._events[e.string])
                          if isinstance(x, Bend | Vibrato)), None)
             what = (f"its bend is held (send a release of string {e.string}'s bend and let it "
                     "return)" if isinstance(held, Bend)
                     and held.release is None else
                     f"its {held.type if held else 'bend'} has not returned to pitch yet "
-                    f"(until {tb.tb_step[-1] / (v.oversample * step_rate):.3f} s)")
+                    f"(until {t_step[-1] / (over * step_rate):.3f} s)")
             raise LiveError("type", f"a {e.type} on string {e.string} must wait: {what}")
 
     def _voice(self, string: int):
@@ -196,6 +223,11 @@ class Session:
     def _compile(self, s: int) -> None:
         v = self._voice(s)
         events = self._events[s]
+        if self.waveguide:
+            if len(events) > _PRUNE_AT:
+                events = self._events[s] = self._prune_waveguide(v, events)
+            waveguide.rebuild(v, events)  # it runs again (a string at rest or decayed too)
+            return
         old = len(v.ctl.arrays.fs_on)
         keep = list(range(old))  # the old slot of each slot kept, in order
         if len(events) > _PRUNE_AT:
@@ -247,6 +279,36 @@ class Session:
                 keep[i] = round(e.time * rate) + round(0.05 * rate) + 1 >= step
         return [e for e, k in zip(events, keep, strict=True) if k], keep_slots
 
+    def _prune_waveguide(self, v, events: list) -> list:
+        """Drop the events whose effect is over at the waveguide voice's current step (the
+        same samples: the kernel skips all of these): plucks (and pull-offs) whose junction has
+        let go and leaked away, fingers lifted as long ago, dampers released as long ago, bends
+        and vibratos when the pitch is back at its tuned value for good.  ``_OVER_S`` bounds
+        each junction's pulse, release and leak (``engine.waveguide.pluck``)."""
+        step = v.step
+        rate = self.sample_rate
+        over = round(_OVER_S * rate)
+        tension_done = v.pb_step.size == 0 or (v.pb_step[-1] < step and v.pb_f[-1] == 1.0)
+        # one finger per finger event, in their order (a fret 0 lifts, it puts no finger)
+        fingers = iter(waveguide.timeline_of(v, events).fingers)
+        keep = []
+        for e in events:
+            on = round(e.time * rate)
+            if isinstance(e, _FINGERS) and not (isinstance(e, Fret) and e.fret == 0):
+                f = next(fingers)
+                keep.append(on >= step or f.rel + over >= step)
+            elif on >= step:
+                keep.append(True)
+            elif isinstance(e, Bend | Vibrato):
+                keep.append(not tension_done)
+            elif isinstance(e, Mute | Harmonic):
+                keep.append(e.release is None or round(e.release * rate) + over >= step)
+            elif isinstance(e, Fret):  # a lift (fret 0) now past
+                keep.append(False)
+            else:  # a pluck or a pull-off
+                keep.append(on + 2 * over >= step)
+        return [e for e, k in zip(events, keep, strict=True) if k]
+
     # ---- audio ------------------------------------------------------------------------------
 
     def block(self) -> np.ndarray:
@@ -259,6 +321,9 @@ class Session:
             self._apply(at, e)
         mix = np.zeros(m)
         for v in self.voices:
+            if self.waveguide:
+                mix += v.run(m)  # nothing computed while it is at rest or has decayed
+                continue
             target = end * v.oversample + v.decimator.lead
             nsteps = target - v.step
             d = v.decimator
@@ -285,6 +350,7 @@ class Session:
             "sample_rate": self.sample_rate,
             "guitar": self.guitar_spec.model_dump(exclude_none=True),
             "quality": self.quality,
+            "model": self.model,
             "events": [e.model_dump(exclude_none=True) for e in self.recorded],
         }
 

@@ -68,6 +68,9 @@ class LiveOpen(_Model):
     block_frames: int = Field(256, ge=BLOCK_FRAMES_MIN, le=BLOCK_FRAMES_MAX,
                               description="frames per block sent")
     quality: Literal["draft", "standard", "high"] = "draft"
+    model: Literal["fdtd", "waveguide"] = Field(
+        "fdtd", description="the string model: finite differences (default) or digital "
+                            "waveguides (``quality`` does nothing there)")
 
     def scene_guitar(self) -> Guitar:
         if self.preset is None:

@@ -21,9 +21,9 @@ never the process or its other sessions.
 Opening a session prepares its guitar (tuning every string, calibrating every fret: seconds the
 first time on a machine, a fraction of a second once the calibrations are on disk,
 ``engine.calibration_store`` and ``benchmarks/calibration.py``), which would stall the other
-sessions of the process for that long.  So each guitar, rate and quality is prepared once and kept
-(``_TEMPLATES``, the most recent few); a session is a copy of it (about a millisecond).  The
-warm-up prepares the default guitar at 44.1 and 48 kHz.
+sessions of the process for that long.  So each guitar, rate, quality and model is prepared once
+and kept (``_TEMPLATES``, the most recent few); a session is a copy of it (about a millisecond).
+The warm-up prepares the default guitar at 44.1 and 48 kHz.
 """
 
 from __future__ import annotations
@@ -44,12 +44,14 @@ _MAX_TEMPLATES = 8
 
 
 def _new_session(engine: Any, opened: Any) -> Any:
-    """A session for a validated open message: a copy of the prepared one for its guitar, rate
-    and quality (prepared now if it is new)."""
-    key = json.dumps([opened.scene_guitar().model_dump(), opened.sample_rate, opened.quality])
+    """A session for a validated open message: a copy of the prepared one for its guitar, rate,
+    quality and model (prepared now if it is new)."""
+    key = json.dumps([opened.scene_guitar().model_dump(), opened.sample_rate, opened.quality,
+                      opened.model])
     template = _TEMPLATES.pop(key, None)
     if template is None:
-        template = engine.Session(opened.scene_guitar(), opened.sample_rate, 256, opened.quality)
+        template = engine.Session(opened.scene_guitar(), opened.sample_rate, 256, opened.quality,
+                                  model=opened.model)
     _TEMPLATES[key] = template
     while len(_TEMPLATES) > _MAX_TEMPLATES:
         _TEMPLATES.pop(next(iter(_TEMPLATES)))
@@ -132,6 +134,7 @@ def _handle(conn: Connection, engine: Any, sessions: dict[int, _Live], msg: tupl
         live = sessions[sid] = _Live(s, lead_s)
         conn.send(("opened", sid, {"sample_rate": s.sample_rate, "block_frames": s.block_frames,
                                    "delay_frames": s.delay, "quality": s.quality,
+                                   "model": s.model,
                                    "strings": s.preset.n_strings, "frets": s.preset.frets,
                                    "preset": s.preset.name, "lead_s": lead_s,
                                    "block_seconds": live.block_s}))

@@ -325,7 +325,8 @@ async function connect() {
   L("#live-status").textContent = "connecting…";
   L("#live-connect").textContent = "Disconnect";
   ws.onopen = () => ws.send(JSON.stringify({ type: "open", preset: L("#live-preset").value,
-    sample_rate: live.rate, block_frames: live.block, quality: L("#live-quality").value }));
+    sample_rate: live.rate, block_frames: live.block, quality: L("#live-quality").value,
+    model: L("#live-model").value }));
   ws.onmessage = (e) => (typeof e.data === "string" ? text(JSON.parse(e.data)) : block(e.data));
   ws.onclose = (e) => {
     L("#live-status").textContent = `closed${e.reason ? `: ${e.reason}` : ""} (${e.code})`;
@@ -340,7 +341,8 @@ async function connect() {
 
 function text(msg) {
   if (msg.type === "opened") {
-    L("#live-status").textContent = `playing ${msg.preset} at ${msg.sample_rate} Hz, ` +
+    const model = msg.model === "waveguide" ? " (waveguide)" : "";
+    L("#live-status").textContent = `playing ${msg.preset}${model} at ${msg.sample_rate} Hz, ` +
       `${msg.block_frames}-frame blocks (${(msg.block_seconds * 1000).toFixed(1)} ms)`;
     document.body.dataset.live = "1";
   } else if (msg.type === "ack") {

@@ -39,8 +39,15 @@ spectrum is the reference's.
 
 A scene's first fretted notes cost more than the rest: each fret a finger holds asks the
 finite-difference held-note analysis for the finger's damping once per process (an eigenvalue
-problem, about a second; ``WaveguideOptions(finger_damping=False)`` leaves it out).  Live
-sessions (``engine.live``) play the finite-difference model only.
+problem, up to about a second per fret; ``WaveguideOptions(finger_damping=False)`` leaves it
+out).
+
+Live sessions (``engine.live``, ``model="waveguide"``) play this model too: a string's events are
+compiled again as they come (``rebuild``, ``WaveguideVoice.rebuild``) and act ``LIVE_DELAY``
+samples after the block boundary that follows them (the kernel looks that far ahead at the
+events: ``kernel``).  They leave out the held-note damping of the finger, whose analysis would
+stall the session up to a second the first time each fret is held (``options_from``:
+``RenderOptions(live_grid=True)`` renders the same way).
 """
 
 from __future__ import annotations
@@ -55,10 +62,14 @@ from ..presets import Preset
 from ..scene import Scene
 from .controls import timeline
 from .fingering import INTONATION
+from .kernel import LOOKAHEAD
 from .string import physical
 from .voice import WaveguideVoice
 
-__all__ = ["WaveguideOptions", "WaveguideInstrument", "options_from", "prepare", "render"]
+__all__ = ["LIVE_DELAY", "WaveguideOptions", "WaveguideInstrument", "options_from", "prepare",
+           "rebuild", "render", "timeline_of"]
+
+LIVE_DELAY = LOOKAHEAD  # samples after a block boundary at which a live event acts
 
 
 @dataclass
@@ -186,13 +197,29 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
 
 
 def options_from(render_options) -> WaveguideOptions:
-    """The waveguide's options for an ``engine.RenderOptions`` (what the two models share)."""
+    """The waveguide's options for an ``engine.RenderOptions`` (what the two models share).
+    ``live_grid`` (a live session's configuration) leaves out the finger's held-note damping,
+    as a live session does (the module's docstring)."""
     if render_options is None:
         return WaveguideOptions()
     return WaveguideOptions(skip_silent=render_options.skip_silent,
                             skip_decayed=render_options.skip_decayed,
                             decay_velocity=render_options.decay_velocity,
-                            block_frames=render_options.block_frames)
+                            block_frames=render_options.block_frames,
+                            finger_damping=not render_options.live_grid)
+
+
+def timeline_of(voice: WaveguideVoice, events: list):
+    """The timeline (``controls.Timeline``) of a live session's string from its events so far
+    (that string's, strums split, with their times)."""
+    return timeline(None, voice.preset, voice.index, voice.rate, voice.phys.impedance,
+                    _seating(voice.preset, voice.index, voice.rate), events)
+
+
+def rebuild(voice: WaveguideVoice, events: list) -> None:
+    """Compile a live session's string again from its events so far, keeping its state
+    (``WaveguideVoice.rebuild``)."""
+    voice.rebuild(timeline_of(voice, events))
 
 
 def render(scene: Scene, options: WaveguideOptions | None = None) -> np.ndarray:

@@ -28,7 +28,10 @@ only when the point is at or past the obstacle: in the equivalent finite-differe
 junction replaces u_p^{m+1} by a value closer to the obstacle than where the free update put it,
 i.e. it is an infinitely heavy, perfectly inelastic partner taking the point's momentum (kinetic
 energy lost, eq. (32): u_out = u_ref).  The restitution push returns at most C_R <= 1 of the
-arrival speed over half a step, so the point leaves no faster than it came.  Tested by the soak.
+arrival speed over half a step, so the point leaves no faster than it came; a point the
+termination has cut off the sounding string forgets its previous displacement (``NO_PREV``), so
+that on its return its arrival speed is not taken from another part of the string's motion.
+Tested by the soak.
 
 Where the junctions are active.  Checking every neck point in every sample would cost what the
 waveguide saves.  Every ``REACH_EVERY`` samples the kernel bounds, for each candidate point, how
@@ -56,6 +59,8 @@ time, with the margin for what the termination's filters hold beyond ``ENERGY_SA
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from ..config import JIT_INLINE
@@ -63,6 +68,9 @@ from ..config import JIT_INLINE
 FRET_RESTITUTION = 0.5
 BOARD_RESTITUTION = 0.05
 REACH_EVERY = 256  # samples between two bounds (B), and the segment length of the bound
+# a point's previous displacement when it has none (cut off the sounding string by the
+# termination): its arrival speed is +inf, so it gets no restitution push (``_collide``)
+NO_PREV = -math.inf
 
 
 @njit(**JIT_INLINE)

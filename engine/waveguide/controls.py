@@ -52,7 +52,7 @@ from ..controls import (
     finger_x_m,
     vibrato_points,
 )
-from ..presets import Preset
+from ..presets import Preset, StringSpec
 
 HARMONIC_DAMPING = 2.0  # x sqrt(T mu), as engine.controls
 PALM_DAMPING = 0.8
@@ -104,9 +104,9 @@ class Timeline:
     ratios: list[float] = field(default_factory=list)
     last_step: int = 0
 
-    def stops(self, preset: Preset) -> list[tuple[int, int | None, bool]]:
+    def stops(self, preset: Preset, spec: StringSpec) -> list[tuple[int, int | None, bool]]:
         """(step, stopping fret or None, strike speed: m/s, 0 for none) at every change of the
-        stopping fret."""
+        stopping fret on string ``spec`` (its frets measured from its compensated nut)."""
         points = {0}
         for f in self.fingers:
             if not f.seated:
@@ -115,7 +115,7 @@ class Timeline:
             if f.slide is not None:
                 ms, me, x0, x1 = f.slide
                 for q in range(1, preset.frets + 1):  # the step the finger passes each crown
-                    xq = float(preset.fret_x_m(q))
+                    xq = float(preset.fret_x_m(q, spec))
                     if min(x0, x1) < xq < max(x0, x1) and me > ms:
                         at = ms + (xq - x0) / (x1 - x0) * (me - ms)
                         points.update((int(math.floor(at)), int(math.floor(at)) + 1))
@@ -126,7 +126,7 @@ class Timeline:
             for f in self.fingers:
                 if not f.seated or not f.on <= step < f.rel:
                     continue
-                q = _stopping_fret(preset, f, step)
+                q = _stopping_fret(preset, spec, f, step)
                 if q is not None and (best is None or q > best):
                     best, strike = q, f.strike if f.on == step else 0.0
             if not out or out[-1][1] != best:
@@ -134,28 +134,31 @@ class Timeline:
         return out
 
 
-def _stopping_fret(preset: Preset, f: Finger, step: int) -> int | None:
+def _stopping_fret(preset: Preset, spec: StringSpec, f: Finger, step: int) -> int | None:
     if f.slide is None:
         return f.fret
     ms, me, x0, x1 = f.slide
     a = 0.0 if step <= ms else 1.0 if step >= me else (step - ms) / (me - ms)
     x = x0 + a * (x1 - x0)
     for q in range(1, preset.frets + 1):
-        if float(preset.fret_x_m(q)) > x:
+        if float(preset.fret_x_m(q, spec)) > x:
             return q
     return preset.frets
 
 
 def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
-             seated) -> Timeline:
-    """The events of ``scene`` on ``string`` compiled at ``rate`` Hz.  ``impedance`` is
+             seated, events: list | None = None) -> Timeline:
+    """The events of ``scene`` on ``string`` compiled at ``rate`` Hz (or ``events``, that
+    string's own, strums already split: a live session's, ``engine.live``).  ``impedance`` is
     sqrt(T mu); ``seated(fret, force)`` says whether a finger pressing ``force`` N (None: the
     default press) rests on ``fret``."""
     from .pluck import STYLES
 
+    spec = preset.strings[string - 1]  # positions from its nut, less its nut compensation
     length = preset.string_length_m(string)
-    events = sorted((e for e in expand(scene, preset.n_strings) if e.string == string),
-                    key=lambda e: e.time)
+    if events is None:
+        events = [e for e in expand(scene, preset.n_strings) if e.string == string]
+    events = sorted(events, key=lambda e: e.time)
     tl = Timeline()
 
     def step(t: float) -> int:
@@ -197,7 +200,8 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             slide = None
             if kind == "slide":
                 me = on + max(step(e.duration), 1)
-                slide = (on, me, finger_x_m(preset, e.from_fret), finger_x_m(preset, e.to_fret))
+                slide = (on, me, finger_x_m(preset, e.from_fret, spec),
+                         finger_x_m(preset, e.to_fret, spec))
                 tl.last_step = max(tl.last_step, me)
             start = e.from_fret if kind == "slide" else fret
             tl.fingers.append(Finger(start, on, rel, ok, e.force if e.force is not None else 0.0,
@@ -205,7 +209,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             if kind == "slide":
                 tl.fingers[-1].fret = fret
             if not ok:  # a finger touching without stopping: the light fingering junction
-                x = finger_x_m(preset, fret)
+                x = finger_x_m(preset, fret, spec)
                 tl.fingers[-1].slot = len(tl.slots)
                 tl.slots.append(Slot(on, rel, 0, x, 0.0, 0.0, DEAD_DAMPING * impedance, 0.0,
                                      FINGER_PAD_M, "bell"))
@@ -213,9 +217,9 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             held = [f for f in tl.fingers if f.fret == e.fret and f.on <= on < f.rel]
             if held:
                 lift(on, held[-1])
-                add_pluck(e.time, finger_x_m(preset, e.fret), e.force, "finger")
+                add_pluck(e.time, finger_x_m(preset, e.fret, spec), e.force, "finger")
         elif kind == "harmonic":
-            x = float(preset.fret_x_m(e.fret)) if e.fret is not None else e.position * length
+            x = float(preset.fret_x_m(e.fret, spec)) if e.fret is not None else e.position * length
             off = step(e.release) if e.release is not None else NEVER
             tl.last_step = max(tl.last_step, on if off == NEVER else off)
             tl.slots.append(Slot(on, off, 0, x, 0.0, 0.0, HARMONIC_DAMPING * impedance, 0.0, 0.0,
@@ -235,7 +239,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             bends += points
             tl.last_step = max(tl.last_step, end)
         elif kind == "damp":
-            _damp(tl, e, on, events, preset, length, impedance, step)
+            _damp(tl, e, on, events, preset, spec, length, impedance, step)
         else:
             raise ValueError(f"events: type {kind!r} has no waveguide mapping")
     for f in tl.fingers:  # a light finger's junction ends when the finger lifts
@@ -255,8 +259,8 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
     return tl
 
 
-def _damp(tl: Timeline, e, on: int, events: list, preset: Preset, length: float,
-          impedance: float, step) -> None:
+def _damp(tl: Timeline, e, on: int, events: list, preset: Preset, spec: StringSpec,
+          length: float, impedance: float, step) -> None:
     """A ``damp``, as the finite-difference model has it (``engine.controls.DAMP_*``): every
     finger on the string lifts (relaxes), and the relaxed hand's fingertips rest on it from where
     the fretting finger was (fret ``DAMP_OPEN_FRET``'s place on an open string) towards the
@@ -264,7 +268,7 @@ def _damp(tl: Timeline, e, on: int, events: list, preset: Preset, length: float,
     until the string's next event."""
     held = [f for f in tl.fingers if f.on <= on < f.rel]
     fret = held[-1].fret if held else DAMP_OPEN_FRET
-    x = finger_x_m(preset, fret)
+    x = finger_x_m(preset, fret, spec)
     for f in held:
         f.rel = on
     later = [step(x_.time) for x_ in events if x_.time > e.time]

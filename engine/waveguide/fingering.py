@@ -45,21 +45,22 @@ the palm (``pluck``, ``controls``).
 Pitch of a stopped string.  The termination's delay is tuned so the stopped loop sounds f_q
 (``string``).  Two intonation models:
 
-* ``ideal`` (default): a perfectly compensated instrument: the finger at x metres from the nut
-  sounds f0 * S / (S - x), S the scale length; at the frets that is the equal-tempered
-  f0 * 2^(q / 12).  This is the waveguide synthesiser's convention (E&E: the fractional delays
-  "also serve for fine tuning the model to correct pitch").
+* ``ideal`` (default): a perfectly compensated instrument: the finger at x metres from the
+  string's nut (nearer the frets than the scale's by its nut compensation n, as every position
+  here: ``Preset.fret_x_m`` with the string's spec) sounds f0 * S / (S - n - x), S the scale
+  length; at the frets that is the equal-tempered f0 * 2^(q / 12).  This is the waveguide
+  synthesiser's convention (E&E: the fractional delays "also serve for fine tuning the model to
+  correct pitch").
 * ``physical``: the stopped stiff string on the preset's geometry: the speaking length L - x_q
-  (L including the saddle setback), the tension raised by pressing (the string bent from the nut
-  down to the finger and the crown: E A dL / L, the finger's press force against the tension
-  setting its depth), and the bending stiffness carrying over the crown, which shortens the
-  speaking length by half the clamped-end correction, ell / 2 with ell = sqrt(E I / T)
+  (L = S + setback - n and x_q from the string's nut, so L - x_q = S 2^(-q/12) + setback), the
+  tension raised by pressing (the string bent from the nut down to the finger and the crown:
+  E A dL / L, the finger's press force against the tension setting its depth), and the bending
+  stiffness carrying over the crown, which shortens the speaking length by half the clamped-end
+  correction, ell / 2 with ell = sqrt(E I / T)
   (``stopped_frequency``).  ``benchmarks/waveguide.py --intonation`` prints where this lands
-  against 12-TET at frets 1-12 of the steel preset: a spread about the finite-difference
-  model's (its saddle setbacks were fitted to the finite-difference physics, not to this).  The
-  waveguide places frets and fingers from the uncompensated nut while its string has the
-  compensated length (``StringSpec.nut_compensation_m``): ``physical`` notes are off by that
-  mismatch until the positions take the string's spec (issue 25).
+  against 12-TET at frets 1-12 of the steel preset: within a cent (its docstring has the
+  figure), as the presets' saddle setbacks and nut compensations, fitted to the
+  finite-difference physics, tune this model too.
 
 Passivity: the termination's reflection has |.| = g_f <= 1 times the passive loop filters of
 ``string``; cutting the string at the crown discards the waves on the nut side (energy lost, never
@@ -105,17 +106,22 @@ def finger_reflection(decay_db_s: float, f1: float) -> float:
 
 def stopped_frequency(preset: Preset, phys: Physical, string: int, x_m: float, fret: int | None,
                       intonation: str, press_force: float) -> float:
-    """Fundamental (Hz) of the string stopped x_m metres from the nut (``fret`` when it is on one;
-    None for a point between frets during a slide, where the physical model interpolates)."""
+    """Fundamental (Hz) of string ``string`` stopped x_m metres from its nut, which its nut
+    compensation n puts that much nearer the frets (``Preset.fret_x_m`` with its spec; ``fret``
+    when x_m is on one; None for a point between frets during a slide, where the physical model
+    interpolates)."""
+    if x_m <= 0.0:
+        return phys.f0
+    spec = preset.strings[string - 1]
     scale = preset.scale_length_m
-    f_ideal = phys.f0 * scale / (scale - x_m)
-    if intonation == "ideal" or x_m <= 0.0:
+    f_ideal = phys.f0 * scale / (scale - spec.nut_compensation_m - x_m)  # x_m + n: from the scale's nut
+    if intonation == "ideal":
         return f_ideal
     if fret is None:
         return f_ideal  # a finger between frets (a slide on its way) stops on no crown
     length = phys.length_m
     c = float(preset.clearance_m(x_m))
-    xf = finger_x_m(preset, fret)
+    xf = finger_x_m(preset, fret, spec)
     a = max(x_m - xf, 1e-4)
     t0 = phys.tension_n
     depth = (press_force / t0 + c / a) / (1.0 / xf + 1.0 / a)

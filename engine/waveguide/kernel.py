@@ -4,8 +4,8 @@ Per sample, in this order (all at time step s; a point's values at s depend only
 
 1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch
    ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide (``glide``,
-   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples (and at a
-   call's start and every ``BLOCK`` steps) and linear between;
+   every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples (and where
+   the schedules restart: every ``BLOCK`` steps and where the stop changes) and linear between;
    the termination's fractional delay D = P - 2 (N - n_t) - tau, and the termination walks one
    grid step when D leaves [1, 3) (``string``; at most one step a sample, which the slow pitch
    changes never exceed);
@@ -13,13 +13,27 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    allpass cascade, the reflection -g_f, written to u+(n_t, s);
 3. the bridge: u-(N, s) = -u+(N, s);
 4. the junctions that act at s (``pluck``: plucks, light fingers, harmonic touches, palm mutes),
-   and a pluck's force as a velocity blow (``pluck._blow``);
+   and a pluck's force as a velocity blow (``pluck._blow``); a junction whose point the
+   termination has cut off does nothing and starts afresh when its point is back (``pluck``,
+   "Passivity"), as a collision point forgets its arrival speed (``collision``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
 6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``;
 7. on the grid of ``BLOCK`` steps, from the step ``voice`` computes (no event, release, contact
    or pitch breakpoint left to come), the decay stop: the pickups' output since the last test and
    every point's velocity on the sounding grid below ``decay_velocity``, and the string stops
    (``_still``; a stopped string costs nothing).
+
+The period's stretch, the reach schedule, the live collision points and a quiet string's
+respite carry from one call to the next (``ist``, ``fst``): the schedules restart only on the
+global grid of ``BLOCK`` steps and where ``voice`` asks (``I_FRESH``: the start, a change of the
+stop), so a render gives the same samples however its calls are cut, and a live session
+(``engine.live``), whose calls end at its blocks and which learns of events only as they come,
+gives the samples of the render of its events.  For that, nothing a call decides may depend on
+an event more than ``LOOKAHEAD`` steps ahead (the session acts on events that much after they
+come): the period's stretch looks ``GLIDE_EVERY`` steps ahead at the pitch ratio, the reach
+``REACH_EVERY`` steps ahead at the junctions; a quiet string's respite, which reaches to the
+next ``BLOCK`` step, ends at a call's start if a junction or a pitch breakpoint now falls within
+it.
 
 That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found
 live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
@@ -46,28 +60,38 @@ import math
 from numba import njit
 
 from ..config import JIT_HELPER, JIT_INLINE, JIT_STEP
-from .collision import REACH_EVERY, _collide
+from .collision import NO_PREV, REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
-from .pluck import LEAK_HZ, _blow, _envelope, _msd
+from .pluck import J_CUT, LEAK_HZ, _blow, _envelope, _msd
 
 # ist: integer state: the termination's place, the bend breakpoint, the first step at which the
-# decay stop may act (``voice``: no event left to come), and whether it has
-I_NT, I_PB, I_STOP_FROM, I_STOPPED = 0, 1, 2, 3
-# fst: float state; pickups' previous displacement from F_PICKUP on
-F_LOSS, F_GLIDE, F_D, F_PEAK, F_PICKUP = 0, 1, 2, 3, 4
+# decay stop may act (``voice``: no event left to come), whether it has; the step the period and
+# reach schedules last restarted at, the step until which a quiet string needs no reach, how many
+# collision points are live, and whether the next call must restart (``voice`` sets it: at the
+# start and after every change of the stop)
+I_NT, I_PB, I_STOP_FROM, I_STOPPED, I_RESTART, I_QUIET, I_NLIVE, I_FRESH = range(8)
+N_IST = 8
+# fst: float state: the loss filter's, the glide's ratio, the taps' delay, the output's peak since
+# the last decay test, the period and its step per sample; pickups' previous displacement from
+# F_PICKUP on
+F_LOSS, F_GLIDE, F_D, F_PEAK, F_PERIOD, F_DPER, F_PICKUP = range(7)
 # cfg: the current termination and string constants; C_DECAY_V <= 0 turns the decay stop off
 (C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE,
  C_DECAY_V) = range(11)
 HISTORY = 64  # samples of the u- history at the termination that the reach bound covers
 ENERGY_SAFETY = 2.0  # the energy bound's allowance for what the termination's filters hold
-# The glide's exact period and the reach schedule restart at every multiple of BLOCK (and at a
-# call's start), and the decay stop is tested there: a render gives the same samples however its
-# calls are cut, as long as they are cut on this grid (``voice.BLOCK_MULTIPLE``).
+# The glide's exact period and the reach schedule restart at every multiple of BLOCK (and where
+# ``voice`` asks: ``I_FRESH``), and the decay stop is tested there.
 BLOCK = 1024
 QUIET_MARGIN = 2.0  # a quiet string's energy bound stays this far below every obstacle
 MAX_SECTIONS = 4  # dispersion allpass sections at most (``string``)
 NONNEG = (1 << 62) - 1
+LOOKAHEAD = max(GLIDE_EVERY, REACH_EVERY)  # steps ahead a call looks at the events
 SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost as much as the rest)
+# the Lagrange taps follow the delay in steps of this many samples: while the glide moves it by
+# far less than that a sample they are not computed again every sample (a period off by at most
+# 1e-5 samples: under 0.01 cent on a loop as short as 2 samples)
+TAP_STEP = 1e-5
 
 
 @njit(**JIT_STEP)
@@ -108,6 +132,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     npk = pk_n.shape[0]
     n_t = ist[I_NT]
     ib = ist[I_PB]
+    fresh = ist[I_FRESH] != 0
+    ist[I_FRESH] = 0
     # the termination's filter states, in registers for the call
     ly = fst[F_LOSS]
     x0 = dsx[0] if disp_m > 0 else 0.0
@@ -119,13 +145,22 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     y2 = dsy[2] if disp_m > 2 else 0.0
     y3 = dsy[3] if disp_m > 3 else 0.0
     peak = fst[F_PEAK]
-    nlive = 0
-    quiet_until = -1  # reach not needed before this step (``_reach``)
-    period = 0.0
-    dper = 0.0
-    d_taps = -1.0
-    j0, h0, h1, h2, h3 = _taps(1.5)
-    ri = 0  # steps since the schedule's restart
+    nlive = ist[I_NLIVE]
+    quiet_until = ist[I_QUIET]  # reach not needed before this step (``_reach``)
+    if quiet_until > step0:  # a junction or breakpoint come since it was decided ends it
+        for j in range(nslot):
+            if step0 <= js_on[j] < quiet_until:
+                quiet_until = -1
+        b = ib  # the breakpoints are in order: the first at or after step0
+        while b < pb_step.shape[0] and pb_step[b] < step0:
+            b += 1
+        if b < pb_step.shape[0] and pb_step[b] < quiet_until:
+            quiet_until = -1
+    period = fst[F_PERIOD]
+    dper = fst[F_DPER]
+    d_taps = fst[F_D]  # the delay the taps were computed for (0 before the first call)
+    j0, h0, h1, h2, h3 = _taps(d_taps if d_taps >= 1.0 else 1.5)
+    ri = step0 - ist[I_RESTART]  # steps since the schedule's restart
     i = 0
     stopped = False
     while i < nsteps:
@@ -134,9 +169,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
-        restart = i == 0 or s % BLOCK == 0
+        restart = (i == 0 and fresh) or s % BLOCK == 0
         if restart:
             ri = 0
+            ist[I_RESTART] = s
+            if i == 0 and fresh:
+                quiet_until = -1
         phase = s % GLIDE_EVERY
         if restart or phase == 0:
             if glide_k > 0.0 and phase == 0:
@@ -179,14 +217,21 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 for k in range(js_np[j]):
                     n = js_idx[j, k]
                     if n <= n_t or n >= N:
+                        # cut off by the termination (a glide, a bend, a stop): what it put
+                        # on the string went with that part; it starts afresh when it is back
+                        jst[j, k, J_CUT] = 1.0
                         continue
                     ip = (s - n) & mask
                     im = (s + n) & mask
                     uin = R[ip] + Mb[im]
-                    if t == 0:  # the junction acts on the motion from its onset on
+                    if t == 0 or jst[j, k, J_CUT] != 0.0:
+                        # the junction acts on the motion from its onset on, or from its
+                        # point's return to the sounding string: a passive filter started at
+                        # rest (``pluck``, "Passivity")
                         for q in range(5):
                             jst[j, k, q] = 0.0
                         jst[j, k, 5] = uin
+                        jst[j, k, J_CUT] = 0.0
                     h = _msd(uin, jst, j, k, env * js_mp[j, k], env * js_rho[j, k],
                              env * js_kappa[j, k], leak)
                     R[ip] += 0.5 * h
@@ -200,11 +245,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 nlive, quiet_until = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref,
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
-                                            js_kappa, tail, pb_step, ib, step0 + nsteps)
+                                            js_kappa, tail, pb_step, ib)
             for q in range(nlive):
                 c = col_list[q]
                 n = col_n[c]
                 if n <= n_t or n >= N:
+                    col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
                     continue
                 col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
                                        fs)
@@ -256,6 +302,10 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
         peak = 0.0
     ist[I_NT] = n_t
     ist[I_PB] = ib
+    ist[I_QUIET] = quiet_until
+    ist[I_NLIVE] = nlive
+    fst[F_PERIOD] = period
+    fst[F_DPER] = dper
     fst[F_D] = d_taps
     fst[F_LOSS] = ly
     fst[F_PEAK] = peak
@@ -303,7 +353,7 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
         d = 1.0
     if d > dcap:
         d = dcap
-    if d != d_taps:
+    if abs(d - d_taps) >= TAP_STEP:
         j0, h0, h1, h2, h3 = _taps(d)
         d_taps = d
     if walk == -1:
@@ -338,6 +388,7 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
             c = col_list[q]
             n = col_n[c]
             if n <= n_t or n >= N:
+                col_prev[c] = NO_PREV
                 continue
             col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
         acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
@@ -448,12 +499,11 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_id
 
 @njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
-           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
-           s_end):
+           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
     in col_list.  Returns how many there are and the step until which no bound is needed: s if
-    the next one is due in REACH_EVERY samples, or the next multiple of ``BLOCK`` (at most s_end)
+    the next one is due in REACH_EVERY samples, or the next multiple of ``BLOCK``
     if the string is quiet: no junction acts and the pitch is steady until then, and the energy
     bound keeps every point ``QUIET_MARGIN`` times below its obstacle (the energy of the passive
     string does not grow while nothing acts on it, so the bound holds for all that time)."""
@@ -488,7 +538,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
         if a > maxp:
             maxp = a
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
-    until = min(s_end, (s // BLOCK + 1) * BLOCK)  # how long a quiet string needs no bound
+    until = (s // BLOCK + 1) * BLOCK  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B
     near = False  # a junction acts before s + B (its points make their neighbours live)
     quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady

@@ -61,7 +61,14 @@ sample rate (unlike (16): the paper's eq. (23) warns that |1/A| can exceed 1 and
 pluck's short duration).  The parameters ramp with the pulse's envelope and the filter's state is
 carried between steps, which is not energy-neutral in general; the junction acts for a finite time
 and leaves the identity behind (the paper's BIBO argument, eqs. (24)-(25)), and the soak test
-checks that no scene grows.
+checks that no scene grows.  A junction whose point the termination has cut off the sounding
+string (the termination walks towards the bridge when the pitch rises: a glide, a bend, a
+stop) does not act, and when its point is back it starts afresh, as at its onset (state zero,
+its input taken from there: ``J_CUT``): its perturbation h and its last input belonged to
+the part of the string that was cut off and is gone.  Resuming with them would add that old h
+to the rails at every step until the leak forgot it, a source and not a junction (a random
+scene whose glide swept the termination over two junctions gained thirty times its energy;
+``test_a_junction_cut_off_by_the_termination_starts_afresh``).
 
 The force.  A point force F moves an ideal string at F / (2 Z): a velocity.  It enters as the
 paper's velocity blow (eq. (38), ``_blow``): a plateau of height F T / (2 Z) per sample spreading
@@ -103,6 +110,8 @@ from ..config import JIT_INLINE
 MAX_POINTS = 5
 MAX_MASS_RATIO = 10.0  # m' cap
 LEAK_HZ = 20.0  # the junction's sum of increments forgets with this corner frequency
+J_STATE = 7  # a junction point's state: ``_msd``'s six values and J_CUT
+J_CUT = 6  # 1 while the termination has cut the point off the sounding string (``kernel``)
 
 
 @dataclass(frozen=True)

@@ -40,13 +40,12 @@ from .fingering import (
     stopped_frequency,
 )
 from .glide import GLIDE_EVERY
-from .pluck import LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
+from .pluck import J_STATE, LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size
 
 MAX_SECTIONS = 4
-# the kernel's glide (and collision reach) updates restart at a call's start and on this global
-# grid, where it also tests the decay stop: blocks that are whole multiples of it give the same
-# samples however a render is cut
+# the kernel's glide (and collision reach) updates restart on this global grid (and where the stop
+# changes), where it also tests the decay stop
 BLOCK_MULTIPLE = K.BLOCK
 assert BLOCK_MULTIPLE == DECAY_CHECK_FRAMES, "the decay stop is tested where the FD voice's is"
 assert BLOCK_MULTIPLE % GLIDE_EVERY == 0 and BLOCK_MULTIPLE % REACH_EVERY == 0
@@ -78,6 +77,7 @@ class WaveguideVoice:
     loops: dict = field(default_factory=dict)
     _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
     ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
+    _ramped: bool = False  # the last kernel call was a step of such a move
 
     def __post_init__(self):
         spec = self.preset.strings[self.index - 1]
@@ -92,36 +92,62 @@ class WaveguideVoice:
         self.R = np.zeros(size)
         self.Mb = np.zeros(size)
         self.dcap = float(size - n - 8)
-        self.ist = np.zeros(4, np.int64)
+        self.ist = np.zeros(K.N_IST, np.int64)
+        self.ist[K.I_FRESH] = 1  # the first call starts the kernel's schedules
         self.fst = np.zeros(K.F_PICKUP + len(self.pickups))
         self.fst[K.F_GLIDE] = 1.0
         self.dsx = np.zeros(MAX_SECTIONS)
         self.dsy = np.zeros(MAX_SECTIONS)
         length = self.phys.length_m
         self.x_step = length / (0.5 * self.p0)  # X, metres per grid step
-        # junctions
-        tl = self.timeline
-        ns = len(tl.slots)
-        self.js_on = np.array([s.on for s in tl.slots], np.int64)
-        self.js_off = np.array([s.off for s in tl.slots], np.int64)
-        self.js_len = np.array([s.length for s in tl.slots], np.int64)
+        mu = self.phys.mu
+        c = self.x_step * self.rate
+        self.k0 = mu * c * c  # the tension that makes (3) the waveguide's own scheme: K0 = mu c^2
+        self.z = mu * c
+        self.x_k0 = self.x_step / self.k0
+        self._slots(self.timeline.slots)
+        # pickups
+        self.pk_n = np.zeros(len(self.pickups), np.int64)
+        self.pk_w = np.zeros(len(self.pickups))
+        for p, xp in enumerate(self.pickups):
+            g = min(max(self.n_of(xp * length), 1.0), n - 1.0 - 1e-9)
+            self.pk_n[p] = int(math.floor(g))
+            self.pk_w[p] = g - self.pk_n[p]
+        # collision points: every grid point under the neck, its obstacle's height from the
+        # straight rest line and its restitution
+        self._collision_points()
+        self.seg_p = np.zeros(n // REACH_EVERY + 2)
+        self.seg_m = np.zeros(n // REACH_EVERY + 2)
+        self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / self.x_step
+                        if self.glide else 0.0)
+        self._stops_and_pitch(self.timeline)
+        self.change_i = 0
+        self.stop_fret: int | None = None
+        self.cfg = np.zeros(11)
+        self._configure(None)
+        self.ist[K.I_NT] = self._place(self.open_loop)
+        self.ist[K.I_STOP_FROM] = self._stop_from()
+
+    # -- the timeline ----------------------------------------------------------------------------
+    def _slots(self, slots: list) -> None:
+        """The junctions' arrays for the kernel, and their states at rest."""
+        ns = len(slots)
+        self.js_on = np.array([s.on for s in slots], np.int64)
+        self.js_off = np.array([s.off for s in slots], np.int64)
+        self.js_len = np.array([s.length for s in slots], np.int64)
         # every contact lets go over its pulse's length, at least RELEASE_S
         self.js_rel = np.array([max(s.length, int(round(RELEASE_S * self.rate)), 1)
-                                for s in tl.slots], np.int64)
+                                for s in slots], np.int64)
         self.js_idx = np.zeros((ns, MAX_POINTS), np.int64)
         self.js_np = np.zeros(ns, np.int64)
         self.js_f = np.zeros((ns, MAX_POINTS))
         self.js_mp = np.zeros((ns, MAX_POINTS))
         self.js_rho = np.zeros((ns, MAX_POINTS))
         self.js_kappa = np.zeros((ns, MAX_POINTS))
-        self.jst = np.zeros((ns, MAX_POINTS, 6))
-        mu = self.phys.mu
+        self.jst = np.zeros((ns, MAX_POINTS, J_STATE))
         X = self.x_step
-        c = X * self.rate
-        k0 = mu * c * c  # the tension that makes (3) the waveguide's own scheme: K0 = mu c^2
-        z = mu * c
-        self.x_k0 = X / k0
-        for j, s in enumerate(tl.slots):
+        z = self.z
+        for j, s in enumerate(slots):
             if s.window == "split":
                 centre = self.n_of(s.x_m)
                 i0 = int(math.floor(centre))
@@ -138,35 +164,51 @@ class WaveguideVoice:
                 self.js_mp[j, k] = min(w * s.mass * self.rate / z, MAX_MASS_RATIO)
                 self.js_rho[j, k] = min(w * s.damping / (2.0 * z), max_damping(self.rate))
                 self.js_kappa[j, k] = w * s.stiffness / (4.0 * self.rate * z)
-        # pickups
-        self.pk_n = np.zeros(len(self.pickups), np.int64)
-        self.pk_w = np.zeros(len(self.pickups))
-        for p, xp in enumerate(self.pickups):
-            g = min(max(self.n_of(xp * length), 1.0), n - 1.0 - 1e-9)
-            self.pk_n[p] = int(math.floor(g))
-            self.pk_w[p] = g - self.pk_n[p]
-        # collision points: every grid point under the neck, its obstacle's height from the
-        # straight rest line and its restitution
-        self._collision_points()
-        self.seg_p = np.zeros(n // REACH_EVERY + 2)
-        self.seg_m = np.zeros(n // REACH_EVERY + 2)
-        # pitch ratio breakpoints
+
+    def _stops_and_pitch(self, tl: Timeline) -> None:
+        """The pitch ratio's breakpoints and the changes of the stop."""
         self.pb_step = np.array(tl.ratio_steps, np.int64)
         self.pb_f = np.array(tl.ratios, float)
-        self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / X
-                        if self.glide else 0.0)
-        self.changes = self.timeline.stops(self.preset)
+        self.changes = tl.stops(self.preset, self.spec)
         # a stop that lasts FINGER_HOLD_S is held by a finger that damps it; the frets a slide
         # crosses in passing are not (``fingering``)
         ends = [c[0] for c in self.changes[1:]] + [NEVER]
         self.held = [e - c[0] >= FINGER_HOLD_S * self.rate
                      for c, e in zip(self.changes, ends, strict=True)]
-        self.change_i = 0
-        self.stop_fret: int | None = None
-        self.cfg = np.zeros(11)
-        self._configure(None)
-        self.ist[K.I_NT] = self._place(self.open_loop)
+
+    def rebuild(self, tl: Timeline) -> None:
+        """Take a new timeline at the current step, keeping the string's state: a live session
+        (``engine.live``) compiles a string's events again when one comes.  The new timeline
+        must agree with the old one on everything before ``step`` (events are only added at or
+        after it, or released after it); a junction keeps its state if its slot is still there
+        (the same onset, place and contact), and a new one starts at rest.  Given so, the
+        samples are those of a voice built with the whole timeline from the start, as long as
+        every event acts at least ``kernel.LOOKAHEAD`` steps after the call that learns of it
+        begins (``kernel``)."""
+        def key(sl):
+            return (sl.on, sl.length, sl.x_m, sl.mass, sl.stiffness, sl.damping, sl.force,
+                    sl.width_m, sl.window)
+
+        old = {}
+        for j, sl in enumerate(self.timeline.slots):
+            old.setdefault(key(sl), []).append(j)
+        jst = self.jst
+        self.timeline = tl
+        self._slots(tl.slots)
+        for j, sl in enumerate(tl.slots):
+            rows = old.get(key(sl))
+            if rows:
+                self.jst[j] = jst[rows.pop(0)]
+        self._stops_and_pitch(tl)
+        self.change_i = int(np.searchsorted([c[0] for c in self.changes], self.step,
+                                            side="left"))
+        self.ist[K.I_PB] = max(int(np.searchsorted(self.pb_step, self.step, side="right")) - 1,
+                               0)
         self.ist[K.I_STOP_FROM] = self._stop_from()
+        if self.stopped:  # it decayed or was at rest: it runs again, its schedules anew
+            self.stopped = False
+            self.ist[K.I_STOPPED] = 0
+            self.ist[K.I_FRESH] = 1
 
     # -- geometry -------------------------------------------------------------------------------
     def n_of(self, x_m: float) -> float:
@@ -184,7 +226,7 @@ class WaveguideVoice:
             self.col_abs = np.zeros(0)
             self.col_cr = np.zeros(0)
         else:
-            last = float(p.fret_x_m(p.frets + 0.5))
+            last = float(p.fret_x_m(p.frets + 0.5, self.spec))
             idx = np.arange(1, n)
             x = self.x_of(idx)
             keep = (x > 0.0) & (x <= last)
@@ -192,7 +234,7 @@ class WaveguideVoice:
             board = -(np.asarray(p.clearance_m(x), float) + p.fret_height_m)
             cr = np.full(len(idx), BOARD_RESTITUTION)
             for q in range(1, p.frets + 1):
-                xq = float(p.fret_x_m(q))
+                xq = float(p.fret_x_m(q, self.spec))
                 i = int(round(self.n_of(xq)))
                 hit = np.flatnonzero(idx == i)
                 if hit.size:
@@ -214,7 +256,7 @@ class WaveguideVoice:
         if key in self.loops:
             return self.loops[key]
         p = self.preset
-        x = 0.0 if fret is None else float(p.fret_x_m(fret))
+        x = 0.0 if fret is None else float(p.fret_x_m(fret, self.spec))
         f1 = stopped_frequency(p, self.phys, self.index, x, fret, self.intonation,
                                p.finger.press_force_n)
         speaking = self.phys.length_m - x
@@ -259,7 +301,7 @@ class WaveguideVoice:
         return int(min(max(self.n - half, 0), self.n - 1))
 
     def _rest(self, fret: int | None, x: np.ndarray) -> np.ndarray:
-        stop_x = None if fret is None else float(self.preset.fret_x_m(fret))
+        stop_x = None if fret is None else float(self.preset.fret_x_m(fret, self.spec))
         x = np.asarray(x, float)
         if stop_x is None:
             return np.zeros(len(x))
@@ -277,8 +319,8 @@ class WaveguideVoice:
         nt_old = int(self.ist[K.I_NT])
         self._configure(fret, held)
         nt = self._place(self.loop(fret, held))
-        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old))
-        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret))
+        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old, self.spec))
+        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret, self.spec))
         release = x_new < x_old
         if release and nt < nt_old:
             lo = max(nt - 8, nt - self.n)
@@ -340,9 +382,8 @@ class WaveguideVoice:
         With the decay skip on, the kernel tests the string for decay on the global grid of
         ``BLOCK_MULTIPLE`` samples, as the finite-difference voice does (from ``_stop_from`` on:
         every point of the string and the pickups slower than ``decay_velocity``), and a
-        stopped string costs nothing from then on.  The kernel's glide and reach updates restart
-        on that grid, so blocks of whole multiples of ``BLOCK_MULTIPLE`` samples give the same
-        samples however they are cut (``service.config`` holds a stream's blocks to that)."""
+        stopped string costs nothing from then on.  The kernel's schedules carry from one call to
+        the next (``kernel``), so any blocks give the same samples."""
         if self.stopped:
             self.step += nsteps
             return np.zeros(nsteps)
@@ -356,17 +397,27 @@ class WaveguideVoice:
         done = 0
         end = self.step + nsteps
         while done < nsteps and not self.stopped:
+            # the kernel restarts its schedules where the stop changes and around a move onto a
+            # new rest line (the same steps however the render is cut: ``kernel``)
+            fresh = False
             while (self.change_i < len(self.changes)
                    and self.changes[self.change_i][0] <= self.step):
                 _, fret, strike = self.changes[self.change_i]
                 self._change(fret, strike, self.held[self.change_i])
                 self.change_i += 1
+                fresh = True
             nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
                    else NEVER)
             m = int(min(nsteps - done, nxt - self.step))
             if self.ramp is not None:  # a finger carrying the string: one step at a time
                 self._ramp_step()
                 m = 1
+                fresh = self._ramped = True
+            elif self._ramped:
+                fresh = True
+                self._ramped = False
+            if fresh:
+                self.ist[K.I_FRESH] = 1
             args = (self.R, self.Mb, self.ist, self.fst, self.dsx, self.dsy, self.step, m,
                     out[done:done + m], self.cfg, self.disp_m, self.n, self.pb_step, self.pb_f,
                     self.js_on, self.js_off, self.js_len, self.js_rel, self.js_idx, self.js_np,

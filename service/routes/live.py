@@ -3,7 +3,8 @@
 Protocol (docs/service.md, "Live play", has it with examples):
 
 * client -> server, text (JSON): first ``{"type": "open", "preset": ..., "sample_rate": ...,
-  "block_frames": ..., "quality": ...}`` (``engine.live_events.LiveOpen``), then events: the scene's
+  "block_frames": ..., "quality": ..., "model": ...}`` (``engine.live_events.LiveOpen``; ``model``
+  ``"fdtd"``, the default, or ``"waveguide"``), then events: the scene's
   event objects without ``time`` (``offset``: frames into the next block; ``release``: seconds after
   the event), and ``{"type": "release", "string": s, "what": ...}``.  Any message may carry an
   ``id`` (a string or number); the server answers it with an ``ack`` naming the frame it acts at.

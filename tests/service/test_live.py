@@ -47,14 +47,17 @@ async def _next_text(ws) -> dict:
             return json.loads(m)
 
 
-def test_streamed_audio_is_the_offline_render_of_the_acknowledged_events(live_server):
+@pytest.mark.parametrize("model", ["fdtd", "waveguide"])
+def test_streamed_audio_is_the_offline_render_of_the_acknowledged_events(live_server, model):
     async def play():
         blocks: dict[int, np.ndarray] = {}
         acks: dict[str, int] = {}
         async with websockets.connect(ws_url(live_server)) as ws:
-            await ws.send(json.dumps(OPEN))
+            await ws.send(json.dumps({**OPEN, "model": model}))
             opened = json.loads(await ws.recv())
             assert opened["type"] == "opened" and opened["block_frames"] == 256
+            assert opened["model"] == model
+            assert opened["delay_frames"] == (256 if model == "waveguide" else 0)
             script = [(0.05, {"type": "fret", "string": 5, "fret": 3, "id": "f"}),
                       (0.0, {"type": "pluck", "string": 5, "offset": 100, "id": "p1"}),
                       (0.15, {"type": "strum", "force": 1.5, "id": "s"}),
@@ -87,7 +90,8 @@ def test_streamed_audio_is_the_offline_render_of_the_acknowledged_events(live_se
     audio = np.concatenate([blocks[f] for f in frames])
     rate = 44100
     t = {k: f / rate for k, f in acks.items()}
-    scene = {"duration": len(audio) / rate, "sample_rate": rate, "quality": "draft", "events": [
+    scene = {"duration": len(audio) / rate, "sample_rate": rate, "quality": "draft",
+             "model": model, "events": [
         {"type": "fret", "time": t["f"], "string": 5, "fret": 3, "release": t["r"]},
         {"type": "pluck", "time": t["p1"], "string": 5},
         {"type": "strum", "time": t["s"], "force": 1.5},
@@ -122,6 +126,8 @@ def test_bad_messages_are_answered_and_the_session_goes_on(live_server):
             answers.append(await _next_text(ws))
             await ws.send(json.dumps({**OPEN, "block_frames": 5}))
             answers.append(await _next_text(ws))
+            await ws.send(json.dumps({**OPEN, "model": "spline"}))
+            answers.append(await _next_text(ws))
             await ws.send(json.dumps(OPEN))
             assert (await _next_text(ws))["type"] == "opened"
             for msg, _, _ in BAD:
@@ -140,6 +146,8 @@ def test_bad_messages_are_answered_and_the_session_goes_on(live_server):
     answers, last = asyncio.run(play())
     assert answers[0]["field"] == "type" and "open the session first" in answers[0]["message"]
     assert answers[1]["field"] == "block_frames"
+    assert answers[2]["field"] == "model" and "'waveguide'" in answers[2]["message"], answers[2]
+    answers = answers[:2] + answers[3:]
     for answer, (_, field, text) in zip(answers[2:], BAD, strict=False):
         assert answer["type"] == "error"
         assert answer["field"] == field, answer

@@ -110,3 +110,25 @@ def test_play_from_keyboard_and_midi(page: Any) -> None:
     assert page.errors == []
     page.click("#live-connect")  # disconnect
     page.wait_for_function("document.querySelector('#live-status').textContent.startsWith('closed')")
+
+
+def test_play_the_waveguide_model(page: Any) -> None:
+    """The page's model selector opens a waveguide session, which plays the same controls."""
+    page.select_option("#live-model", "waveguide")
+    page.click("#live-connect")
+    page.wait_for_function("document.querySelector('#live-status').textContent"
+                           ".startsWith('playing steel-acoustic (waveguide)')", timeout=60_000)
+    page.wait_for_function("Number(document.querySelector('#live-blocks').textContent) > 20",
+                           timeout=20_000)
+    page.keyboard.press("5")
+    page.keyboard.press("a")
+    page.click("#fretboard .cell[data-string='2'][data-fret='3']")
+    page.evaluate("(m) => window.__midi.send(m)", [0x90, 60, 90])
+    before = _blocks(page)
+    page.wait_for_timeout(500)
+    assert _blocks(page) > before
+    assert page.inner_text("#live-log") == ""  # nothing was refused
+    assert page.errors == []
+    page.click("#live-connect")
+    page.wait_for_function("document.querySelector('#live-status').textContent.startsWith('closed')")
+    page.select_option("#live-model", "fdtd")

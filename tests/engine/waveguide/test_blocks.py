@@ -1,7 +1,7 @@
-"""A waveguide scene gives the same samples however it is cut into blocks that are whole multiples of
-``BLOCK_MULTIPLE`` samples (the kernel's glide and reach updates count from a call's start; the
-voice cuts every call on that grid): so /render/stream, whose blocks the service holds to such a
-multiple, equals /render for waveguide tracks too."""
+"""A waveguide scene gives the same samples however it is cut into blocks (the kernel's period and
+reach schedules carry from one call to the next and restart on the global grid of
+``BLOCK_MULTIPLE`` samples and where the stop changes): so /render/stream equals /render for
+waveguide tracks too, and a live session its render (tests/engine/test_live.py)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ SCENES = {
 
 
 @pytest.mark.parametrize("name", SCENES)
-@pytest.mark.parametrize("block", [BLOCK_MULTIPLE, 3 * BLOCK_MULTIPLE, 4096])
+@pytest.mark.parametrize("block", [BLOCK_MULTIPLE, 3 * BLOCK_MULTIPLE, 4096, 1000, 333])
 @pytest.mark.parametrize("diagnostics", [False, True])
 def test_blocks_equal_the_whole_render(name, block, diagnostics):
     """With diagnostics the decay skip is off: the pieces alone must not depend on the blocks."""

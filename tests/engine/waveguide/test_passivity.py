@@ -108,6 +108,34 @@ def test_the_check_sees_a_small_gain(monkeypatch):
     assert _soak(sc, window_s=0.2)[1] > 10 * GROWTH
 
 
+def test_a_junction_cut_off_by_the_termination_starts_afresh():
+    """A bend moves the termination past a pluck's point while the pluck's junction still leaks
+    what it put on the string (``pluck._msd``), and back when the bend returns.  The junction
+    must start afresh when its point is back on the sounding string: resuming with the state it
+    had when it was cut off, it injected that old perturbation into the rails every step (the
+    random scene 23 of ``test_random_scenes_never_grow``, whose glide swept the termination over
+    two junctions, gained 30x; here the energy rose to 1.9x its peak under the held bend).  The
+    bend's return lowers the pitch, which can only lower the rails' energy."""
+    sc = {"duration": 0.06, "output": {"body": "none", "normalize": False},
+          "events": [{"type": "pluck", "time": 0.0, "string": 6, "force": 5.0, "position": 0.15,
+                      "style": "slap"},
+                     {"type": "bend", "time": 0.002, "string": 6, "semitones": 3.0,
+                      "duration": 0.002, "release": 0.02}]}
+    inst = prepare(engine.parse_scene({**sc, "model": "waveguide"}),
+                   WaveguideOptions(skip_decayed=False, glide=False, collisions=False))
+    (v,) = inst.voices
+    rate = inst.scene.sample_rate
+    held, after = [], []
+    for _ in inst.blocks(16):
+        t = v.step / rate
+        if 0.008 <= t < 0.017:  # held (it starts back towards 0.02 s: ``kernel``'s period)
+            held.append(v.energy())
+            assert v.ist[0] > max(v.js_idx[0]), "the bend must cut the pluck's point off"
+        elif t >= 0.017:
+            after.append(v.energy())
+    assert max(after) <= max(held), (max(after), max(held))
+
+
 def test_termination_filters_are_passive():
     """|H| <= 1 at every frequency: the Lagrange taps for every delay the kernel uses, and the
     loss filter of every open and stopped loop (frets 0-24) of every preset at 22.05-96 kHz."""

@@ -53,9 +53,32 @@ def test_physical_intonation_sounds_its_model(presets, string, q):
     a = render([fret(string, q), pluck(string, time=0.05)], 1.2,
                WaveguideOptions(intonation="physical"))
     phys = physical(p, string)
-    f = stopped_frequency(p, phys, string, float(p.fret_x_m(q)), q, "physical",
-                          p.finger.press_force_n)
+    f = stopped_frequency(p, phys, string, float(p.fret_x_m(q, p.strings[string - 1])), q,
+                          "physical", p.finger.press_force_n)
     assert abs(pitch_cents(a, f)) <= 0.5
+
+
+@pytest.mark.parametrize("string,q", [(1, 5), (6, 12)])
+def test_physical_intonation_nut_compensation_flattens_fretted_notes(presets, string, q):
+    """The nut moved n towards the frets leaves the frets where the scale puts them: the open
+    string, tuned to its pitch over L - n, loses tension, so a fretted note (same speaking length)
+    sounds 1200 log2((L - n) / L) cents flatter than with n = 0 (the flexible string; pressing
+    and stiffness move it by less than 0.1 cent).  Frets placed from an uncompensated nut
+    shorten the speaking length by n as well and sound sharp of that instead."""
+    p = presets["steel-acoustic"]
+    spec = p.strings[string - 1]
+    target = spec.frequency_hz * 2 ** (q / 12)
+    opts = WaveguideOptions(intonation="physical", finger_damping=False)
+    n = 0.005
+    heard = []
+    for nut in (0.0, n):
+        guitar = {"preset": "steel-acoustic",
+                  "strings": [{"string": string, "nut_compensation_m": nut}]}
+        a = render([fret(string, q), pluck(string, time=0.05)], 1.2, opts, guitar=guitar)
+        heard.append(pitch_cents(a, target))
+    length = p.scale_length_m + spec.saddle_setback_m
+    expected = 1200 * math.log2((length - n) / length)
+    assert abs((heard[1] - heard[0]) - expected) <= 0.3, (heard, expected)
 
 
 @pytest.mark.parametrize("string", [1, 2, 5, 6])

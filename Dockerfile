@@ -47,6 +47,11 @@ USER 10001:10001
 # CPU model the workers compile once at start-up and write the cache again: it stays writable.)
 RUN python -c "import engine; engine.warmup()"
 
+# Calibrate the frets of the guitar a live worker prepares when it warms up (the default guitar at
+# 44.1 and 48 kHz) into GUITAR_CACHE_DIR, so that a live worker starts in under a second instead
+# of calibrating every fret for seconds (engine.calibration_store; benchmarks/calibration.py).
+RUN python -c "import engine; [engine.Session(sample_rate=r) for r in (44100, 48000)]"
+
 EXPOSE 8000
 
 # Workers warm up at start-up; /health answers 200 only once every one of them is ready.

@@ -522,21 +522,33 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
         b = abs(Mb[(s + n) & mask])
         if b > maxm:
             maxm = b
-    for n in range(n_t, N + 1):
-        a = abs(R[(s - n) & mask])
-        b = abs(Mb[(s + n) & mask])
-        if b > maxm:
-            maxm = b
-        dp = R[(s - n) & mask] - R[(s - n - 1) & mask]
-        dm = Mb[(s + n) & mask] - Mb[(s + n - 1) & mask]
-        slope += dp * dp + dm * dm
-        k = n // B
-        if a > seg_p[k]:
-            seg_p[k] = a
-        if b > seg_m[k]:
-            seg_m[k] = b
-        if a > maxp:
-            maxp = a
+    # segment by segment, the maxima in registers and each rail value read once: u+(n + 1) is
+    # the next point's u+(n), u-(n - 1) the last one's u-(n) (the sum in the same order)
+    rp = R[(s - n_t) & mask]
+    rm_prev = Mb[(s + n_t - 1) & mask]
+    for k in range(n_t // B, N // B + 1):
+        sp = 0.0
+        sm = 0.0
+        for n in range(max(n_t, k * B), min(N + 1, k * B + B)):
+            rp_next = R[(s - n - 1) & mask]
+            rm = Mb[(s + n) & mask]
+            a = abs(rp)
+            b = abs(rm)
+            dp = rp - rp_next
+            dm = rm - rm_prev
+            slope += dp * dp + dm * dm
+            rp = rp_next
+            rm_prev = rm
+            if a > sp:
+                sp = a
+            if b > sm:
+                sm = b
+        seg_p[k] = sp
+        seg_m[k] = sm
+        if sp > maxp:
+            maxp = sp
+        if sm > maxm:
+            maxm = sm
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
     until = (s // BLOCK + 1) * BLOCK  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B

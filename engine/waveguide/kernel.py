@@ -247,7 +247,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
                                             js_kappa, tail, pb_step, ib)
             for q in range(nlive):
-                c = col_list[q]
+                c = col_list[q] & NONNEG
                 n = col_n[c]
                 if n <= n_t or n >= N:
                     col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
@@ -379,13 +379,27 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     collision points and the pickups, as in the general step (a function of its own, so that the
     compiler keeps this loop's few values in registers).  Returns the state it changes."""
     mask &= NONNEG  # known >= 0 here too
+    # a steady period (dper = 0) at a step that neither walked the termination nor moved the
+    # taps: every later step of the run computes the same delay, so it only terminates
+    steady = False
     for s in range(s1, e):
-        period += dper
-        (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _terminate_step(
-            R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
-            loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        if steady:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t) & mask] = v
+            Mb[(s + N) & mask] = -R[(s - N) & mask]
+        else:
+            period += dper
+            nt_was = n_t
+            d_was = d_taps
+            (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
+             y3) = _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1,
+                                   h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
+                                   x3, y0, y1, y2, y3)
+            steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
         for q in range(nlive):
-            c = col_list[q]
+            c = col_list[q] & NONNEG
             n = col_n[c]
             if n <= n_t or n >= N:
                 col_prev[c] = NO_PREV

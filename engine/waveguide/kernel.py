@@ -39,7 +39,10 @@ That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision
 live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
 loop of their own up to the next step that needs the general one (a period update every
 ``GLIDE_EVERY`` steps, a reach, a junction's onset), compiled apart so that its few values stay in
-registers.  Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
+registers; with a steady period (no glide or bend moving it) it stops recomputing the delay once
+a step has neither walked the termination nor moved the taps (every later step of the run would
+compute the same), and a single pickup keeps its constants and last displacement in registers.
+Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
 samples do not depend on where a plain run starts or ends.  Collision reach (``_reach``) runs
 every ``REACH_EVERY`` steps; when the string is quiet (no junction, a steady pitch, and the
 energy bound ``QUIET_MARGIN`` times below every obstacle) it is not needed again before the next
@@ -379,6 +382,13 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     collision points and the pickups, as in the general step (a function of its own, so that the
     compiler keeps this loop's few values in registers).  Returns the state it changes."""
     mask &= NONNEG  # known >= 0 here too
+    # a single pickup (the usual case): its constants and last displacement in registers
+    one = pk_n.shape[0] == 1
+    pn = pk_n[0] if one else 0
+    pw = pk_w[0] if one else 0.0
+    pw1 = 1.0 - pw
+    pg = pk_g[0] if one else 0.0
+    pu = fst[F_PICKUP] if one else 0.0
     # a steady period (dper = 0) at a step that neither walked the termination nor moved the
     # taps: every later step of the run computes the same delay, so it only terminates
     steady = False
@@ -405,9 +415,21 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
                 col_prev[c] = NO_PREV
                 continue
             col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
-        acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
-        out[s - step0] = acc
+        if one:  # ``_pickups`` for one pickup, the same arithmetic
+            if pn <= n_t or pn + 1 > N:
+                u = 0.0
+            else:
+                u = (pw1 * (R[(s - pn) & mask] + Mb[(s + pn) & mask])
+                     + pw * (R[(s - pn - 1) & mask] + Mb[(s + pn + 1) & mask]))
+            acc = 0.0
+            acc += pg * (u - pu) * fs
+            pu = u
+        else:
+            acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
+        out[(s - step0) & NONNEG] = acc  # s >= step0: the mask only tells the compiler so
         peak = max(peak, abs(acc))
+    if one:
+        fst[F_PICKUP] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
 
 

@@ -39,7 +39,10 @@ That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision
 live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
 loop of their own up to the next step that needs the general one (a period update every
 ``GLIDE_EVERY`` steps, a reach, a junction's onset), compiled apart so that its few values stay in
-registers.  Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
+registers; with a steady period (no glide or bend moving it) it stops recomputing the delay once
+a step has neither walked the termination nor moved the taps (every later step of the run would
+compute the same), and a single pickup keeps its constants and last displacement in registers.
+Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
 samples do not depend on where a plain run starts or ends.  Collision reach (``_reach``) runs
 every ``REACH_EVERY`` steps; when the string is quiet (no junction, a steady pitch, and the
 energy bound ``QUIET_MARGIN`` times below every obstacle) it is not needed again before the next
@@ -247,7 +250,7 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
                                             js_kappa, tail, pb_step, ib)
             for q in range(nlive):
-                c = col_list[q]
+                c = col_list[q] & NONNEG
                 n = col_n[c]
                 if n <= n_t or n >= N:
                     col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
@@ -379,21 +382,54 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     collision points and the pickups, as in the general step (a function of its own, so that the
     compiler keeps this loop's few values in registers).  Returns the state it changes."""
     mask &= NONNEG  # known >= 0 here too
+    # a single pickup (the usual case): its constants and last displacement in registers
+    one = pk_n.shape[0] == 1
+    pn = pk_n[0] if one else 0
+    pw = pk_w[0] if one else 0.0
+    pw1 = 1.0 - pw
+    pg = pk_g[0] if one else 0.0
+    pu = fst[F_PICKUP] if one else 0.0
+    # a steady period (dper = 0) at a step that neither walked the termination nor moved the
+    # taps: every later step of the run computes the same delay, so it only terminates
+    steady = False
     for s in range(s1, e):
-        period += dper
-        (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _terminate_step(
-            R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
-            loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        if steady:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(s - n_t) & mask] = v
+            Mb[(s + N) & mask] = -R[(s - N) & mask]
+        else:
+            period += dper
+            nt_was = n_t
+            d_was = d_taps
+            (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
+             y3) = _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1,
+                                   h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
+                                   x3, y0, y1, y2, y3)
+            steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
         for q in range(nlive):
-            c = col_list[q]
+            c = col_list[q] & NONNEG
             n = col_n[c]
             if n <= n_t or n >= N:
                 col_prev[c] = NO_PREV
                 continue
             col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
-        acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
-        out[s - step0] = acc
+        if one:  # ``_pickups`` for one pickup, the same arithmetic
+            if pn <= n_t or pn + 1 > N:
+                u = 0.0
+            else:
+                u = (pw1 * (R[(s - pn) & mask] + Mb[(s + pn) & mask])
+                     + pw * (R[(s - pn - 1) & mask] + Mb[(s + pn + 1) & mask]))
+            acc = 0.0
+            acc += pg * (u - pu) * fs
+            pu = u
+        else:
+            acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
+        out[(s - step0) & NONNEG] = acc  # s >= step0: the mask only tells the compiler so
         peak = max(peak, abs(acc))
+    if one:
+        fst[F_PICKUP] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
 
 
@@ -522,21 +558,33 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
         b = abs(Mb[(s + n) & mask])
         if b > maxm:
             maxm = b
-    for n in range(n_t, N + 1):
-        a = abs(R[(s - n) & mask])
-        b = abs(Mb[(s + n) & mask])
-        if b > maxm:
-            maxm = b
-        dp = R[(s - n) & mask] - R[(s - n - 1) & mask]
-        dm = Mb[(s + n) & mask] - Mb[(s + n - 1) & mask]
-        slope += dp * dp + dm * dm
-        k = n // B
-        if a > seg_p[k]:
-            seg_p[k] = a
-        if b > seg_m[k]:
-            seg_m[k] = b
-        if a > maxp:
-            maxp = a
+    # segment by segment, the maxima in registers and each rail value read once: u+(n + 1) is
+    # the next point's u+(n), u-(n - 1) the last one's u-(n) (the sum in the same order)
+    rp = R[(s - n_t) & mask]
+    rm_prev = Mb[(s + n_t - 1) & mask]
+    for k in range(n_t // B, N // B + 1):
+        sp = 0.0
+        sm = 0.0
+        for n in range(max(n_t, k * B), min(N + 1, k * B + B)):
+            rp_next = R[(s - n - 1) & mask]
+            rm = Mb[(s + n) & mask]
+            a = abs(rp)
+            b = abs(rm)
+            dp = rp - rp_next
+            dm = rm - rm_prev
+            slope += dp * dp + dm * dm
+            rp = rp_next
+            rm_prev = rm
+            if a > sp:
+                sp = a
+            if b > sm:
+                sm = b
+        seg_p[k] = sp
+        seg_m[k] = sm
+        if sp > maxp:
+            maxp = sp
+        if sm > maxm:
+            maxm = sm
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
     until = (s // BLOCK + 1) * BLOCK  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B

@@ -45,12 +45,11 @@ USER 10001:10001
 # Compile the numba kernels now, into NUMBA_CACHE_DIR, so that workers start in about a second
 # instead of compiling for 10-15 s each. (The cache is keyed to this CPU's features; on another
 # CPU model the workers compile once at start-up and write the cache again: it stays writable.)
-RUN python -c "import engine; engine.warmup()"
-
-# Calibrate the frets of the guitar a live worker prepares when it warms up (the default guitar at
-# 44.1 and 48 kHz) into GUITAR_CACHE_DIR, so that a live worker starts in under a second instead
-# of calibrating every fret for seconds (engine.calibration_store; benchmarks/calibration.py).
-RUN python -c "import engine; [engine.Session(sample_rate=r) for r in (44100, 48000)]"
+# And calibrate the frets of the guitar a live worker prepares when it warms up (the default
+# guitar at 44.1 and 48 kHz) into GUITAR_CACHE_DIR, so that a live worker does not spend seconds
+# calibrating every fret (engine.calibration_store; benchmarks/calibration.py).
+RUN python -c "import engine; engine.warmup()" \
+    && python -c "import engine; [engine.Session(sample_rate=r) for r in (44100, 48000)]"
 
 EXPOSE 8000
 

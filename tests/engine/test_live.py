@@ -70,9 +70,9 @@ def test_session_with_the_decay_skip_equals_the_render():
     assert np.array_equal(live, offline(s))
 
 
-def test_a_long_session_prunes_and_stays_exact():
-    """Past events are dropped from a string's list once it is long (plucks over, fingers gone,
-    bends returned); the samples stay those of the render of every event."""
+def _long_plan(harmonics: bool = False) -> dict[int, list]:
+    """90 notes on string 2 (fretted, plucked, some bent, some pulled off) three blocks apart,
+    and with ``harmonics`` a harmonic on string 3 every 20th note."""
     plan: dict[int, list] = {}
     for k in range(90):
         b = 2 + 3 * k
@@ -83,6 +83,16 @@ def test_a_long_session_prunes_and_stays_exact():
                             "release": 0.02})
         if k % 15 == 7:
             plan[b].append({"type": "pull_off", "string": 2, "fret": 1 + k % 7, "offset": 200})
+        if harmonics and k % 20 == 3:
+            plan[b].append({"type": "harmonic", "string": 3, "fret": 12, "release": 0.05})
+            plan[b].append({"type": "pluck", "string": 3})
+    return plan
+
+
+def test_a_long_session_prunes_and_stays_exact():
+    """Past events are dropped from a string's list once it is long (plucks over, fingers gone,
+    bends returned); the samples stay those of the render of every event."""
+    plan = _long_plan()
     s = engine.Session("steel-acoustic", 44100, BLOCK, record=True,
                        options=RenderOptions(skip_decayed=False))
     live = play(s, plan, 2 + 3 * 90 + 10)
@@ -202,19 +212,7 @@ def test_waveguide_events_acting_at_once_would_change_what_was_decided():
 
 
 def test_a_long_waveguide_session_prunes_and_stays_exact():
-    plan: dict[int, list] = {}
-    for k in range(90):
-        b = 2 + 3 * k
-        plan[b] = [{"type": "fret", "string": 2, "fret": 1 + k % 7},
-                   {"type": "pluck", "string": 2, "offset": 20, "force": 1.0 + (k % 3)}]
-        if k % 10 == 0:
-            plan[b].append({"type": "bend", "string": 2, "semitones": 0.5, "duration": 0.01,
-                            "release": 0.02})
-        if k % 15 == 7:
-            plan[b].append({"type": "pull_off", "string": 2, "fret": 1 + k % 7, "offset": 200})
-        if k % 20 == 3:
-            plan[b].append({"type": "harmonic", "string": 3, "fret": 12, "release": 0.05})
-            plan[b].append({"type": "pluck", "string": 3})
+    plan = _long_plan(harmonics=True)
     s = engine.Session("steel-acoustic", 44100, BLOCK, record=True, model="waveguide",
                        options=RenderOptions(skip_decayed=False))
     live = play(s, plan, 2 + 3 * 90 + 10)

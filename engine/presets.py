@@ -151,9 +151,12 @@ class Preset:
         return np.where(q > 0, x - spec.nut_compensation_m, 0.0)[()]  # a scalar for a scalar
 
     def string_length_m(self, string: int) -> float:
-        """Speaking length of string ``string`` (1-based): the scale plus its saddle setback, less
-        its nut compensation."""
-        spec = self.strings[string - 1]
+        """Speaking length of string ``string`` (1-based): ``speaking_length_m`` of its spec."""
+        return self.speaking_length_m(self.strings[string - 1])
+
+    def speaking_length_m(self, spec: StringSpec) -> float:
+        """Speaking length of a string ``spec`` on this scale: the scale plus its saddle setback,
+        less its nut compensation."""
         return self.scale_length_m + spec.saddle_setback_m - spec.nut_compensation_m
 
     def clearance_m(self, x_m: float | np.ndarray) -> np.ndarray | float:
@@ -336,7 +339,7 @@ def added_string(preset: Preset, note: str) -> StringSpec:
     target = sum(tension_n(s, preset.string_length_m(n - len(pair) + 1 + j))
                  for j, s in enumerate(pair)) / len(pair)
     spec = replace(low, note=note)
-    length = preset.scale_length_m + low.saddle_setback_m - low.nut_compensation_m
+    length = preset.speaking_length_m(low)
     f0 = note_frequency(note)
     radius = low.radius_m
     for _ in range(50):  # fixed point: rho pi r^2 (2 L f0)^2 = T + pi^2 E pi r^4 / 4 / L^2

@@ -37,6 +37,7 @@ left hand (``fret``, ``slide``, touches, palm, bends), then attacks):
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from .. import presets as _presets
 from .common import note_midi
@@ -58,34 +59,34 @@ def _tracks(scene: dict) -> list[dict]:
 
 
 class _Geometry:
-    """A track's strings: open pitches and the lengths a touch is measured against."""
+    """A track's strings: open pitches, and the preset's geometry of each (its scale, with the
+    string's saddle setback and nut compensation, overridden where the guitar says) that a touch
+    is measured against."""
 
     def __init__(self, guitar: dict):
         preset = _presets.get_preset(guitar.get("preset", _presets.DEFAULT_PRESET))
         tuning = guitar.get("tuning")
         notes = list(tuning) if tuning else [s.note for s in preset.strings]
-        setbacks = [s.saddle_setback_m for s in preset.strings]
-        nuts = [s.nut_compensation_m for s in preset.strings]
+        specs = list(preset.strings)
         for o in guitar.get("strings") or []:
             i = o["string"] - 1
             if o.get("note") and i < len(notes):
                 notes[i] = o["note"]
-            if o.get("saddle_setback_m") is not None and i < len(setbacks):
-                setbacks[i] = o["saddle_setback_m"]
-            if o.get("nut_compensation_m") is not None and i < len(nuts):
-                nuts[i] = o["nut_compensation_m"]
+            if i < len(specs):
+                specs[i] = replace(specs[i], **{
+                    k: o[k] for k in ("saddle_setback_m", "nut_compensation_m")
+                    if o.get(k) is not None})
         self.open = [note_midi(n) for n in notes]
-        self.scale = preset.scale_length_m
-        self.setbacks = setbacks + [setbacks[-1]] * max(len(notes) - len(setbacks), 0)
-        self.nuts = nuts + [nuts[-1]] * max(len(notes) - len(nuts), 0)
+        self.preset = preset
+        self.specs = specs + [specs[-1]] * max(len(notes) - len(specs), 0)
         self.n = len(notes)
 
     def length(self, string: int) -> float:
-        return self.scale + self.setbacks[string - 1] - self.nuts[string - 1]
+        return self.preset.speaking_length_m(self.specs[string - 1])
 
     def fret_x(self, fret: float, string: int) -> float:
         """Metres from the string's (compensated) nut."""
-        return self.scale * (1.0 - 2.0 ** (-fret / 12.0)) - self.nuts[string - 1]
+        return float(self.preset.fret_x_m(fret, self.specs[string - 1]))
 
 
 def _expand(events: list[dict], n_strings: int, duration: float) -> dict[int, list[dict]]:

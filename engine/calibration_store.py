@@ -32,9 +32,13 @@ _STATE: dict = {}
 
 
 def _version() -> str:
-    """A hash of the source of ``_SOURCES``: the code part of every key."""
+    """A hash of the source of ``_SOURCES`` and of the numpy and scipy versions (the eigenvalue
+    solves are theirs): the code part of every key."""
     if "version" not in _STATE:
-        h = hashlib.sha256()
+        import numpy
+        import scipy
+
+        h = hashlib.sha256(f"numpy {numpy.__version__} scipy {scipy.__version__}".encode())
         root = Path(__file__).resolve().parent
         for name in _SOURCES:
             h.update((root / name).read_bytes())
@@ -92,6 +96,18 @@ def save(k: str, values: tuple[float, ...]) -> None:
             db.commit()
         except sqlite3.Error:
             pass
+
+
+def recall(kind: str, inputs: tuple, compute) -> tuple[float, ...]:
+    """The values of a calibration of ``kind`` from ``inputs``: read from the store, or
+    ``compute()`` (a tuple of floats) and kept."""
+    k = key(kind, *inputs)
+    stored = load(k)
+    if stored is not None:
+        return stored
+    values = tuple(compute())
+    save(k, values)
+    return values
 
 
 def reset() -> None:

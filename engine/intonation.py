@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from functools import lru_cache
+from functools import lru_cache, partial
 from typing import NamedTuple
 
 import numpy as np
@@ -130,6 +130,15 @@ def _string_matrices(model: StringModel, finger_mass: float):
     return stiff, mass
 
 
+def finger_spring(model: StringModel, preset: Preset, fret: int) -> float:
+    """N/m: the finger's contact spring (eq. (9)) linearised at the force a finger with no force
+    of its own presses ``fret`` with, dF/d eta = alpha F / eta; for alpha = 1 (every preset) it
+    is K_FG whatever the force."""
+    fg = preset.finger
+    force = press_force(model, preset, fret)
+    return fg.alpha * force / (force / fg.stiffness) ** (1.0 / fg.alpha)
+
+
 class HeldNote(NamedTuple):
     frequency_hz: float  # through the scheme's dispersion, (2 / k) asin(k w / 2)
     decay_db_s: float  # of the mode's amplitude by the finger's contact damping (the string's own
@@ -154,11 +163,7 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     if finger_x is None:
         finger_x = finger_x_m(preset, fret, model.spec)
     fg = preset.finger
-    # the contact spring linearised at the force a finger with no force of its own presses with;
-    # for alpha = 1 (every preset) it is K_FG whatever the force
-    force = press_force(model, preset, fret)
-    eta = (force / fg.stiffness) ** (1.0 / fg.alpha)
-    kf = fg.alpha * force / eta
+    kf = finger_spring(model, preset, fret)
     jf = _vector(_interpolant(finger_x, model), size)
     jf[n - 1] = -1.0  # the spring stretches by (string under the finger) - (finger)
     string_stiff, mass = _string_matrices(model, fg.mass_kg)
@@ -384,10 +389,9 @@ def finger_damping(model: StringModel, preset: Preset, fret: int, shift: float =
     # above the finger's resonance (its mass on its contact spring, linearised at its force as in
     # ``held_note``) less damping drains less; near and below it more damping holds the finger
     # still
-    fg = preset.finger
-    force = press_force(model, preset, fret)
-    kf = fg.alpha * force / (force / fg.stiffness) ** (1.0 / fg.alpha)
-    direction = -1.0 if target > math.sqrt(kf / fg.mass_kg) / (2.0 * math.pi) else 1.0
+    resonance = math.sqrt(finger_spring(model, preset, fret) / preset.finger.mass_kg) / (
+        2.0 * math.pi)
+    direction = -1.0 if target > resonance else 1.0
     if e0 > 0.0:  # the grid drains less than the fine grid: the other way
         direction = -direction
     # the root nearest the preset's damping (in its log): that way first, then the other way no
@@ -420,48 +424,43 @@ def fret_calibration(model: StringModel, preset: Preset, fret: int) -> FretCalib
     shift at the preset's damping, the damping at that shift, then the shift again at that damping
     (the damping moves the note's pitch by up to a few cents where the note is near the finger's
     resonance).  Cached per process, and on disk per machine (``calibration_store``)."""
-    k = calibration_store.key("fret_calibration", model, preset, fret)
-    stored = calibration_store.load(k)
-    if stored is not None and len(stored) == 2:
-        return FretCalibration(*stored)
-    shift = fret_shift(model, preset, fret)
-    damping = finger_damping(model, preset, fret, shift)
-    if damping != preset.finger.damping_n_s_m:
-        shift = fret_shift(model, preset, fret, damping)
-    calibration_store.save(k, (shift, damping))
-    return FretCalibration(shift, damping)
+
+    def compute() -> FretCalibration:
+        shift = fret_shift(model, preset, fret)
+        damping = finger_damping(model, preset, fret, shift)
+        if damping != preset.finger.damping_n_s_m:
+            shift = fret_shift(model, preset, fret, damping)
+        return FretCalibration(shift, damping)
+
+    return FretCalibration(*calibration_store.recall("fret_calibration", (model, preset, fret),
+                                                     compute))
 
 
 @lru_cache(maxsize=4096)
 def _stored_shift(model: StringModel, preset: Preset, fret: int) -> float:
     """``fret_shift`` at the preset's damping, kept on disk per machine (``calibration_store``)."""
-    k = calibration_store.key("fret_shift", model, preset, fret)
-    stored = calibration_store.load(k)
-    if stored is not None and len(stored) == 1:
-        return stored[0]
-    shift = fret_shift(model, preset, fret)
-    calibration_store.save(k, (shift,))
-    return shift
+    return calibration_store.recall("fret_shift", (model, preset, fret),
+                                    lambda: (fret_shift(model, preset, fret),))[0]
+
+
+def _each_fret(preset: Preset, frets: Iterable[int], calibrate) -> dict:
+    """``calibrate(q)`` of each of ``frets`` (those the scene's fingers stop) on the preset's
+    fretboard, with BLAS on one thread: the solves are small, and OpenBLAS's own threads, one set
+    per process, fought over the cores when two worker processes calibrated at once (the soak's
+    random scenes ran many times slower than one at a time)."""
+    wanted = sorted(q for q in set(frets) if 1 <= q <= preset.frets)
+    if not wanted:
+        return {}
+    with threadpool_limits(limits=1, user_api="blas"):
+        return {q: calibrate(q) for q in wanted}
 
 
 def fret_calibrations(model: StringModel, preset: Preset,
                       frets: Iterable[int]) -> dict[int, FretCalibration]:
-    """``fret_calibration`` of each of ``frets`` (those the scene's fingers stop), with BLAS on one
-    thread (see ``fret_shifts``)."""
-    wanted = sorted(q for q in set(frets) if 1 <= q <= preset.frets)
-    if not wanted:
-        return {}
-    with threadpool_limits(limits=1, user_api="blas"):
-        return {q: fret_calibration(model, preset, q) for q in wanted}
+    """``fret_calibration`` of each of ``frets``."""
+    return _each_fret(preset, frets, partial(fret_calibration, model, preset))
 
 
 def fret_shifts(model: StringModel, preset: Preset, frets: Iterable[int]) -> dict[int, float]:
-    """``fret_shift`` of each of ``frets`` (those the scene's fingers stop), with BLAS on one
-    thread: the solves are small, and OpenBLAS's own threads, one set per process, fought over the
-    cores when two worker processes calibrated at once (the soak's random scenes ran many times
-    slower than one at a time)."""
-    wanted = sorted(q for q in set(frets) if 1 <= q <= preset.frets)
-    if not wanted:
-        return {}
-    with threadpool_limits(limits=1, user_api="blas"):
-        return {q: _stored_shift(model, preset, q) for q in wanted}
+    """``fret_shift`` (at the preset's damping) of each of ``frets``."""
+    return _each_fret(preset, frets, partial(_stored_shift, model, preset))

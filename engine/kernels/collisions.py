@@ -61,29 +61,31 @@ def _fret_hit(with_q, with_frets, with_board, UF, du, Q, fret_p, fret_w0, fret_w
     nb = fret_p.shape[0] - nfret
     if with_board and nb > 0:
         # the board's nodes: weight 1 on consecutive nodes (``Geo``), first counted in a loop
-        # LLVM vectorises (an integer sum), then searched only if one is penetrated; the same
-        # arithmetic in both loops, so the count and the search agree
+        # LLVM vectorises (an integer sum), then searched only if one is penetrated; both loops
+        # take the gap from ``_board_gap``, so the count and the search agree
         j0 = np.uint64(fret_p[nfret])
-        q0 = j0 - np.uint64(2)
         m0 = np.uint64(nfret)
         hit = 0
         for i in range(nb):
-            ui = np.uint64(i)
-            pv = UF[j0 + ui] + du[j0 + ui]
-            if with_q:
-                pv += kq * Q[q0 + ui]
-            hit += pv - fret_m0[m0 + ui] < -1e-12
+            hit += _board_gap(with_q, UF, du, Q, fret_m0, j0, m0, np.uint64(i), kq) < -1e-12
         if hit > 0:
             for i in range(nb):
                 ui = np.uint64(i)
-                pv = UF[j0 + ui] + du[j0 + ui]
-                if with_q:
-                    pv += kq * Q[q0 + ui]
-                viol = pv - fret_m0[m0 + ui]
+                viol = _board_gap(with_q, UF, du, Q, fret_m0, j0, m0, ui, kq)
                 if viol < wval and fret_active[m0 + ui] == 0:
                     wval = viol
                     add = nfret + i
     return add
+
+
+@njit(**JIT_HELPER)
+def _board_gap(with_q, UF, du, Q, fret_m0, j0, m0, i, kq):
+    """How far the predicted u^(n+1) = u_free + du + kq q is above the board at its i-th node
+    (padded index j0 + i, constraint m0 + i, ``Geo``): negative where it penetrates."""
+    pv = UF[j0 + i] + du[j0 + i]
+    if with_q:
+        pv += kq * Q[j0 - np.uint64(2) + i]
+    return pv - fret_m0[m0 + i]
 
 
 @njit(**JIT_HELPER)

@@ -243,7 +243,8 @@ class Session:
 
     def _prune(self, v, events: list) -> tuple[list, list[int]]:
         """Drop the events whose effect is over at the voice's current step: plucks whose pulse
-        has ended, fret-0 lifts, dampers released, bends and vibratos when the tension is back at
+        has ended, fret-0 lifts past with no finger kept that they may have lifted, dampers
+        released, bends and vibratos when the tension is back at
         its tuned value for good, fingers whose slot is gone (and pull-offs of their fret).  The
         samples stay the same: the kernel skips all of these (a finished pluck adds nothing, a
         released damper and a gone finger form no column, a tension of exactly 1 gives the
@@ -258,16 +259,20 @@ class Session:
         keep = [False] * len(events)
         slot = 0
         for i, e in enumerate(events):  # fingers first: their slots are the state's
-            if isinstance(e, _FINGERS) and not (isinstance(e, Fret) and e.fret == 0):
+            if isinstance(e, _FINGERS) and not _is_lift(e):
                 if round(e.time * rate) >= step or v.state.f_state[slot] != kernels.GONE:
                     keep[i] = True
                     keep_slots.append(slot)
                     kept_frets.add(e.to_fret if isinstance(e, Slide) else e.fret)
                 slot += 1
         for i, e in enumerate(events):
-            if keep[i] or isinstance(e, _FINGERS):
+            if keep[i]:
                 continue
-            if round(e.time * rate) >= step:
+            if _is_lift(e):
+                keep[i] = _lift_kept(e, events, keep, step, rate)
+            elif isinstance(e, _FINGERS):
+                continue
+            elif round(e.time * rate) >= step:
                 keep[i] = True
             elif isinstance(e, Bend | Vibrato):
                 keep[i] = not tension_done
@@ -282,7 +287,8 @@ class Session:
     def _prune_waveguide(self, v, events: list) -> list:
         """Drop the events whose effect is over at the waveguide voice's current step (the
         same samples: the kernel skips all of these): plucks (and pull-offs) whose junction has
-        let go and leaked away, fingers lifted as long ago, dampers released as long ago, bends
+        let go and leaked away, fingers lifted as long ago (and fret-0 lifts past with no finger
+        kept that they may have lifted), dampers released as long ago, bends
         and vibratos when the pitch is back at its tuned value for good.  ``_OVER_S`` bounds
         each junction's pulse, release and leak (``engine.waveguide.pluck``)."""
         step = v.step
@@ -291,22 +297,25 @@ class Session:
         tension_done = v.pb_step.size == 0 or (v.pb_step[-1] < step and v.pb_f[-1] == 1.0)
         # one finger per finger event, in their order (a fret 0 lifts, it puts no finger)
         fingers = iter(waveguide.timeline_of(v, events).fingers)
-        keep = []
-        for e in events:
-            on = round(e.time * rate)
-            if isinstance(e, _FINGERS) and not (isinstance(e, Fret) and e.fret == 0):
+        keep = [False] * len(events)
+        for i, e in enumerate(events):  # fingers first: a lift is kept with them
+            if isinstance(e, _FINGERS) and not _is_lift(e):
                 f = next(fingers)
-                keep.append(on >= step or f.rel + over >= step)
+                keep[i] = round(e.time * rate) >= step or f.rel + over >= step
+        for i, e in enumerate(events):
+            on = round(e.time * rate)
+            if _is_lift(e):
+                keep[i] = _lift_kept(e, events, keep, step, rate)
+            elif isinstance(e, _FINGERS):
+                continue
             elif on >= step:
-                keep.append(True)
+                keep[i] = True
             elif isinstance(e, Bend | Vibrato):
-                keep.append(not tension_done)
+                keep[i] = not tension_done
             elif isinstance(e, Mute | Harmonic):
-                keep.append(e.release is None or round(e.release * rate) + over >= step)
-            elif isinstance(e, Fret):  # a lift (fret 0) now past
-                keep.append(False)
+                keep[i] = e.release is None or round(e.release * rate) + over >= step
             else:  # a pluck or a pull-off
-                keep.append(on + 2 * over >= step)
+                keep[i] = on + 2 * over >= step
         return [e for e, k in zip(events, keep, strict=True) if k]
 
     # ---- audio ------------------------------------------------------------------------------
@@ -353,6 +362,20 @@ class Session:
             "model": self.model,
             "events": [e.model_dump(exclude_none=True) for e in self.recorded],
         }
+
+
+def _is_lift(e: Any) -> bool:
+    """A ``fret`` 0: it lifts the fingers down on its string and puts none."""
+    return isinstance(e, Fret) and e.fret == 0
+
+
+def _lift_kept(e: Any, events: list, keep: list[bool], step: int, rate: float) -> bool:
+    """Whether pruning keeps the lift ``e``: while it is still to come, or some finger kept
+    (``keep``, decided first) was put down before it, which it may have lifted (without it, that
+    finger would be held again when the string is compiled)."""
+    return round(e.time * rate) >= step or any(
+        k and isinstance(x, _FINGERS) and not _is_lift(x) and x.time <= e.time
+        for x, k in zip(events, keep, strict=True))
 
 
 def _with_slots(st: kernels.State, take: list[int]) -> kernels.State:

@@ -291,7 +291,6 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                             d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
                             ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n, pk_w, pk_g, fs, peak,
                             col_n, col_ref, col_cr, col_prev, col_list, nlive)
-        if e > s1:
             i += e - s1
             ri += e - s1
             if decay_v > 0.0 and e % BLOCK == 0:

@@ -202,8 +202,7 @@ class WaveguideVoice:
         self._stops_and_pitch(tl)
         self.change_i = int(np.searchsorted([c[0] for c in self.changes], self.step,
                                             side="left"))
-        self.ist[K.I_PB] = max(int(np.searchsorted(self.pb_step, self.step, side="right")) - 1,
-                               0)
+        self.ist[K.I_PB] = self._pb_index()
         self.ist[K.I_STOP_FROM] = self._stop_from()
         if self.stopped:  # it decayed or was at rest: it runs again, its schedules anew
             self.stopped = False
@@ -284,10 +283,14 @@ class WaveguideVoice:
             self.col_ref = self.col_abs - rest
             self.col_live[:] = 0
 
+    def _pb_index(self) -> int:
+        """The pitch breakpoint in force now (the last at or before ``step``; the kernel's
+        ``I_PB``)."""
+        return max(int(np.searchsorted(self.pb_step, self.step, side="right")) - 1, 0)
+
     def _ratio_now(self) -> float:
         s = self.step
-        i = int(np.searchsorted(self.pb_step, s, side="right")) - 1
-        i = max(i, 0)
+        i = self._pb_index()
         if i + 1 < len(self.pb_step):
             a = (s - self.pb_step[i]) / (self.pb_step[i + 1] - self.pb_step[i])
             return float(self.pb_f[i] + a * (self.pb_f[i + 1] - self.pb_f[i]))

@@ -253,3 +253,24 @@ def test_an_unknown_model_is_refused_naming_the_field():
     assert engine.parse_live_open({}).model == "fdtd"
     with pytest.raises(ValueError, match="model"):
         engine.Session(model="spline")
+
+
+@pytest.mark.parametrize("model", ["fdtd", "waveguide"])
+def test_pruning_keeps_a_lift_while_a_finger_it_lifted_is_kept(model):
+    """A string's list past the pruning size when a fret-0 lift comes and just after it: the lift
+    is kept while the finger it lifted is (dropped, the finger was held again when the string was
+    compiled: the pull-off from fret 7 then fell back onto fret 5, not the open string)."""
+    plan: dict[int, list] = {1: [{"type": "fret", "string": 2, "fret": 5}]}
+    for k in range(70):  # ten soft plucks a block: more than 64 events within 50 ms
+        plan.setdefault(2 + k // 10, []).append({"type": "pluck", "string": 2, "force": 0.3,
+                                                 "offset": 25 * (k % 10)})
+    plan[8].append({"type": "fret", "string": 2, "fret": 0, "offset": 100})
+    plan[10] = [{"type": "pluck", "string": 2}]
+    plan[12] = [{"type": "hammer_on", "string": 2, "fret": 7}]
+    plan[20] = [{"type": "pull_off", "string": 2, "fret": 7}]
+    plan[80] = [{"type": "pluck", "string": 2}]  # the waveguide's plucks are over by then
+    s = engine.Session("steel-acoustic", 44100, BLOCK, record=True, model=model,
+                       options=RenderOptions(skip_decayed=False))
+    live = play(s, plan, 90)
+    assert len(s._events[2]) < len(s.recorded)  # pruned (the record keeps every event)
+    assert np.array_equal(live, offline(s, skip_decayed=False))

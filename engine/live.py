@@ -66,6 +66,7 @@ from .live_events import LiveError, LiveEvent, Release, parse_live_event
 from .options import RenderOptions
 from .output import FIXED_GAIN
 from .scene import (
+    MODELS,
     Bend,
     Fret,
     Guitar,
@@ -81,7 +82,6 @@ from .scene import (
 )
 
 _FINGERS = (Fret, Tap, Slide)  # HammerOn is a Tap
-MODELS = ("fdtd", "waveguide")
 _PRUNE_AT = 64  # a string's event list is pruned when it grows past this many events
 # a waveguide junction's pulse (at most 50 ms), release (at most the pulse) and leak (8 time
 # constants at ``LEAK_HZ``, 64 ms) are over this long after it starts or lets go

@@ -25,9 +25,11 @@ from .scene import (
     Guitar,
     HammerOn,
     Harmonic,
+    ModelName,
     Mute,
     Pluck,
     PullOff,
+    QualityName,
     Scene,
     Slide,
     Strum,
@@ -67,8 +69,8 @@ class LiveOpen(_Model):
     sample_rate: int = Field(44100, ge=SAMPLE_RATE_MIN, le=SAMPLE_RATE_MAX, description="Hz")
     block_frames: int = Field(256, ge=BLOCK_FRAMES_MIN, le=BLOCK_FRAMES_MAX,
                               description="frames per block sent")
-    quality: Literal["draft", "standard", "high"] = "draft"
-    model: Literal["fdtd", "waveguide"] = Field(
+    quality: QualityName = "draft"
+    model: ModelName = Field(
         "fdtd", description="the string model: finite differences (default) or digital "
                             "waveguides (``quality`` does nothing there)")
 

@@ -7,7 +7,7 @@ Every limit below is a documented range, and every violation is reported with th
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
@@ -37,6 +37,10 @@ MAX_STRINGS = 12  # the most strings a guitar (preset or overrides) may have
 MAX_NUT_COMPENSATION_M = 0.007
 FLAC_RATE_MAX_ANY = 65535  # FLAC frame headers carry any rate up to this; above, multiples of 10
 MAX_NAME_CHARS = 64
+# the string models a scene, a track or a live session may ask for, and the quality levels
+ModelName = Literal["fdtd", "waveguide"]
+MODELS: tuple[str, ...] = get_args(ModelName)
+QualityName = Literal["draft", "standard", "high"]
 
 
 class _Model(BaseModel):
@@ -409,7 +413,7 @@ class Track(_Model):
                     "omitted: its strings spread as a single guitar's (low strings left)")
     effects: list[Effect] = Field(default_factory=list, max_length=MAX_EFFECTS,
                                   description="effects chain, in order (engine.effect_specs)")
-    model: Literal["fdtd", "waveguide"] | None = Field(
+    model: ModelName | None = Field(
         None, description="the string model of this track (omitted: the scene's ``model``)")
 
     model_config = ConfigDict(
@@ -433,8 +437,8 @@ class Scene(_Model):
         None, min_length=1, max_length=MAX_TRACKS,
         description="several instruments (instead of guitar and events); see Track")
     output: Output = Field(default_factory=Output)
-    quality: Literal["draft", "standard", "high"] = "standard"
-    model: Literal["fdtd", "waveguide"] = Field(
+    quality: QualityName = "standard"
+    model: ModelName = Field(
         "fdtd",
         description="fdtd: the DAFx24 finite-difference string (default); waveguide: the digital "
                     "waveguide of Evangelista & Eckerholm 2010, many times cheaper, driven by the "

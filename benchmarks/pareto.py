@@ -112,6 +112,8 @@ LEVEL = "quality level"
 # the contact grid rules tried around standard's (the one equal to standard's is left out of the
 # full study, which has standard itself; ``--only`` can still name it)
 CONTACT_H_MM = (7.0, 5.5, 4.5, 3.5)
+CONTACT_RULES = [Config(f"fingered h <= {h:g} mm", "contact grid rule",
+                        replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in CONTACT_H_MM]
 CONFIGS = [
     Config("draft", LEVEL, "draft"),
     Config("standard", LEVEL, "standard"),
@@ -119,8 +121,7 @@ CONFIGS = [
     *[Config(f"x{k} everywhere", "oversampling", _forced(k), oversample=k) for k in (2, 3, 4, 6, 8)],
     # standard and high with one knob turned (their other knobs as they are: Kirchhoff-Carrier's
     # skip tolerance, the fret calibration)
-    *[Config(f"fingered h <= {h:g} mm", "contact grid rule",
-             replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in CONTACT_H_MM],
+    *[c for c in CONTACT_RULES if c.quality != QUALITY["standard"]],
     Config("high, open strings too (dispersion <= 0.004 c)", "dispersion bound",
            replace(QUALITY["high"], max_dispersion_cents=0.004)),
     Config("x1, h = 1.25 h_min", "grid spacing", _forced(1, 1.25), oversample=1),
@@ -144,17 +145,10 @@ QUICK = ("draft", "standard", "high", "x4 everywhere", "standard, gamma = 1",
          "standard, penalty frets")
 REFERENCE = Config("reference x16", "reference", _forced(16), oversample=16)
 FINE = "x8 everywhere"  # the converged reference for fretted pitch (x16 would cost 4x more)
-BY_NAME = {c.name: c for c in [*CONFIGS, REFERENCE]}
-CONFIGS = [c for c in CONFIGS if not (c.knob == "contact grid rule" and isinstance(c.quality, Quality)
-                                      and c.quality == QUALITY["standard"])]
+BY_NAME = {c.name: c for c in [*CONFIGS, *CONTACT_RULES, REFERENCE]}
 
 # ------------------------------------------------------------------------------------------------
 # scenes
-
-
-# The shared builders (engine.testing.scenes), with this study's values passed wherever they differ
-# from the builders' defaults: plucks of 2 N, fingers with the engine's default force (None), taps of
-# 3 N at 1.5 m/s; every scene names the preset and leaves the output at the fixed gain.
 
 
 LOW_ACTION = {"action_nut_m": 1e-4, "action_12th_m": 5e-4}

@@ -80,14 +80,18 @@ def table(preset_name: str, quality: Quality, uncompensated: bool, pool,
     return tables(preset_name, quality, uncompensated, pool, frets)[0]
 
 
+def worst(x: np.ndarray) -> float:
+    """The entry of ``x`` largest in magnitude, with its sign."""
+    return float(x.flat[np.argmax(np.abs(x))])
+
+
 def print_table(title: str, err: np.ndarray, unit: str = "cents",
                 frets: tuple[int, ...] = FRETS) -> None:
     print(f"\n{title}")
     print("string | " + " ".join(f"{q:>6d}" for q in frets) + " |  worst")
     for s, row in enumerate(err, start=1):
-        worst = row[np.argmax(np.abs(row))]
-        print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst:+6.1f}")
-    print(f"all strings: worst {err.flat[np.argmax(np.abs(err))]:+.1f} {unit}")
+        print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst(row):+6.1f}")
+    print(f"all strings: worst {worst(err):+.1f} {unit}")
 
 
 def print_split(title: str, err: np.ndarray, frets: tuple[int, ...]) -> None:

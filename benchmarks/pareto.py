@@ -53,7 +53,7 @@ import engine.guitar
 import engine.kernels
 import engine.string
 from benchmarks.accuracy import ENERGY_SCENES
-from benchmarks.intonation import FRETS
+from benchmarks.intonation import FRETS, worst
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
 from engine.guitar import prepare
 from engine.options import QUALITY, Quality, RenderOptions
@@ -487,6 +487,14 @@ def comparison(rows: dict, a: str, b: str) -> list[str]:
     return [f"{a} against {b}:", *[f"  * {line}" for line in out]]
 
 
+def per_fret(rows: dict, configs: list[Config], key: str,
+             strings: tuple[int, ...]) -> list[list[str]]:
+    """Table rows of ``rows[name][key]`` (a string's frets 1-12) for each configuration and string,
+    each with its worst entry."""
+    return [[c.name, str(s), *[f"{x:+.1f}" for x in row], f"{worst(row):+.1f}"]
+            for c in configs for s in strings for row in [rows[c.name][key][s - 1]]]
+
+
 def spectral_table(st: Study, rows: dict, configs: list[Config], ref_check: dict) -> list[str]:
     spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in st.spectral]]
             for c in configs]
@@ -508,24 +516,17 @@ def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
 
     out += spectral_table(st, rows, configs, ref_check)
 
-    fr = []
-    for c in configs if detail else [c for c in configs if c.knob == LEVEL]:
-        for s in st.strings:
-            row = rows[c.name]["fretted_table"][s - 1]
-            fr.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
-                       f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    fr = per_fret(rows, configs if detail else [c for c in configs if c.knob == LEVEL],
+                  "fretted_table", st.strings)
     which = "configurations" if detail else "quality levels"
     out += [f"### Fretted pitch per string and fret, {which} (cents from 12-TET)",
             md_table(["configuration" if detail else "level", "string",
                       *[f"fret {q}" for q in FRETS], "worst"], fr)]
 
-    dec = []
     decay_strings = st.strings if detail else st.strings[:3]
-    for c in configs if detail else [c for c in configs if c.knob in (LEVEL, "contact grid rule")]:
-        for s in decay_strings:
-            row = rows[c.name]["decay_table"][s - 1]
-            dec.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
-                        f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    dec = per_fret(rows, configs if detail else
+                   [c for c in configs if c.knob in (LEVEL, "contact grid rule")],
+                   "decay_table", decay_strings)
     out += [f"### Fretted decay per string and fret, strings {decay_strings[0]}-{decay_strings[-1]}"
             f" (dB/s of the fundamental against {FINE}; negative: dies faster)",
             md_table(["configuration", "string", *[f"fret {q}" for q in FRETS], "worst"], dec)]
@@ -587,14 +588,11 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                           for t, v, lim in targets(rows[c.name])])]
 
     if compact:
-        worst = []
-        for c in configs:
-            for key, what in (("fretted_table", "pitch vs 12-TET (c)"),
-                              ("decay_table", f"decay vs {FINE} (dB/s)")):
-                worst.append([c.name, what, *[f"{row[np.argmax(np.abs(row))]:+.1f}"
-                                              for row in rows[c.name][key]]])
+        worsts = [[c.name, what, *[f"{worst(row):+.1f}" for row in rows[c.name][key]]]
+                  for c in configs for key, what in (("fretted_table", "pitch vs 12-TET (c)"),
+                                                      ("decay_table", f"decay vs {FINE} (dB/s)"))]
         out += ["Fretted notes, frets 1-12: the worst of each string",
-                md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worst)]
+                md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worsts)]
         out += spectral_table(st, rows, configs, ref_check)
     else:
         out += detail_tables(st, rows, configs, ref_check, detail)

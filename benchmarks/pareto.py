@@ -20,8 +20,8 @@ errors each against an exact or converged reference:
     the same notes' decay (dB/s of the fundamental, ``engine.analysis.decay_db_per_s``)
     against the converged x8 render;
   * sink: how far a string goes below a fret tip and below the fretboard (um), sampled at every
-    output sample, in pressed notes (3 N at frets 5 and 12), slams (10 N taps at 5 m/s) and a
-    fret-buzz scene;
+    output sample, in pressed notes (the engine's pressing force at frets 5 and 12), slams (10 N
+    taps at 5 m/s) and a fret-buzz scene;
   * rendered signal against a reference render of the same scene at 16x oversampling: relative
     error of the STFT magnitude (2048-sample Hann frames, 20 Hz - 14 kHz, where the decimation
     filter is flat), dB, for a hard pluck, a fretted note, a tap and a fret-buzz scene;

@@ -796,7 +796,7 @@ def main() -> None:
     if full:
         plot(rows, configs, IMG / "pareto.png")
         write_docs("Measured: run time against error", "pareto",
-                   f"Printed by `python -m benchmarks.pareto` ({len(configs)} configurations, "
+                   f"Printed by `{command.strip()}` ({len(configs)} configurations, "
                    f"costs: CPU time, best of {args.repeat} rounds; {elapsed:.0f} s on this "
                    "machine).\n\n"
                    "![Pareto fronts](img/pareto.png)\n\n" + body)

@@ -58,7 +58,7 @@ from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
 from engine.guitar import prepare
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import PRESETS, get_preset
-from engine.scene import Scene
+from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN, Scene
 from engine.string import FRET_PENALTY
 from engine.testing import scenes as shared
 from engine.testing.scenes import fret, pluck, tap
@@ -739,6 +739,10 @@ def main() -> None:
                          "rendering) and write the section pareto-grids")
     ap.add_argument("--no-docs", action="store_true", help="print only; leave docs/ alone")
     args = ap.parse_args()
+    if not SAMPLE_RATE_MIN <= args.sample_rate <= SAMPLE_RATE_MAX:
+        ap.error(f"--sample-rate: {args.sample_rate} is outside {SAMPLE_RATE_MIN}-{SAMPLE_RATE_MAX}")
+    if args.jobs < 1 or args.repeat < 1 or not args.seconds > 0:
+        ap.error("--jobs and --repeat must be at least 1, --seconds above 0")
     t0 = time.perf_counter()
     st = Study(args.preset, args.sample_rate, args.live_grid)
     if args.only:

@@ -32,7 +32,7 @@ import engine
 from engine.analysis import cents, decay_db_per_s, spectrum_peak
 from engine.intonation import REFERENCE_H_M
 from engine.options import QUALITY, Quality, RenderOptions
-from engine.presets import get_preset
+from engine.presets import PRESETS, get_preset
 from engine.scene import MAX_NUT_COMPENSATION_M
 from engine.testing.scenes import SR, pluck, scene
 from engine.testing.scenes import fret as fret_at
@@ -142,8 +142,8 @@ def above_12th(preset_name: str, quality_name: str, pool) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--preset", default="steel-acoustic")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--preset", default="steel-acoustic", choices=sorted(PRESETS))
     ap.add_argument("--fit-only", action="store_true")
     ap.add_argument("--above-12th", metavar="QUALITY", choices=sorted(QUALITY),
                     help="only frets 13 and up at this quality, with the preset's compensation")

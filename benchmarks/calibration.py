@@ -17,6 +17,10 @@ import subprocess
 import sys
 import tempfile
 
+from engine.options import QUALITY
+from engine.presets import PRESETS
+from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+
 CHILD = r"""
 import sys, time
 from engine.scene import Scene
@@ -39,12 +43,17 @@ def prepare_seconds(store: str, preset: str, rate: int, quality: str) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--presets", nargs="+", default=["steel-acoustic", "bass"])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--presets", nargs="+", default=["steel-acoustic", "bass"],
+                    choices=sorted(PRESETS))
     ap.add_argument("--rate", type=int, default=44100)
-    ap.add_argument("--quality", default="draft")
+    ap.add_argument("--quality", default="draft", choices=sorted(QUALITY))
     ap.add_argument("--repeat", type=int, default=2)
     a = ap.parse_args()
+    if not SAMPLE_RATE_MIN <= a.rate <= SAMPLE_RATE_MAX:
+        ap.error(f"--rate: {a.rate} is outside {SAMPLE_RATE_MIN}-{SAMPLE_RATE_MAX}")
+    if a.repeat < 1:
+        ap.error("--repeat must be at least 1")
     print(f"a live session's guitar prepared (every fret calibrated), quality '{a.quality}', "
           f"{a.rate} Hz, wall time of one new process (s)")
     print("preset | empty store | calibrations on disk")

@@ -39,7 +39,7 @@ from benchmarks.intonation import FRETS, REFERENCE, SR, print_table, tables
 from engine import calibration_store, config
 from engine.intonation import fret_calibration, fret_calibrations, fret_shift, held_note
 from engine.options import QUALITY, Quality
-from engine.presets import Preset, get_preset
+from engine.presets import PRESETS, Preset, get_preset
 from engine.voice import oversample_for
 
 
@@ -62,8 +62,8 @@ def predicted(preset: Preset, quality: Quality) -> tuple[np.ndarray, np.ndarray]
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--preset", default="steel-acoustic")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--preset", default="steel-acoustic", choices=sorted(PRESETS))
     ap.add_argument("--quality", default="draft", choices=list(QUALITY))
     args = ap.parse_args(argv)
     preset = get_preset(args.preset)

@@ -32,7 +32,7 @@ import engine
 from engine.analysis import cents, decay_db_per_s, spectrum_peak
 from engine.intonation import REFERENCE_H_M
 from engine.options import QUALITY, Quality, RenderOptions
-from engine.presets import get_preset
+from engine.presets import PRESETS, get_preset
 from engine.scene import MAX_NUT_COMPENSATION_M
 from engine.testing.scenes import SR, pluck, scene
 from engine.testing.scenes import fret as fret_at
@@ -80,14 +80,18 @@ def table(preset_name: str, quality: Quality, uncompensated: bool, pool,
     return tables(preset_name, quality, uncompensated, pool, frets)[0]
 
 
+def worst(x: np.ndarray) -> float:
+    """The entry of ``x`` largest in magnitude, with its sign."""
+    return float(x.flat[np.argmax(np.abs(x))])
+
+
 def print_table(title: str, err: np.ndarray, unit: str = "cents",
                 frets: tuple[int, ...] = FRETS) -> None:
     print(f"\n{title}")
     print("string | " + " ".join(f"{q:>6d}" for q in frets) + " |  worst")
     for s, row in enumerate(err, start=1):
-        worst = row[np.argmax(np.abs(row))]
-        print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst:+6.1f}")
-    print(f"all strings: worst {err.flat[np.argmax(np.abs(err))]:+.1f} {unit}")
+        print(f"{s:>6d} | " + " ".join(f"{c:+6.1f}" for c in row) + f" | {worst(row):+6.1f}")
+    print(f"all strings: worst {worst(err):+.1f} {unit}")
 
 
 def print_split(title: str, err: np.ndarray, frets: tuple[int, ...]) -> None:
@@ -138,8 +142,8 @@ def above_12th(preset_name: str, quality_name: str, pool) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--preset", default="steel-acoustic")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--preset", default="steel-acoustic", choices=sorted(PRESETS))
     ap.add_argument("--fit-only", action="store_true")
     ap.add_argument("--above-12th", metavar="QUALITY", choices=sorted(QUALITY),
                     help="only frets 13 and up at this quality, with the preset's compensation")

@@ -20,8 +20,8 @@ errors each against an exact or converged reference:
     the same notes' decay (dB/s of the fundamental, ``engine.analysis.decay_db_per_s``)
     against the converged x8 render;
   * sink: how far a string goes below a fret tip and below the fretboard (um), sampled at every
-    output sample, in pressed notes (3 N at frets 5 and 12), slams (10 N taps at 5 m/s) and a
-    fret-buzz scene;
+    output sample, in pressed notes (the engine's pressing force at frets 5 and 12), slams (10 N
+    taps at 5 m/s) and a fret-buzz scene;
   * rendered signal against a reference render of the same scene at 16x oversampling: relative
     error of the STFT magnitude (2048-sample Hann frames, 20 Hz - 14 kHz, where the decimation
     filter is flat), dB, for a hard pluck, a fretted note, a tap and a fret-buzz scene;
@@ -53,12 +53,12 @@ import engine.guitar
 import engine.kernels
 import engine.string
 from benchmarks.accuracy import ENERGY_SCENES
-from benchmarks.intonation import FRETS
+from benchmarks.intonation import FRETS, worst
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
 from engine.guitar import prepare
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import PRESETS, get_preset
-from engine.scene import Scene
+from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN, Scene
 from engine.string import FRET_PENALTY
 from engine.testing import scenes as shared
 from engine.testing.scenes import fret, pluck, tap
@@ -112,6 +112,8 @@ LEVEL = "quality level"
 # the contact grid rules tried around standard's (the one equal to standard's is left out of the
 # full study, which has standard itself; ``--only`` can still name it)
 CONTACT_H_MM = (7.0, 5.5, 4.5, 3.5)
+CONTACT_RULES = [Config(f"fingered h <= {h:g} mm", "contact grid rule",
+                        replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in CONTACT_H_MM]
 CONFIGS = [
     Config("draft", LEVEL, "draft"),
     Config("standard", LEVEL, "standard"),
@@ -119,8 +121,7 @@ CONFIGS = [
     *[Config(f"x{k} everywhere", "oversampling", _forced(k), oversample=k) for k in (2, 3, 4, 6, 8)],
     # standard and high with one knob turned (their other knobs as they are: Kirchhoff-Carrier's
     # skip tolerance, the fret calibration)
-    *[Config(f"fingered h <= {h:g} mm", "contact grid rule",
-             replace(QUALITY["standard"], max_h_m=h * 1e-3)) for h in CONTACT_H_MM],
+    *[c for c in CONTACT_RULES if c.quality != QUALITY["standard"]],
     Config("high, open strings too (dispersion <= 0.004 c)", "dispersion bound",
            replace(QUALITY["high"], max_dispersion_cents=0.004)),
     Config("x1, h = 1.25 h_min", "grid spacing", _forced(1, 1.25), oversample=1),
@@ -144,17 +145,10 @@ QUICK = ("draft", "standard", "high", "x4 everywhere", "standard, gamma = 1",
          "standard, penalty frets")
 REFERENCE = Config("reference x16", "reference", _forced(16), oversample=16)
 FINE = "x8 everywhere"  # the converged reference for fretted pitch (x16 would cost 4x more)
-BY_NAME = {c.name: c for c in [*CONFIGS, REFERENCE]}
-CONFIGS = [c for c in CONFIGS if not (c.knob == "contact grid rule" and isinstance(c.quality, Quality)
-                                      and c.quality == QUALITY["standard"])]
+BY_NAME = {c.name: c for c in [*CONFIGS, *CONTACT_RULES, REFERENCE]}
 
 # ------------------------------------------------------------------------------------------------
 # scenes
-
-
-# The shared builders (engine.testing.scenes), with this study's values passed wherever they differ
-# from the builders' defaults: plucks of 2 N, fingers with the engine's default force (None), taps of
-# 3 N at 1.5 m/s; every scene names the preset and leaves the output at the fixed gain.
 
 
 LOW_ACTION = {"action_nut_m": 1e-4, "action_12th_m": 5e-4}
@@ -493,6 +487,14 @@ def comparison(rows: dict, a: str, b: str) -> list[str]:
     return [f"{a} against {b}:", *[f"  * {line}" for line in out]]
 
 
+def per_fret(rows: dict, configs: list[Config], key: str,
+             strings: tuple[int, ...]) -> list[list[str]]:
+    """Table rows of ``rows[name][key]`` (a string's frets 1-12) for each configuration and string,
+    each with its worst entry."""
+    return [[c.name, str(s), *[f"{x:+.1f}" for x in row], f"{worst(row):+.1f}"]
+            for c in configs for s in strings for row in [rows[c.name][key][s - 1]]]
+
+
 def spectral_table(st: Study, rows: dict, configs: list[Config], ref_check: dict) -> list[str]:
     spec = [[c.name, *[f"{rows[c.name]['spectral_scenes'][k]:.1f}" for k in st.spectral]]
             for c in configs]
@@ -514,24 +516,17 @@ def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
 
     out += spectral_table(st, rows, configs, ref_check)
 
-    fr = []
-    for c in configs if detail else [c for c in configs if c.knob == LEVEL]:
-        for s in st.strings:
-            row = rows[c.name]["fretted_table"][s - 1]
-            fr.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
-                       f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    fr = per_fret(rows, configs if detail else [c for c in configs if c.knob == LEVEL],
+                  "fretted_table", st.strings)
     which = "configurations" if detail else "quality levels"
     out += [f"### Fretted pitch per string and fret, {which} (cents from 12-TET)",
             md_table(["configuration" if detail else "level", "string",
                       *[f"fret {q}" for q in FRETS], "worst"], fr)]
 
-    dec = []
     decay_strings = st.strings if detail else st.strings[:3]
-    for c in configs if detail else [c for c in configs if c.knob in (LEVEL, "contact grid rule")]:
-        for s in decay_strings:
-            row = rows[c.name]["decay_table"][s - 1]
-            dec.append([c.name, str(s), *[f"{x:+.1f}" for x in row],
-                        f"{row[np.argmax(np.abs(row))]:+.1f}"])
+    dec = per_fret(rows, configs if detail else
+                   [c for c in configs if c.knob in (LEVEL, "contact grid rule")],
+                   "decay_table", decay_strings)
     out += [f"### Fretted decay per string and fret, strings {decay_strings[0]}-{decay_strings[-1]}"
             f" (dB/s of the fundamental against {FINE}; negative: dies faster)",
             md_table(["configuration", "string", *[f"fret {q}" for q in FRETS], "worst"], dec)]
@@ -593,14 +588,11 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                           for t, v, lim in targets(rows[c.name])])]
 
     if compact:
-        worst = []
-        for c in configs:
-            for key, what in (("fretted_table", "pitch vs 12-TET (c)"),
-                              ("decay_table", f"decay vs {FINE} (dB/s)")):
-                worst.append([c.name, what, *[f"{row[np.argmax(np.abs(row))]:+.1f}"
-                                              for row in rows[c.name][key]]])
+        worsts = [[c.name, what, *[f"{worst(row):+.1f}" for row in rows[c.name][key]]]
+                  for c in configs for key, what in (("fretted_table", "pitch vs 12-TET (c)"),
+                                                      ("decay_table", f"decay vs {FINE} (dB/s)"))]
         out += ["Fretted notes, frets 1-12: the worst of each string",
-                md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worst)]
+                md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worsts)]
         out += spectral_table(st, rows, configs, ref_check)
     else:
         out += detail_tables(st, rows, configs, ref_check, detail)
@@ -747,6 +739,10 @@ def main() -> None:
                          "rendering) and write the section pareto-grids")
     ap.add_argument("--no-docs", action="store_true", help="print only; leave docs/ alone")
     args = ap.parse_args()
+    if not SAMPLE_RATE_MIN <= args.sample_rate <= SAMPLE_RATE_MAX:
+        ap.error(f"--sample-rate: {args.sample_rate} is outside {SAMPLE_RATE_MIN}-{SAMPLE_RATE_MAX}")
+    if args.jobs < 1 or args.repeat < 1 or not args.seconds > 0:
+        ap.error("--jobs and --repeat must be at least 1, --seconds above 0")
     t0 = time.perf_counter()
     st = Study(args.preset, args.sample_rate, args.live_grid)
     if args.only:
@@ -804,7 +800,7 @@ def main() -> None:
     if full:
         plot(rows, configs, IMG / "pareto.png")
         write_docs("Measured: run time against error", "pareto",
-                   f"Printed by `python -m benchmarks.pareto` ({len(configs)} configurations, "
+                   f"Printed by `{command.strip()}` ({len(configs)} configurations, "
                    f"costs: CPU time, best of {args.repeat} rounds; {elapsed:.0f} s on this "
                    "machine).\n\n"
                    "![Pareto fronts](img/pareto.png)\n\n" + body)

@@ -4,8 +4,8 @@ Table 1, per string of the default preset at the chosen quality: the linear stri
 "baseline" of the paper's sec. 7), and the full model (Kirchhoff-Carrier, fretboard, rigid frets, a
 finger pressing at fret 5, an 8 N pluck), with the ratio between them; and an open string's 2 N
 pluck with every nonlinearity on against the same pluck on the linear string; then the floor of
-each scene of table 2 (``scene_floor``: the strings it plays on the grids it gives them, linear,
-computed throughout), the most a plain stencil on those grids allows.
+table 2's open strum, fretted chord and melody (``scene_floor``: the strings each plays on the
+grids it gives them, linear, computed throughout), the most a plain stencil on those grids allows.
 Table 2, whole scenes: a six-string strum (open strings), a fretted chord (with held steps and
 without: what the held run buys), a fretted single-line melody whose notes are damped as a player
 ends them (with sleeping and stopping quiet strings, the default, and without), and the paper's

@@ -468,7 +468,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise BadInput(f"--port: 1..65535, not {args.port}")
     import uvicorn
 
-    uvicorn.run("service.app:app", host=args.host, port=args.port, log_level=args.log_level)
+    # the service writes its own JSON access line per request; uvicorn's would be a second one
+    uvicorn.run("service.app:app", host=args.host, port=args.port, log_level=args.log_level,
+                access_log=False)
     return 0
 
 

@@ -273,7 +273,8 @@ def test_scene_of_a_midi_file_gets_strings_and_frets(tmp_path: Path) -> None:
 
 
 def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
-    """`guitar-synth serve` is the service (GET /health, /limits with GUITAR_* settings)."""
+    """`guitar-synth serve` is the service (GET /health, /limits with GUITAR_* settings), with
+    one access log line per request: the service's JSON line, not uvicorn's plain one too."""
     import os
     import signal
     import socket
@@ -290,7 +291,7 @@ def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "GUITAR_MAX_EVENTS": "123"}
     log = open(tmp_path / "serve.log", "wb")  # noqa: SIM115 - closed below
     proc = subprocess.Popen([command(), "serve", "--port", str(port), "--workers", "1",
-                             "--log-level", "warning"], env=env, stdout=log,
+                             "--log-level", "info"], env=env, stdout=log,
                             stderr=subprocess.STDOUT)
     try:
         deadline = time.monotonic() + 120
@@ -311,6 +312,9 @@ def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
         # as `uvicorn service.app:app` does
         assert proc.wait(30) in (0, -signal.SIGTERM)
         log.close()
+    text = (tmp_path / "serve.log").read_text()
+    assert '"path": "/limits"' in text, text[-2000:]
+    assert "GET /limits HTTP" not in text, text[-2000:]
 
 
 def test_the_command_knows_the_engine_by_its_public_names() -> None:

@@ -26,8 +26,9 @@ $(VENV)/.installed: pyproject.toml | venv-support
 	$(BIN)/pip install -q -e '.[dev]'
 	touch $@
 
+# the service writes its own JSON access log; uvicorn's would duplicate every line
 serve: install
-	$(BIN)/uvicorn service.app:app --host 127.0.0.1 --port 8000
+	$(BIN)/uvicorn service.app:app --host 127.0.0.1 --port 8000 --no-access-log
 
 # Debian's chromium drives the demo-page test (PyPI's playwright talks to it; never `playwright
 # install`).  Installed when we are root and it is missing; without it that one test is skipped.

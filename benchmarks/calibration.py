@@ -5,8 +5,9 @@ calibrations on disk (``engine.calibration_store``).
     python -m benchmarks.calibration
 
 Each figure is the wall time of ``engine.guitar.prepare`` in a new Python process (the numba
-kernels already compiled and cached, as in a warm service), best of ``--repeat``.  A store that
-starts empty is filled by the first run; the warm runs read it.
+kernels already compiled and cached, as in a warm service).  A store that starts empty is filled
+by the first run, a single one; the warm runs read it, and their figure is the best of
+``--repeat``.
 """
 
 from __future__ import annotations

@@ -83,6 +83,9 @@ def _add_render_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--quality", choices=("draft", "standard", "high"))
     g.add_argument("--sample-rate", type=int, metavar="HZ")
     g.add_argument("--channels", type=int, choices=(1, 2), help="1 mono, 2 stereo")
+    g.add_argument("--model", choices=("fdtd", "waveguide"),
+                   help="the string model of every track: fdtd, the finite-difference string "
+                        "(the default), or waveguide, the digital waveguide (many times cheaper)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -239,6 +242,11 @@ def _overrides(scene: dict[str, Any], args: argparse.Namespace) -> None:
         scene["quality"] = args.quality
     if args.sample_rate is not None:
         scene["sample_rate"] = args.sample_rate
+    if args.model is not None:  # every track: a track's own model would otherwise win
+        scene["model"] = args.model
+        for track in scene["tracks"] if isinstance(scene.get("tracks"), list) else []:
+            if isinstance(track, dict):
+                track.pop("model", None)
     output = scene.get("output") if isinstance(scene.get("output"), dict) else {}
     if args.channels is not None:
         output["channels"] = args.channels
@@ -460,7 +468,9 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise BadInput(f"--port: 1..65535, not {args.port}")
     import uvicorn
 
-    uvicorn.run("service.app:app", host=args.host, port=args.port, log_level=args.log_level)
+    # the service writes its own JSON access line per request; uvicorn's would be a second one
+    uvicorn.run("service.app:app", host=args.host, port=args.port, log_level=args.log_level,
+                access_log=False)
     return 0
 
 

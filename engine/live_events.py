@@ -11,6 +11,7 @@ it there had been given that release time.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -104,10 +105,17 @@ def _field(loc: tuple) -> str:
     return out or "message"
 
 
+# A cross-field check of the scene names its field at the start of its message:
+# "guitar.strings: string 6 outside 1..4".
+_FIELD_IN_MESSAGE = re.compile(r"^((?:[a-z_]+(?:\[\d+\])?\.)*[a-z_]+(?:\[\d+\])?): (.+)$", re.S)
+
+
 def validation_error(exc: ValidationError) -> LiveError:
     """The first error of a pydantic validation as a ``LiveError`` naming its field."""
     err = exc.errors()[0]
     msg = err["msg"].removeprefix("Value error, ")
+    if not err["loc"] and (m := _FIELD_IN_MESSAGE.match(msg)):
+        return LiveError(m.group(1), m.group(2))
     return LiveError(_field(tuple(err["loc"])), msg)
 
 

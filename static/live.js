@@ -390,9 +390,18 @@ function showStats() {
   L("#live-blocks").textContent = live.blocks;
 }
 
+// The waveguide model has no grids to choose: the quality select does nothing there.
+function modelChanged() {
+  const waveguide = L("#live-model").value === "waveguide";
+  L("#live-quality").disabled = waveguide;
+  L("#live-quality").title = waveguide ? "the waveguide model has no quality levels" : "";
+}
+
 async function start() {
   await loadPresets();
   L("#live-preset").addEventListener("change", presetChanged);
+  L("#live-model").addEventListener("change", modelChanged);
+  modelChanged();
   L("#live-connect").addEventListener("click", () => connect().catch((err) => {
     L("#live-error").textContent = `could not start audio: ${err.message || err}`;
   }));

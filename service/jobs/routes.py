@@ -104,8 +104,7 @@ async def _scene_from_score(request: Request) -> engine.Scene:
     # refused by the duration check, unless the client asked for its beginning
     importer["max_seconds"] = asked if asked is not None else s.job_max_duration_s + 0.5
     scene, _warnings = await score_routes._import(request, data, name, importer)
-    if opts.quality is not None:
-        scene["quality"] = opts.quality
+    score_routes.apply_scene_options(scene, opts)
     scene["output"] = {**scene.get("output", {}), **out_fields}
     return score_routes._validate(scene)
 

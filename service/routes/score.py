@@ -38,7 +38,7 @@ _OPTION_IN_MESSAGE = re.compile(r"^(options\.[a-z_]+): (.*)$", re.S)
 
 class ScoreOptions(BaseModel):
     """The form field ``options`` (JSON): how the score becomes a scene
-    (``engine.score_to_scene``'s options) and the scene's quality."""
+    (``engine.score_to_scene``'s options) and the scene's quality and model."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -55,6 +55,8 @@ class ScoreOptions(BaseModel):
                                     description="the scene's sample rate (default 44100)")
     quality: Literal["draft", "standard", "high"] | None = Field(
         None, description="the scene's quality (default standard)")
+    model: Literal["fdtd", "waveguide"] | None = Field(
+        None, description="the scene's string model (default fdtd; waveguide: many times cheaper)")
 
 
 def _form_error(field: str, msg: str, kind: str = "value_error", value: Any = None) -> Any:
@@ -145,13 +147,19 @@ def _score_warnings(warnings: list[str]) -> dict[str, str]:
 
 
 def _importer_options(opts: ScoreOptions) -> dict[str, Any]:
-    d = opts.model_dump(exclude_none=True)
-    d.pop("quality", None)
-    return d
+    return opts.model_dump(exclude_none=True, exclude={"quality", "model"})
+
+
+def apply_scene_options(scene: dict[str, Any], opts: ScoreOptions) -> None:
+    """The options that are the scene's own fields, not the importer's."""
+    if opts.quality is not None:
+        scene["quality"] = opts.quality
+    if opts.model is not None:
+        scene["model"] = opts.model
 
 
 _FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.mid/.midi file), optional `options` "
-             "(JSON: tracks, presets, tempo_scale, max_seconds, sample_rate, quality)")
+             "(JSON: tracks, presets, tempo_scale, max_seconds, sample_rate, quality, model)")
 
 
 @router.post(
@@ -172,8 +180,7 @@ async def score_scene(
     opts = _options(options)
     data, name = await _upload(file)
     scene, warnings = await _import(request, data, name, _importer_options(opts))
-    if opts.quality is not None:
-        scene["quality"] = opts.quality
+    apply_scene_options(scene, opts)
     _validate(scene)  # what goes out is a scene /render accepts (up to its limits)
     return Response(json.dumps(scene), media_type="application/json",
                     headers=_score_warnings(warnings))
@@ -220,8 +227,7 @@ async def render_score(
                           f"the score plays longer than this service's limit of {limit:g} s "
                           "(GUITAR_MAX_DURATION_S); give options.max_seconds to render its "
                           "beginning", "less_than_equal", asked)
-    if opts.quality is not None:
-        scene["quality"] = opts.quality
+    apply_scene_options(scene, opts)
     scene["output"] = {**scene.get("output", {}), **out_fields}
     sc = _validate(scene)
     check_limits(sc, settings, max_events=settings.max_score_events)
@@ -255,11 +261,11 @@ def _validate(scene: dict[str, Any]) -> engine.Scene:
 
 
 def _scene_loc(loc: tuple) -> tuple:
-    """Where an invalid field of the converted scene came from: ``output.*``, ``quality`` and
-    ``sample_rate`` are the client's own fields; anything else the score's."""
+    """Where an invalid field of the converted scene came from: ``output.*``, ``quality``,
+    ``model`` and ``sample_rate`` are the client's own fields; anything else the score's."""
     if loc and loc[0] == "output":
         return ("output", *loc[1:])
-    if loc and loc[0] in ("quality", "sample_rate"):
+    if loc and loc[0] in ("quality", "model", "sample_rate"):
         return ("options", *loc)
     return ("file", *map(str, loc))
 

@@ -40,7 +40,7 @@ def test_every_command_has_help(args: list[str]) -> None:
     assert r.returncode == 0, r.stderr
     assert r.stdout.startswith(f"usage: guitar-synth {' '.join(args)}".rstrip())
     for word in {"": ["render", "scene", "serve"], "render": ["--labels", "--tracks", "--quality",
-                 ".wav", ".flac", ".ogg"], "scene": ["-o"], "serve": ["--host", "--port",
+                 "--model", ".wav", ".flac", ".ogg"], "scene": ["-o"], "serve": ["--host", "--port",
                  "GUITAR_"]}["".join(args[:1])]:
         assert word in r.stdout, word
 
@@ -85,6 +85,34 @@ def test_scene_of_a_scene_writes_it_back_with_overrides(tmp_path: Path) -> None:
     r = run("scene", write_json(tmp_path / "s.json", SCENE), "-o", "-", "--quality", "high")
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout) == {**SCENE, "quality": "high"}
+
+
+def test_model_overrides_every_track(tmp_path: Path) -> None:
+    """--model sets the scene's model and drops a track's own, so every track plays it."""
+    scene = {"duration": 0.3, "model": "fdtd", "tracks": [
+        {"model": "fdtd", "events": SCENE["events"]}, {"events": SCENE["events"][2:]}]}
+    r = run("scene", write_json(tmp_path / "s.json", scene), "-o", "-", "--model", "waveguide")
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout) == {"duration": 0.3, "model": "waveguide", "tracks": [
+        {"events": SCENE["events"]}, {"events": SCENE["events"][2:]}]}
+
+
+def test_render_with_the_waveguide_model(tmp_path: Path) -> None:
+    """--model waveguide renders what the scene's own "model": "waveguide" renders, and not
+    what the finite-difference model does."""
+    def render(scene: dict, *flags: str) -> np.ndarray:
+        out = tmp_path / f"{len(list(tmp_path.iterdir()))}.wav"
+        r = run("render", write_json(tmp_path / "in.json", scene), "-o", out, "--no-normalize",
+                "--subtype", "FLOAT", "-q", *flags)
+        assert r.returncode == 0, r.stderr
+        return sf.read(out)[0]
+
+    flag = render(SCENE, "--model", "waveguide")
+    assert np.all(np.isfinite(flag)) and np.max(np.abs(flag)) > 1e-3
+    assert np.array_equal(flag, render({**SCENE, "model": "waveguide"}))
+    fdtd = render({**SCENE, "model": "waveguide"}, "--model", "fdtd")
+    assert np.array_equal(fdtd, render(SCENE))
+    assert not np.allclose(flag, fdtd, atol=1e-3)
 
 
 # ---- bad input: one line naming the problem, exit status 2 ----------------------------------
@@ -156,6 +184,8 @@ def test_usage_errors_are_one_line(tmp_path: Path) -> None:
                                              "--quality", "ultra"))
     assert "--max-seconds" in one_error_line(run("render", "a.json", "-o", "b.wav",
                                                  "--max-seconds", "-3"))
+    assert "--model" in one_error_line(run("render", "a.json", "-o", "b.wav",
+                                           "--model", "spline"))
 
 
 def test_an_unknown_preset_for_a_score_names_the_flag(tmp_path: Path) -> None:
@@ -243,7 +273,8 @@ def test_scene_of_a_midi_file_gets_strings_and_frets(tmp_path: Path) -> None:
 
 
 def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
-    """`guitar-synth serve` is the service (GET /health, /limits with GUITAR_* settings)."""
+    """`guitar-synth serve` is the service (GET /health, /limits with GUITAR_* settings), with
+    one access log line per request: the service's JSON line, not uvicorn's plain one too."""
     import os
     import signal
     import socket
@@ -260,7 +291,7 @@ def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "GUITAR_MAX_EVENTS": "123"}
     log = open(tmp_path / "serve.log", "wb")  # noqa: SIM115 - closed below
     proc = subprocess.Popen([command(), "serve", "--port", str(port), "--workers", "1",
-                             "--log-level", "warning"], env=env, stdout=log,
+                             "--log-level", "info"], env=env, stdout=log,
                             stderr=subprocess.STDOUT)
     try:
         deadline = time.monotonic() + 120
@@ -281,6 +312,9 @@ def test_serve_answers_health_and_stops(tmp_path: Path) -> None:
         # as `uvicorn service.app:app` does
         assert proc.wait(30) in (0, -signal.SIGTERM)
         log.close()
+    text = (tmp_path / "serve.log").read_text()
+    assert '"path": "/limits"' in text, text[-2000:]
+    assert "GET /limits HTTP" not in text, text[-2000:]
 
 
 def test_the_command_knows_the_engine_by_its_public_names() -> None:

@@ -245,6 +245,20 @@ def test_a_copy_of_a_prepared_waveguide_session_plays_the_same():
     assert np.array_equal(copied, play(template, PLAN, 100))
 
 
+@pytest.mark.parametrize("strings, field, text", [
+    ([{"string": 6, "nut_compensation_m": 0.001}], "guitar.strings", "string 6 outside 1..4"),
+    ([{"string": 2, "nut_compensation_m": 0.009}], "guitar.strings[0].nut_compensation_m",
+     "less than or equal to 0.007"),
+])
+def test_a_bad_guitar_in_the_open_names_its_field(strings, field, text):
+    """The guitar's cross-field checks (a string the preset lacks) name the field as its own
+    checks do, not the whole message."""
+    with pytest.raises(engine.LiveError) as err:
+        engine.parse_live_open({"guitar": {"preset": "bass", "strings": strings}})
+    assert err.value.field == field, err.value
+    assert text in err.value.message and not err.value.message.startswith(field), err.value
+
+
 def test_an_unknown_model_is_refused_naming_the_field():
     with pytest.raises(engine.LiveError) as err:
         engine.parse_live_open({"preset": "steel-acoustic", "model": "spline"})

@@ -114,7 +114,9 @@ def test_play_from_keyboard_and_midi(page: Any) -> None:
 
 def test_play_the_waveguide_model(page: Any) -> None:
     """The page's model selector opens a waveguide session, which plays the same controls."""
+    assert page.is_enabled("#live-quality")
     page.select_option("#live-model", "waveguide")
+    assert page.is_disabled("#live-quality")  # quality does nothing on the waveguide model
     page.click("#live-connect")
     page.wait_for_function("document.querySelector('#live-status').textContent"
                            ".startsWith('playing steel-acoustic (waveguide)')", timeout=60_000)
@@ -132,3 +134,4 @@ def test_play_the_waveguide_model(page: Any) -> None:
     page.click("#live-connect")
     page.wait_for_function("document.querySelector('#live-status').textContent.startsWith('closed')")
     page.select_option("#live-model", "fdtd")
+    assert page.is_enabled("#live-quality")

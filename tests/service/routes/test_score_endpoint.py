@@ -79,6 +79,24 @@ def test_render_score(server) -> None:
     assert r.headers["content-type"] == "audio/ogg"
 
 
+def test_score_on_the_waveguide_model(server) -> None:
+    """options.model is the scene's model: /render/score renders what /render does with the
+    scene /score/scene gives for the same options."""
+    opts = {"max_seconds": 1.0, "model": "waveguide"}
+    r = post(server, "/score/scene", small_gp5(tracks=1), options=opts)
+    assert r.status_code == 200, brief(r)
+    scene = r.json()
+    assert scene["model"] == "waveguide"
+    direct = httpx.post(server.url + "/render", json=scene, timeout=120)
+    assert direct.status_code == 200, brief(direct)
+    r = post(server, "/render/score", small_gp5(tracks=1), options=opts)
+    assert r.status_code == 200, brief(r)
+    assert r.content == direct.content
+    fdtd = post(server, "/render/score", small_gp5(tracks=1), options={"max_seconds": 1.0})
+    assert fdtd.status_code == 200, brief(fdtd)
+    assert fdtd.content != r.content
+
+
 def test_scene_labels(server) -> None:
     import jams
 
@@ -126,6 +144,7 @@ def test_bad_uploads_are_422_naming_the_problem(server, path: str, data: bytes |
     ({"presets": "banjo"}, "options.presets"),  # refused by the importer, in the worker
     ({"sample_rate": 1000}, "options.sample_rate"),
     ({"quality": "ultra"}, "options.quality"),
+    ({"model": "spline"}, "options.model"),
 ])
 def test_bad_options_name_the_field(server, options: Any, field: str) -> None:
     r = post(server, "/score/scene", small_gp5(), options=options)

@@ -51,7 +51,7 @@ from __future__ import annotations
 import importlib
 
 from .presets import PRESETS, Preset, get_preset
-from .scene import Scene, frame_count, parse_scene
+from .scene import MODELS, ModelName, QualityName, Scene, frame_count, parse_scene
 
 # name -> module that defines it, imported on first access (PEP 562)
 _LAZY = {
@@ -80,7 +80,8 @@ _LAZY = {
     "parse_live_event": "live_events",
 }
 
-__all__ = ["PRESETS", "Preset", "Scene", "frame_count", "get_preset", "parse_scene", *_LAZY]
+__all__ = ["MODELS", "ModelName", "PRESETS", "Preset", "QualityName", "Scene", "frame_count",
+           "get_preset", "parse_scene", *_LAZY]
 
 
 def __getattr__(name: str):

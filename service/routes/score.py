@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import PurePath
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, File, Form, Request, Response, UploadFile
 from fastapi.exceptions import RequestValidationError
@@ -53,9 +53,9 @@ class ScoreOptions(BaseModel):
     max_seconds: float | None = Field(None, gt=0.0, description="keep only the first seconds")
     sample_rate: int | None = Field(None, ge=SAMPLE_RATE_MIN, le=SAMPLE_RATE_MAX,
                                     description="the scene's sample rate (default 44100)")
-    quality: Literal["draft", "standard", "high"] | None = Field(
+    quality: engine.QualityName | None = Field(
         None, description="the scene's quality (default standard)")
-    model: Literal["fdtd", "waveguide"] | None = Field(
+    model: engine.ModelName | None = Field(
         None, description="the scene's string model (default fdtd; waveguide: many times cheaper)")
 
 

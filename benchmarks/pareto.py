@@ -5,8 +5,9 @@
 For each configuration (the three quality levels, and one knob at a time around them: internal
 oversampling, the contact-resolution rule, grid spacing relative to the stability bound, the contact
 formulation, the gamma rule of the DAFx24 paper's sec. 4.7, dispersion pre-compensation,
-Kirchhoff-Carrier tension modulation) it measures, on the steel-acoustic preset at 44.1 kHz with no
-body response (the strings' own sound):
+Kirchhoff-Carrier tension modulation), and for the other model, the digital waveguide
+(``engine.waveguide``, the row "waveguide", with its default options), it measures, on the
+steel-acoustic preset at 44.1 kHz with no body response (the strings' own sound):
 
 cost   ms of compute per second of audio: per string (a finger at fret 5 and an 8 N pluck, the
        ``benchmarks.speed`` scene) and for a six-string scene (an F barre chord, strummed);
@@ -26,6 +27,13 @@ errors each against an exact or converged reference:
     error of the STFT magnitude (2048-sample Hann frames, 20 Hz - 14 kHz, where the decimation
     filter is flat), dB, for a hard pluck, a fretted note, a tap and a fret-buzz scene;
   * energy balance (paper sec. 6.1) on a scene with every nonlinearity.
+
+The waveguide is measured on the same scenes against the same finite-difference references, with
+its own counterparts where a measure reads the model's state: its partials from the loop's phase
+relation (``WaveguideVoice.partial_frequencies``), its sinks at its collision points (a fret's
+crown or the fretboard under each grid point of the neck, on the sounding string); it has no
+discrete energy balance (n/a).  The conclusions say where each model is better and how much
+cheaper the waveguide is on the chord.
 
 It prints the tables, draws the Pareto fronts to docs/img/pareto.png and rewrites the generated
 section of docs/accuracy.md (between the ``pareto:begin`` / ``pareto:end`` markers).
@@ -52,6 +60,7 @@ import engine
 import engine.guitar
 import engine.kernels
 import engine.string
+import engine.waveguide
 from benchmarks.accuracy import ENERGY_SCENES
 from benchmarks.intonation import FRETS, worst
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
@@ -63,6 +72,8 @@ from engine.string import FRET_PENALTY
 from engine.testing import scenes as shared
 from engine.testing.scenes import fret, pluck, tap
 from engine.voice import string_model
+from engine.waveguide.collision import FRET_RESTITUTION
+from engine.waveguide.kernel import I_NT
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = pathlib.Path(__file__).parent / "out"
@@ -87,6 +98,7 @@ class Config:
     gamma: str = "joint"
     compensate: bool = True
     rigid_board: bool = True
+    model: str = "fdtd"  # or "waveguide": the same scenes on engine.waveguide (the row "waveguide")
 
     @property
     def reference(self) -> bool:
@@ -140,9 +152,10 @@ CONFIGS = [
     Config("standard, gamma = 1", "gamma rule (sec. 4.7)", gamma="none"),
     Config("standard, uncompensated", "dispersion compensation", compensate=False),
     Config("standard, no Kirchhoff-Carrier", "tension modulation", kirchhoff_carrier=False),
+    Config("waveguide", "model", model="waveguide"),
 ]
 QUICK = ("draft", "standard", "high", "x4 everywhere", "standard, gamma = 1",
-         "standard, penalty frets")
+         "standard, penalty frets", "waveguide")
 REFERENCE = Config("reference x16", "reference", _forced(16), oversample=16)
 FINE = "x8 everywhere"  # the converged reference for fretted pitch (x16 would cost 4x more)
 BY_NAME = {c.name: c for c in [*CONFIGS, *CONTACT_RULES, REFERENCE]}
@@ -237,9 +250,19 @@ class Study:
 # measurements (each one a pool job)
 
 
+def prepare_for(st: Study, cfg: Config, sc: dict, **kw):
+    """The scene's guitar on the configuration's model: ``engine.guitar.prepare``, or
+    ``engine.waveguide.prepare`` with the options the two models share
+    (``engine.waveguide.options_from``)."""
+    options = st.options(cfg, **kw)
+    if cfg.model == "waveguide":
+        return engine.waveguide.prepare(Scene.model_validate({**sc, "model": "waveguide"}),
+                                        engine.waveguide.options_from(options))
+    return prepare(Scene.model_validate(sc), options)
+
+
 def render(st: Study, cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
-    s = Scene.model_validate({**sc, "diagnostics": diagnostics})
-    eng = prepare(s, st.options(cfg, skip_decayed=False))
+    eng = prepare_for(st, cfg, {**sc, "diagnostics": diagnostics}, skip_decayed=False)
     parts = []
     for block in eng.blocks(1 if probe else None):
         parts.append(block)
@@ -266,20 +289,30 @@ def job_open(name: str, s: int, st: Study):
     sc = st.scene([{**pluck(s, force=0.2, position=0.83)}], 2.0)
     sc["output"]["pickup_position"] = 0.913
     audio, eng = render(st, cfg, sc)
-    m = eng.voices[0].model
+    v = eng.voices[0]
     sr = st.rate
     x = audio[int(0.05 * sr):]
-    f0 = m.spec.frequency_hz
-    meas = partials(x, sr, f0, 10, m.inharmonicity())
-    want = np.array([m.target_frequency(i) for i in range(1, 11)])
-    exact = np.array([cents(m.frequency(i), m.target_frequency(i)) for i in range(1, 21)])
+    if cfg.model == "waveguide":  # the loop's phase relation, its stiff string's formula
+        f0, b = v.spec.frequency_hz, v.phys.inharmonicity(v.phys.length_m)
+        k = np.arange(1, 21)
+        target = k * f0 * np.sqrt(1.0 + b * k * k) / math.sqrt(1.0 + b)
+        exact = cents(v.partial_frequencies(20), target)
+        n = v.n
+    else:
+        m = v.model
+        f0, b = m.spec.frequency_hz, m.inharmonicity()
+        target = np.array([m.target_frequency(i) for i in range(1, 21)])
+        exact = np.array([cents(m.frequency(i), target[i - 1]) for i in range(1, 21)])
+        n = v.coefs.n
+    meas = partials(x, sr, f0, 10, b)
+    want = target[:10]
     return ("open", name, s), {
         "f0": float(cents(spectrum_peak(x, sr, f0), f0)),
         "p10_measured": float(np.max(np.abs(cents(meas, want)))),
         "p10": float(np.max(np.abs(exact[:10]))),
         "p20": float(np.max(np.abs(exact))),
-        "oversample": eng.voices[0].oversample,
-        "n": eng.voices[0].coefs.n,
+        "oversample": v.oversample,
+        "n": n,
     }
 
 
@@ -291,6 +324,9 @@ class SinkProbe:
         self.board = 0.0
 
     def __call__(self, eng):
+        if isinstance(eng, engine.waveguide.WaveguideInstrument):
+            self.waveguide(eng)
+            return
         for v in eng.voices:
             g, u, n = v.geom, v.state.u, v.coefs.n
             if g.nfret:
@@ -298,6 +334,23 @@ class SinkProbe:
                 pos = g.fret_w0[f] * u[g.fret_p[f]] + g.fret_w1[f] * u[g.fret_p[f] + 1]
                 self.fret = max(self.fret, float(np.max(g.fret_m0[f] - pos)))
             self.board = max(self.board, float(np.max(g.board - u[2:n + 1])))
+
+    def waveguide(self, eng):
+        """The waveguide's collision points (a fret's crown or the fretboard under each grid
+        point of the neck, heights from the string's rest line) on the sounding string, between
+        its termination and the bridge: how far below its obstacle each is after the step."""
+        for v in eng.voices:
+            if not len(v.col_n):
+                continue
+            s, mask, nt = v.step - 1, len(v.R) - 1, int(v.ist[I_NT])
+            live = (v.col_n > nt) & (v.col_n < v.n)
+            n = v.col_n[live]
+            depth = v.col_ref[live] - (v.R[(s - n) & mask] + v.Mb[(s + n) & mask])
+            on_fret = v.col_cr[live] == FRET_RESTITUTION
+            if np.any(on_fret):
+                self.fret = max(self.fret, float(np.max(depth[on_fret])))
+            if np.any(~on_fret):
+                self.board = max(self.board, float(np.max(depth[~on_fret])))
 
 
 def job_sink(name: str, key: str, st: Study):
@@ -312,6 +365,8 @@ def job_spectral(name: str, key: str, st: Study):
 
 
 def job_energy(name: str, st: Study):
+    if BY_NAME[name].model == "waveguide":  # no discrete energy balance (WaveguideInstrument)
+        return ("energy", name, None), math.nan
     r = engine.render(st.energy, diagnostics=True, options=st.options(BY_NAME[name]))
     return ("energy", name, None), r.energy_error
 
@@ -330,10 +385,10 @@ def spectral_error_db(x: np.ndarray, ref: np.ndarray, sr: int = SR) -> float:
     return float(20.0 * np.log10(num / np.linalg.norm(np.abs(R[band])) + 1e-300))
 
 
-def cpu_time(sc: dict, options: RenderOptions) -> tuple[float, object]:
+def cpu_time(st: Study, cfg: Config, sc: dict) -> tuple[float, object]:
     """CPU seconds of the rendering thread for one render (scene preparation excluded).  CPU time
     rather than wall time: other processes on the machine then barely change it."""
-    eng = prepare(Scene.model_validate(sc), options)
+    eng = prepare_for(st, cfg, sc, skip_decayed=False)
     t = time.thread_time()
     for _block in eng.blocks():
         pass
@@ -343,16 +398,18 @@ def cpu_time(sc: dict, options: RenderOptions) -> tuple[float, object]:
 def costs(st: Study, configs: list[Config], repeat: int, seconds: float) -> dict:
     """ms of compute per second of audio, per string (``Study.per_string_scene``) and for the chord
     on every string ("six"); the best of ``repeat`` rounds, each round timing every configuration
-    once."""
+    once, after one untimed round that fills the per-process caches."""
     scenes = [(s, {**st.per_string_scene(s), "duration": seconds}) for s in st.strings]
     scenes.append(("six", {**st.chord, "duration": seconds}))
     res = {c.name: {key: math.inf for key, _ in scenes} for c in configs}
     for c in configs:
         res[c.name]["six_rounds"] = []
+        for _key, sc in scenes:  # untimed: what a process computes once (the waveguide designs
+            cpu_time(st, c, sc)  # a stopped loop, and analyses a finger's damping, on first use)
     for _ in range(repeat):
         for c in configs:
             for key, sc in scenes:
-                t, eng = cpu_time(sc, st.options(c, skip_decayed=False))
+                t, eng = cpu_time(st, c, sc)
                 res[c.name][key] = min(res[c.name][key], t / seconds * 1e3)
                 if key == "six":
                     res[c.name]["os"] = {v.index: v.oversample for v in eng.voices}
@@ -453,6 +510,11 @@ def fmt_sink(x: float) -> str:
     return "0" if x < 1e-3 else f"{x:.1f}" if x < 100 else f"{x:.0f}"
 
 
+def fmt_energy(x: float) -> str:
+    """The energy balance, or n/a for a model that has none (the waveguide)."""
+    return "n/a" if math.isnan(x) else f"{x:.1e}"
+
+
 def md_table(head: list[str], rows: list[list[str]]) -> str:
     """A markdown table; a '|' in a cell (the labels' |cents|) is escaped, or it splits the cell."""
     def line(cells: list[str]) -> str:
@@ -470,7 +532,7 @@ def targets(r: dict) -> list[tuple[str, float, float]]:
             ("fretted notes, frets 1-12, every string, within +-3 cents of 12-TET", r["fretted"],
              3.0),
             (f"fretted notes' decay within 3 dB/s of {FINE}'s", r["decay_vs_fine"], 3.0),
-            ("energy balance <= 1e-11", r["energy"], 1e-11)]
+            *([] if math.isnan(r["energy"]) else [("energy balance <= 1e-11", r["energy"], 1e-11)])]
 
 
 def comparison(rows: dict, a: str, b: str) -> list[str]:
@@ -481,10 +543,29 @@ def comparison(rows: dict, a: str, b: str) -> list[str]:
         verdict = "larger" if x > y + tol else "smaller" if x < y - tol else "equal"
         out.append(f"{label}: {x:.3g} against {y:.3g}, {verdict} (tolerance {tol:g})")
     x, y = rows[a]["energy"], rows[b]["energy"]
-    out.append(f"energy balance: {x:.1e} against {y:.1e}")
+    out.append(f"energy balance: {fmt_energy(x)} against {fmt_energy(y)}")
     x, y = rows[a]["cost_six"], rows[b]["cost_six"]
     out.append(f"cost, every string fingered: {x:.1f} against {y:.1f} ms/s ({x / y:.2f}x)")
     return [f"{a} against {b}:", *[f"  * {line}" for line in out]]
+
+
+def models(rows: dict, a: str, b: str, strings: int) -> list[str]:
+    """The two models side by side: where each is better (beyond the tolerances of
+    ``dominates``) and how much cheaper ``a`` is on the chord with every string fingered."""
+    ra, rb = rows[a], rows[b]
+    better = {a: [], b: []}
+    for key, label, tol in METRICS + SLAM:
+        if ra[key] < rb[key] - tol:
+            better[a].append(f"{label} ({ra[key]:.3g} against {rb[key]:.3g})")
+        elif rb[key] < ra[key] - tol:
+            better[b].append(f"{label} ({rb[key]:.3g} against {ra[key]:.3g})")
+    out = [f"{a} against {b}: {rb['cost_six'] / ra['cost_six']:.1f}x cheaper on the "
+           f"{strings}-string chord with every string fingered ({ra['cost_six']:.1f} against "
+           f"{rb['cost_six']:.1f} ms/s), {rb['cost_string'] / ra['cost_string']:.1f}x per "
+           "fingered string."]
+    for who in (a, b):
+        out.append(f"where {who} is better: " + ("; ".join(better[who]) or "nowhere") + ".")
+    return out
 
 
 def per_fret(rows: dict, configs: list[Config], key: str,
@@ -561,7 +642,7 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
             f"{r['fretted_rms']:.2f}", f"{r['fretted_vs_fine']:.2f}",
             f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", fmt_sink(r["fret_sink"]),
             fmt_sink(r["board_sink"]), fmt_sink(r["slam_fret_sink"]),
-            fmt_sink(r["slam_board_sink"]), f"{r['energy']:.1e}"])
+            fmt_sink(r["slam_board_sink"]), fmt_energy(r["energy"])])
     out += ["### All configurations", md_table(head, body)]
 
     levels = []
@@ -634,6 +715,9 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
             notes.append(f"{c.name} is dominated by {', '.join(by)} (5 m/s taps excluded).")
     if detail and len(configs) >= 2:
         notes += comparison(rows, configs[0].name, configs[1].name)
+    wg = rows.get("waveguide")
+    if std is not None and wg is not None:
+        notes += models(rows, "waveguide", "standard", n)
     out += ["### Conclusions printed by the script",
             "\n".join(x if x.startswith("  ") else f"* {x}" for x in notes)]
     return "\n\n".join(out) + "\n"
@@ -666,7 +750,7 @@ def plot(rows: dict, configs: list[Config], path: pathlib.Path) -> None:
                        marker="*" if lvl else "o", zorder=3,
                        label=c.knob if c.name == next(d.name for d in configs if d.knob == c.knob)
                        else None)
-            if lvl:
+            if lvl or c.knob == "model":
                 ax.annotate(c.name, (r["cost_six"], y), textcoords="offset points", xytext=(5, 5))
         fr = front(rows, key)
         ax.step([rows[n]["cost_six"] for n in fr], [rows[n][key] for n in fr], where="post",
@@ -704,6 +788,7 @@ def grids(configs: list[Config], rates=(22050, 32000, 44100, 48000, 88200, 96000
     """Each configuration's oversampling factor for every string with a finger on it, on every
     preset at each rate, plain and on the live grid: where two configurations' rows are equal,
     they render the same samples (no scene of the study bends a string).  No rendering."""
+    configs = [c for c in configs if c.model == "fdtd"]  # the waveguide has no grid factor
     head = ["preset", "sample rate", "grid", *[c.name for c in configs], "same"]
     body = []
     for preset in sorted(PRESETS):

@@ -227,6 +227,37 @@ def lagrange3(d: float) -> tuple[float, float, float, float]:
             -d * (d - 1.0) * (d - 3.0) / 2.0, d * (d - 1.0) * (d - 2.0) / 6.0)
 
 
+def lagrange_delay(d: float, w: float) -> float:
+    """Phase delay (samples) at w of the termination's Lagrange read for a delay d >= 1: taps
+    ``lagrange3(x)`` on samples j0 .. j0 + 3 back, j0 = floor(d) - 1, x = d - j0 in [1, 2) (the
+    kernel's ``_taps``); continuous from DC for w below pi / 2."""
+    j0 = int(d) - 1
+    h = lagrange3(d - j0)
+    resp = sum(hk * complex(math.cos(w * k), -math.sin(w * k)) for k, hk in enumerate(h))
+    return j0 - math.atan2(resp.imag, resp.real) / w
+
+
+def loop_partials(loop: Loop, grid_delay: int, d: float, count: int) -> np.ndarray:
+    """Frequencies (rad/sample) of partials 1..count of a linear loop: 2 (N - n_t) = ``grid_delay``
+    samples on the rails, the Lagrange read of delay ``d`` and the loss and dispersion sections.
+    The bridge's -1 and the termination's -1 make the loop's phase 2 pi n at partial n:
+    w (grid_delay + lagrange_delay(d, w) + loss_delay(w) + allpass_delay(w)) = 2 pi n, solved by
+    fixed-point iteration from the harmonic guess (the delays vary slowly with w)."""
+    out = np.zeros(count)
+    for i in range(count):
+        n = i + 1
+        w = 2.0 * math.pi * n / loop.period
+        for _ in range(100):
+            total = (grid_delay + lagrange_delay(d, w) + loss_delay(loop.loss_g, loop.loss_a, w)
+                     + allpass_delay(loop.disp_a, loop.disp_m, w))
+            w_next = 2.0 * math.pi * n / total
+            if abs(w_next - w) < 1e-15 * w:
+                break
+            w = w_next
+        out[i] = w_next
+    return out
+
+
 def grid_size(open_loop: Loop) -> int:
     """N: the open string's loop fills 2 N + D + tau samples with D in [1, 3)."""
     return max(int(math.floor((open_loop.period - open_loop.tau - D_LOW) / 2.0)), 2)

@@ -41,7 +41,7 @@ from .fingering import (
 )
 from .glide import GLIDE_EVERY
 from .pluck import J_STATE, LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
-from .string import D_LOW, Loop, Physical, design_loop, grid_size
+from .string import D_LOW, Loop, Physical, design_loop, grid_size, loop_partials
 
 MAX_SECTIONS = 4
 # the kernel's glide (and collision reach) updates restart on this global grid (and where the stop
@@ -302,6 +302,15 @@ class WaveguideVoice:
         period = lp.period / (self._ratio_now() * self.fst[K.F_GLIDE])
         half = int(math.floor((period - lp.tau - D_LOW) / 2.0))
         return int(min(max(self.n - half, 0), self.n - 1))
+
+    def partial_frequencies(self, count: int) -> np.ndarray:
+        """Hz of the open string's partials 1..count from the loop's own phase (``string
+        .loop_partials``: exact for the linear loop at rest, as the finite-difference model's
+        dispersion relation is for its scheme)."""
+        lp = self.open_loop
+        nt = self._place(lp)
+        d = min(max(lp.period - 2.0 * (self.n - nt) - lp.tau, D_LOW), self.dcap)
+        return loop_partials(lp, 2 * (self.n - nt), d, count) * self.rate / (2.0 * math.pi)
 
     def _rest(self, fret: int | None, x: np.ndarray) -> np.ndarray:
         stop_x = None if fret is None else float(self.preset.fret_x_m(fret, self.spec))

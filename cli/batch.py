@@ -147,6 +147,10 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
             scene = dict(item.scene or {})
         if options.get("quality"):
             scene["quality"] = options["quality"]
+        if options.get("model"):
+            from cli.main import set_model
+
+            set_model(scene, options["model"])
         if options.get("diagnostics"):
             scene["diagnostics"] = True
         max_s = options.get("max_seconds")
@@ -210,8 +214,10 @@ def gather(inputs: list[str], options: dict) -> list[Item]:
     from cli import dataset
 
     items: list[Item] = []
-    opts_hash = json.dumps({k: options.get(k) for k in (
+    opts_hash = json.dumps({**{k: options.get(k) for k in (
         "quality", "diagnostics", "max_seconds", "format", "labels", "score_options")},
+        # only when given: the items of a batch run before there was --model keep their ids
+        **({"model": options["model"]} if options.get("model") else {})},
         sort_keys=True).encode()
     for text in inputs:
         p = Path(text)
@@ -376,6 +382,9 @@ def build_parser(prog: str = "guitar-synth batch") -> argparse.ArgumentParser:
                    help="manifest format (default parquet)")
     p.add_argument("--quality", choices=("draft", "standard", "high"),
                    help="override every scene's quality")
+    p.add_argument("--model", choices=("fdtd", "waveguide"),
+                   help="override every scene's string model (every track's): fdtd, the "
+                        "finite-difference string, or waveguide, the digital waveguide")
     p.add_argument("--max-seconds", type=float, metavar="S",
                    help="keep only the first S seconds of each item")
     p.add_argument("--diagnostics", action="store_true",
@@ -410,7 +419,8 @@ def run(args: argparse.Namespace) -> int:
     if args.retries < 0:
         raise BadInput(f"--retries: 0 or more, not {args.retries}")
     out = Path(args.output)
-    options = {"format": args.format, "quality": args.quality, "max_seconds": args.max_seconds,
+    options = {"format": args.format, "quality": args.quality, "model": args.model,
+               "max_seconds": args.max_seconds,
                "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {}}
     items = gather(args.inputs, options)
     if not items:

@@ -19,6 +19,7 @@ A spec is a YAML or JSON file whose top level is ``dataset:``::
       pickup: [0.75, 0.95]             # x / L, or leave out for the preset's
       bodies: [default]                # default (the preset's), none, acoustic, classical
       qualities: [draft]
+      models: [fdtd]                   # fdtd (finite differences) and/or waveguide
       sample_rate: 44100
 
 Item ``i`` is drawn from ``numpy.random.default_rng([seed, i])``: it depends on the spec, the seed
@@ -37,7 +38,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 import engine
-from engine import PRESETS
+from engine import PRESETS, ModelName
 
 
 def _maximum(node: dict) -> float:
@@ -118,6 +119,7 @@ class Spec(BaseModel):
     bodies: list[Literal["default", "none", "acoustic", "classical"]] = Field(["default"],
                                                                               min_length=1)
     qualities: list[Literal["draft", "standard", "high"]] = Field(["draft"], min_length=1)
+    models: list[ModelName] = Field(["fdtd"], min_length=1)
     sample_rate: int = Field(44100, ge=22050, le=96000)
     format: Literal["wav", "flac"] = "wav"
 
@@ -265,8 +267,13 @@ def draw_scene(spec: Spec, index: int) -> dict[str, Any]:
     body = pick(spec.bodies)
     if body != "default":
         output["body"] = body
-    return {"duration": duration, "sample_rate": spec.sample_rate, "guitar": guitar,
-            "quality": pick(spec.qualities), "events": events, "output": output}
+    scene = {"duration": duration, "sample_rate": spec.sample_rate, "guitar": guitar,
+             "quality": pick(spec.qualities), "events": events, "output": output}
+    # drawn last, and only from a choice: a spec without models draws what it drew before
+    model = pick(spec.models) if len(spec.models) > 1 else spec.models[0]
+    if model != "fdtd":
+        scene["model"] = model
+    return scene
 
 
 def _r(x: float) -> float:

@@ -237,16 +237,21 @@ def _set_preset(scene: dict[str, Any], preset: str) -> None:
             h["guitar"] = {**guitar, "preset": preset}
 
 
+def set_model(scene: dict[str, Any], model: str) -> None:
+    """Every track on ``model``: a track's own model would otherwise win over the scene's."""
+    scene["model"] = model
+    for track in scene["tracks"] if isinstance(scene.get("tracks"), list) else []:
+        if isinstance(track, dict):
+            track.pop("model", None)
+
+
 def _overrides(scene: dict[str, Any], args: argparse.Namespace) -> None:
     if args.quality is not None:
         scene["quality"] = args.quality
     if args.sample_rate is not None:
         scene["sample_rate"] = args.sample_rate
-    if args.model is not None:  # every track: a track's own model would otherwise win
-        scene["model"] = args.model
-        for track in scene["tracks"] if isinstance(scene.get("tracks"), list) else []:
-            if isinstance(track, dict):
-                track.pop("model", None)
+    if args.model is not None:
+        set_model(scene, args.model)
     output = scene.get("output") if isinstance(scene.get("output"), dict) else {}
     if args.channels is not None:
         output["channels"] = args.channels

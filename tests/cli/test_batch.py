@@ -16,10 +16,12 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 import soundfile as sf
 
+import engine
 from cli import batch
 from engine.testing.scores import gp5_song
 
@@ -89,6 +91,43 @@ def test_a_spec_draws_the_same_scenes_in_any_order(tmp_path: Path) -> None:
     backward = [dataset.draw_scene(s, i) for i in reversed(range(20))][::-1]
     assert forward == backward
     assert len({json.dumps(x, sort_keys=True) for x in forward}) == 20
+
+
+def test_a_spec_draws_models_only_when_it_names_them(tmp_path: Path) -> None:
+    """``models`` is drawn last and only from a choice: a spec that names just fdtd draws the
+    scenes a spec without the key draws; one with both draws each model."""
+    from cli import dataset
+
+    plain = dataset.load_spec(spec(tmp_path / "a.json", count=20))
+    fd = dataset.load_spec(spec(tmp_path / "b.json", count=20, models=["fdtd"]))
+    both = dataset.load_spec(spec(tmp_path / "c.json", count=20, models=["fdtd", "waveguide"]))
+    drawn = [dataset.draw_scene(both, i) for i in range(20)]
+    assert [dataset.draw_scene(plain, i) for i in range(20)] == [
+        dataset.draw_scene(fd, i) for i in range(20)]
+    assert {x.get("model", "fdtd") for x in drawn} == {"fdtd", "waveguide"}
+    for x in drawn:  # the rest of each scene as the plain spec draws it
+        x.pop("model", None)
+    assert drawn == [dataset.draw_scene(plain, i) for i in range(20)]
+
+
+def test_batch_model_overrides_every_track(tmp_path: Path) -> None:
+    """``--model waveguide`` renders a scene whose track asks for fdtd on the waveguide: the
+    audio is the scene's own render with the model set on the scene and taken off the track."""
+    out = tmp_path / "out"
+    for sub in ("audio", "labels"):
+        (out / sub).mkdir(parents=True)
+    track = {"model": "fdtd", "events": [{"type": "pluck", "time": 0.0, "string": 2}]}
+    scene = {"duration": 0.2, "quality": "draft", "tracks": [track]}
+    item = batch.Item(id="x", input="x.json", kind="drawn", scene=scene)
+    row = batch.render_item(item, str(out), {"format": "wav", "labels": False,
+                                             "model": "waveguide"})
+    assert row["status"] == "done", row
+    got, _ = sf.read(out / row["audio"])
+    on_wg = {**scene, "model": "waveguide", "tracks": [{"events": track["events"]}]}
+    want = np.asarray(engine.render(on_wg))
+    assert got.shape == want.shape and np.max(np.abs(got - want)) <= 1.0 / 32768  # 16-bit
+    fd = np.asarray(engine.render(scene))
+    assert np.max(np.abs(fd - want)) > 1e-3  # the models differ: the override took effect
 
 
 # ---- a local cluster: outputs, failures, determinism, resuming -----------------------------------

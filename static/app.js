@@ -121,6 +121,8 @@ function loadExample(id) {
   $("#duration").value = scene.duration;
   $("#sample_rate").value = scene.sample_rate ?? 44100;
   $("#quality").value = scene.quality ?? "standard";
+  $("#model").value = scene.model ?? "fdtd";
+  modelChanged();
   $("#format").value = output.format || "wav";
   $("#body").value = output.body || "";
   $("#normalize").checked = output.normalize !== false;
@@ -351,6 +353,7 @@ function buildScene() {
     duration: Number($("#duration").value),
     sample_rate: Number($("#sample_rate").value),
     quality: $("#quality").value,
+    model: $("#model").value,
     guitar: { preset: $("#preset").value },
     events: events.map((ev) => {
       const out = { type: ev.type };
@@ -585,6 +588,13 @@ function drawSpectrogram(canvas, samples, rate) {
   canvas.dataset.drawn = "1";
 }
 
+// The waveguide model has no grids to choose: the quality select does nothing there.
+function modelChanged() {
+  const waveguide = $("#model").value === "waveguide";
+  $("#quality").disabled = waveguide;
+  $("#quality").title = waveguide ? "the waveguide model has no quality levels" : "";
+}
+
 // ---- wiring --------------------------------------------------------------------------------
 function wire() {
   for (const t of Object.keys(EVENTS)) $("#add-type").appendChild(option(t, t));
@@ -592,6 +602,7 @@ function wire() {
   $("#clear").addEventListener("click", () => { events = []; renderTable(); });
   $("#add-pickup").addEventListener("click", addPickup);
   $("#preset").addEventListener("change", presetChanged);
+  $("#model").addEventListener("change", modelChanged);
   $("#render").addEventListener("click", render);
 }
 

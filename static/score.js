@@ -51,7 +51,7 @@
   }
 
   function options(withTracks) {
-    const o = { quality: q("#score-quality").value };
+    const o = { quality: q("#score-quality").value, model: q("#score-model").value };
     const secs = Number(q("#score-seconds").value);
     if (secs > 0) o.max_seconds = secs;
     if (withTracks) {
@@ -304,6 +304,11 @@
   function wire() {
     q("#score-file").addEventListener("change", openFile);
     q("#score-render").addEventListener("click", render);
+    q("#score-model").addEventListener("change", () => {  // no quality levels on the waveguide
+      const waveguide = q("#score-model").value === "waveguide";
+      q("#score-quality").disabled = waveguide;
+      q("#score-quality").title = waveguide ? "the waveguide model has no quality levels" : "";
+    });
     const audio = q("#score-audio");
     audio.addEventListener("play", () => { cancelAnimationFrame(state.raf); follow(); });
     audio.addEventListener("seeked", follow);

@@ -62,6 +62,23 @@ def test_stereo_render(page: Any) -> None:
     assert page.errors == []
 
 
+def test_the_model_select_renders_on_the_waveguide(page: Any) -> None:
+    """Model "waveguide" goes into the scene sent (and greys out the quality, which it has no
+    use for); the render plays; an example brings its own model back (fdtd when it names none)."""
+    page.click("button[data-example='chord']")
+    page.select_option("#model", "waveguide")
+    assert page.evaluate("buildScene().model") == "waveguide"
+    assert page.is_disabled("#quality")
+    with page.expect_request("**/render") as req:
+        page.click("#render")
+    assert json.loads(req.value.post_data)["model"] == "waveguide"
+    page.wait_for_selector("#spectrogram[data-drawn='1']", timeout=60_000)
+    assert "Rendered" in page.inner_text("#status")
+    page.click("button[data-example='chord']")
+    assert page.input_value("#model") == "fdtd" and not page.is_disabled("#quality")
+    assert page.errors == []
+
+
 def _expect_field_error(page: Any, field: str, text: str, err: str | None = None) -> None:
     """After a render, the API's 422 for ``field`` is shown next to its input, and nowhere else."""
     loc = page.locator(err or f".err[data-for='{field}']")

@@ -7,6 +7,7 @@ browser of its own.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -80,6 +81,31 @@ def test_open_choose_render_play_and_see_the_notes(page: Any, tmp_path: Path) ->
     assert 45 < left < 100
     page.evaluate("document.querySelector('#score-audio').pause()")
     page.screenshot(path=str(tmp_path / "score.png"), full_page=True)
+    assert page.errors == []
+
+
+def test_a_score_renders_on_the_waveguide(page: Any) -> None:
+    """The score card's model select goes into the render's options."""
+    _open(page, "song.gp5", small_gp5())
+    page.wait_for_selector("#score-roll[data-drawn='1']", timeout=60_000)
+    page.select_option("#score-model", "waveguide")
+    assert page.is_disabled("#score-quality")
+    page.fill("#score-seconds", "1.5")
+    # the request's options, read from its form (a multipart body with a file is not exposed
+    # by the browser's request events)
+    page.evaluate("""() => { const f = window.fetch; window.sentOptions = [];
+        window.fetch = (url, init) => { if (init && init.body instanceof FormData)
+            window.sentOptions.push([url, init.body.get("options")]); return f(url, init); }; }""")
+    before = page.evaluate("document.querySelector('#score-audio').src")
+    page.click("#score-render")
+    sent = dict(page.evaluate("window.sentOptions"))
+    assert json.loads(sent["/render/score"])["model"] == "waveguide"
+    page.wait_for_function("""(before) => { const a = document.querySelector('#score-audio');
+        return a.src !== before && a.readyState >= 1; }""", arg=before, timeout=60_000)
+    assert page.evaluate("document.querySelector('#score-audio').duration") == pytest.approx(
+        1.5, abs=0.01)
+    page.select_option("#score-model", "fdtd")
+    assert page.inner_text("#score-error") == ""
     assert page.errors == []
 
 

@@ -30,13 +30,16 @@ gives the held mode's decay by the finger, D dB/s (``finger_decay_db_s``), and
 
 the amplitude the mode loses per period, a frequency-independent loss of the loop: every partial
 of the stopped loop decays D dB/s faster than the loss filter alone makes it (the finger's own
-decay is fitted at the fundamental only).  g_f <= 1: passive.  It applies to a fret where a
-finger stays at least ``FINGER_HOLD_S`` (a held, tapped or hammered note, a slide's goal); the
-frets a slide crosses in passing are stopped by the crown alone (the finger's effect over a few
-milliseconds is below a tenth of a dB, and each fret's analysis costs an eigenvalue problem,
-kept per process and on disk per machine as the finite-difference model's fret calibrations
-are: ``engine.calibration_store``).  A live session's guitar (``RenderOptions.live_grid``)
-computes every fret's when it is prepared, so that no note held later waits for it.
+decay is fitted at the fundamental only).  g_f <= 1: passive.  It applies where a finger rests
+on the fret (a fretted, tapped or hammered note, a slide before it moves and from its goal on);
+the crowns a sliding finger passes stop the string by the crown alone (the finger's effect over
+a few milliseconds is below a tenth of a dB, and each fret's analysis costs an eigenvalue
+problem).  Whether a finger rests is its own event's to say (``controls.Timeline.stops``), not
+the later events', so a live session damps a note as a render does from the step the finger
+lands.  Each fret's analysis is kept per process and on disk per machine as the
+finite-difference model's fret calibrations are (``engine.calibration_store``); a live session's
+guitar (``RenderOptions.live_grid``) computes every fret's when it is prepared, so that no note
+held later waits for it.
 ``benchmarks/waveguide.py`` prints the fretted notes' decay against the finite-difference
 reference.  The light fingering junction of (40)
 without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
@@ -85,7 +88,6 @@ from ..presets import Preset
 from .string import Physical
 
 FRET_REFLECTION = 1.0  # the crown's own reflection
-FINGER_HOLD_S = 0.05  # a finger that stays this long on a fret damps the note (``finger_reflection``)
 INTONATION = ("ideal", "physical")
 # the code ``finger_decay_db_s`` adds to the fret calibrations' (``calibration_store._SOURCES``)
 SOURCES = ("waveguide/fingering.py",)

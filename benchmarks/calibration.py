@@ -1,13 +1,17 @@
-"""What opening a live session's guitar costs: every fret of every string calibrated on its grid
-(``RenderOptions.live_grid``), in a fresh process, with an empty calibration store and with the
-calibrations on disk (``engine.calibration_store``).
+"""What opening a live session's guitar costs: every fret of every string calibrated (the
+finite-difference model: each fret's pitch and finger damping on the string's grid,
+``RenderOptions.live_grid``; the waveguide model: the finger's damping of a note held at each fret,
+``engine.waveguide.fingering.finger_decay_db_s``), in a fresh process, with an empty calibration
+store and with the calibrations on disk (``engine.calibration_store``).
 
     python -m benchmarks.calibration
 
-Each figure is the wall time of ``engine.guitar.prepare`` in a new Python process (the numba
-kernels already compiled and cached, as in a warm service).  A store that starts empty is filled
-by the first run, a single one; the warm runs read it, and their figure is the best of
-``--repeat``.
+Each figure is the wall time of ``engine.guitar.prepare`` (``engine.waveguide.prepare`` for the
+waveguide) in a new Python process (the numba kernels already compiled and cached, as in a warm
+service).  A store that starts empty is filled by the first run, a single one; the warm runs read
+it, and their figure is the best of ``--repeat``.  A live worker prepares a guitar, rate and
+quality (and model) it has not seen before in its loop, so the empty-store figure is how long its
+other sessions stall when a session opens on one on a new machine.
 """
 
 from __future__ import annotations
@@ -20,26 +24,31 @@ import tempfile
 
 from engine.options import QUALITY
 from engine.presets import PRESETS
-from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+from engine.scene import MODELS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 
 CHILD = r"""
 import sys, time
+from engine import waveguide
 from engine.scene import Scene
 from engine.guitar import prepare
 from engine.options import RenderOptions
-preset, rate, quality = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+preset, rate, quality, model = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 sc = Scene.model_validate({"duration": 0.1, "sample_rate": rate, "events": [],
-                           "quality": quality, "guitar": {"preset": preset}})
+                           "quality": quality, "guitar": {"preset": preset}, "model": model})
+opts = RenderOptions(live_grid=True, skip_silent=False)
 t = time.perf_counter()
-prepare(sc, RenderOptions(live_grid=True, skip_silent=False))
+if model == "waveguide":
+    waveguide.prepare(sc, waveguide.options_from(opts))
+else:
+    prepare(sc, opts)
 print(time.perf_counter() - t)
 """
 
 
-def prepare_seconds(store: str, preset: str, rate: int, quality: str) -> float:
+def prepare_seconds(store: str, preset: str, rate: int, quality: str, model: str) -> float:
     env = {**os.environ, "GUITAR_CACHE_DIR": store, "GUITAR_CALIBRATION_CACHE": "1"}
-    out = subprocess.run([sys.executable, "-c", CHILD, preset, str(rate), quality], env=env,
-                         capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", CHILD, preset, str(rate), quality, model],
+                         env=env, capture_output=True, text=True, check=True)
     return float(out.stdout.split()[-1])
 
 
@@ -50,21 +59,24 @@ def main() -> None:
     ap.add_argument("--rate", type=int, default=44100)
     ap.add_argument("--quality", default="draft", choices=sorted(QUALITY))
     ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--models", nargs="+", default=list(MODELS), choices=MODELS)
     a = ap.parse_args()
     if not SAMPLE_RATE_MIN <= a.rate <= SAMPLE_RATE_MAX:
         ap.error(f"--rate: {a.rate} is outside {SAMPLE_RATE_MIN}-{SAMPLE_RATE_MAX}")
     if a.repeat < 1:
         ap.error("--repeat must be at least 1")
-    print(f"a live session's guitar prepared (every fret calibrated), quality '{a.quality}', "
-          f"{a.rate} Hz, wall time of one new process (s)")
-    print("preset | empty store | calibrations on disk")
-    print("--- | --- | ---")
+    print(f"a live session's guitar prepared (every fret calibrated), quality '{a.quality}' "
+          f"(the finite-difference model's; the waveguide has none), {a.rate} Hz, wall time of "
+          "one new process (s)")
+    print("preset | model | empty store | calibrations on disk")
+    print("--- | --- | --- | ---")
     for preset in a.presets:
-        with tempfile.TemporaryDirectory() as store:
-            cold = prepare_seconds(store, preset, a.rate, a.quality)
-            warm = min(prepare_seconds(store, preset, a.rate, a.quality)
-                       for _ in range(a.repeat))
-        print(f"{preset} | {cold:.2f} | {warm:.2f}")
+        for model in a.models:
+            with tempfile.TemporaryDirectory() as store:
+                cold = prepare_seconds(store, preset, a.rate, a.quality, model)
+                warm = min(prepare_seconds(store, preset, a.rate, a.quality, model)
+                           for _ in range(a.repeat))
+            print(f"{preset} | {model} | {cold:.2f} | {warm:.2f}", flush=True)
 
 
 if __name__ == "__main__":

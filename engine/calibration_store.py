@@ -3,13 +3,17 @@ process once.
 
 ``engine.intonation`` calibrates each stopped fret on its string's grid (the pitch, and the
 contact damping of the finger stopping it) with a few eigenvalue solves of the held note: tens of
-milliseconds a fret, seconds for every fret of a guitar (the grid of a live session).  The result
-depends only on its inputs (the string model, the preset, the fret) and on the code that computes
-it, so it is kept in a SQLite file under ``config.CACHE_DIR``, keyed by a hash of both: a changed
-input or a changed module computes anew.  The values are stored as written by ``repr``, which
-gives each float back to the last bit, so a render is the same with the store or without it
-(``tests/engine/test_calibration_store.py``).  Reading and writing are best effort: an unwritable,
-locked or damaged file leaves the calibration computed in memory, as without the store.
+milliseconds a fret, seconds for every fret of a guitar (the grid of a live session).  The
+waveguide model asks the same held-note analysis, on the converged grid, for the finger's damping
+of each held fret (``engine.waveguide.fingering.finger_decay_db_s``), which costs more: tens of
+seconds for every fret of a guitar (``benchmarks/calibration.py`` prints both).  A result depends
+only on its inputs (the string model, or the preset, string and rate; the fret) and on the code
+that computes it, so it is kept in a SQLite file under ``config.CACHE_DIR``, keyed by a hash of
+both: a changed input or a changed module computes anew.  The values are stored as written by
+``repr``, which gives each float back to the last bit, so a render is the same with the store or
+without it (``tests/engine/test_calibration_store.py``).  Reading and writing are best effort: an
+unwritable, locked or damaged file leaves the calibration computed in memory, as without the
+store.
 """
 
 from __future__ import annotations
@@ -31,25 +35,27 @@ _LOCK = threading.Lock()
 _STATE: dict = {}
 
 
-def _version() -> str:
-    """A hash of the source of ``_SOURCES`` and of the numpy and scipy versions (the eigenvalue
-    solves are theirs): the code part of every key."""
-    if "version" not in _STATE:
+def _version(sources: tuple[str, ...] = ()) -> str:
+    """A hash of the source of ``_SOURCES`` and ``sources`` (more modules, relative to the
+    engine's folder, that compute a kind of calibration) and of the numpy and scipy versions (the
+    eigenvalue solves are theirs): the code part of every key."""
+    name = ("version", sources)
+    if name not in _STATE:
         import numpy
         import scipy
 
         h = hashlib.sha256(f"numpy {numpy.__version__} scipy {scipy.__version__}".encode())
         root = Path(__file__).resolve().parent
-        for name in _SOURCES:
-            h.update((root / name).read_bytes())
-        _STATE["version"] = h.hexdigest()
-    return _STATE["version"]
+        for src in _SOURCES + sources:
+            h.update((root / src).read_bytes())
+        _STATE[name] = h.hexdigest()
+    return _STATE[name]
 
 
-def key(kind: str, *inputs) -> str:
+def key(kind: str, *inputs, sources: tuple[str, ...] = ()) -> str:
     """The key of a calibration of ``kind`` from ``inputs`` (frozen dataclasses and numbers, whose
-    ``repr`` is exact)."""
-    return hashlib.sha256(repr((_version(), kind, inputs)).encode()).hexdigest()
+    ``repr`` is exact) computed by ``_SOURCES`` and ``sources``."""
+    return hashlib.sha256(repr((_version(sources), kind, inputs)).encode()).hexdigest()
 
 
 def _connection() -> sqlite3.Connection | None:
@@ -98,10 +104,11 @@ def save(k: str, values: tuple[float, ...]) -> None:
             pass
 
 
-def recall(kind: str, inputs: tuple, compute) -> tuple[float, ...]:
+def recall(kind: str, inputs: tuple, compute, sources: tuple[str, ...] = ()) -> tuple[float, ...]:
     """The values of a calibration of ``kind`` from ``inputs``: read from the store, or
-    ``compute()`` (a tuple of floats) and kept."""
-    k = key(kind, *inputs)
+    ``compute()`` (a tuple of floats) and kept.  ``sources``: the modules beyond ``_SOURCES``
+    whose code computes it (``key``)."""
+    k = key(kind, *inputs, sources=sources)
     stored = load(k)
     if stored is not None:
         return stored

@@ -50,7 +50,9 @@ of the waveguide render of ``scene()`` with ``RenderOptions(live_grid=True)``, t
 ``waveguide.LIVE_DELAY`` (256 frames, 5.8 ms at 44.1 kHz): the waveguide kernel fixes the
 period's next stretch and the collision points it checks that far ahead, so an event must act
 no sooner after the block that learns of it.  It has no grids, so ``quality`` does nothing;
-``live_grid`` leaves out the held-note damping of the finger (``engine.waveguide``).
+``live_grid`` prepares the finger's damping of a note held at every fret (the finite-difference
+held-note analysis, kept on disk per machine: ``engine.calibration_store``), so that a held note
+decays as in any render of the model and no note waits for its analysis.
 """
 
 from __future__ import annotations

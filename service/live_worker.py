@@ -18,12 +18,13 @@ applied in the next block computed for its session.
 Everything sent is plain data.  An exception in one session ends that session only (``failed``),
 never the process or its other sessions.
 
-Opening a session prepares its guitar (tuning every string, calibrating every fret: seconds the
-first time on a machine, a fraction of a second once the calibrations are on disk,
-``engine.calibration_store`` and ``benchmarks/calibration.py``), which would stall the other
-sessions of the process for that long.  So each guitar, rate, quality and model is prepared once
-and kept (``_TEMPLATES``, the most recent few); a session is a copy of it (about a millisecond).
-The warm-up prepares the default guitar at 44.1 and 48 kHz.
+Opening a session prepares its guitar (tuning every string, calibrating every fret; on the
+waveguide model, the finger's damping of a note held at every fret: seconds the first time on a
+machine, a fraction of a second once the calibrations are on disk, ``engine.calibration_store``
+and ``benchmarks/calibration.py``), which would stall the other sessions of the process for that
+long.  So each guitar, rate, quality and model is prepared once and kept (``_TEMPLATES``, the
+most recent few); a session is a copy of it (about a millisecond).  The warm-up prepares the
+default guitar at 44.1 and 48 kHz on both models.
 """
 
 from __future__ import annotations
@@ -89,11 +90,14 @@ def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
     t0 = time.perf_counter()
     if warmup:
         engine.warmup()
-        for rate in (44100, 48000):  # the default guitar prepared, and a session's first calls
-            s = _new_session(engine, engine.parse_live_open({"sample_rate": rate}))
-            s.push({"type": "fret", "string": 1, "fret": 2})
-            s.push({"type": "pluck", "string": 1})
-            s.block()
+        # the default guitar prepared on both models, and a session's first calls
+        for rate in (44100, 48000):
+            for model in engine.MODELS:
+                s = _new_session(engine, engine.parse_live_open({"sample_rate": rate,
+                                                                 "model": model}))
+                s.push({"type": "fret", "string": 1, "fret": 2})
+                s.push({"type": "pluck", "string": 1})
+                s.block()
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0))
         _serve(conn, engine, lead_s)

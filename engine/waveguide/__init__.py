@@ -38,16 +38,16 @@ contacts with an exact energy balance, and the transients of pressing a finger d
 spectrum is the reference's.
 
 A scene's first fretted notes cost more than the rest: each fret a finger holds asks the
-finite-difference held-note analysis for the finger's damping once per process (an eigenvalue
-problem, up to about a second per fret; ``WaveguideOptions(finger_damping=False)`` leaves it
-out).
+finite-difference held-note analysis for the finger's damping (an eigenvalue problem a fret),
+once per machine: the result is kept on disk (``engine.calibration_store``;
+``WaveguideOptions(finger_damping=False)`` leaves the damping out).
 
 Live sessions (``engine.live``, ``model="waveguide"``) play this model too: a string's events are
 compiled again as they come (``rebuild``, ``WaveguideVoice.rebuild``) and act ``LIVE_DELAY``
 samples after the block boundary that follows them (the kernel looks that far ahead at the
-events: ``kernel``).  They leave out the held-note damping of the finger, whose analysis would
-stall the session up to a second the first time each fret is held (``options_from``:
-``RenderOptions(live_grid=True)`` renders the same way).
+events: ``kernel``).  Their held notes are damped by the finger as a render's are: the session's
+guitar is prepared with every fret's damping (``options_from``: ``RenderOptions(live_grid=True)``,
+``WaveguideOptions.every_fret``), so that no note held later waits for an analysis.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ from ..output import Body, add_to_mix, default_pan, pan_gains
 from ..presets import Preset
 from ..scene import Scene
 from .controls import timeline
-from .fingering import INTONATION
+from .fingering import INTONATION, finger_decays
 from .kernel import LOOKAHEAD
 from .string import physical
 from .voice import WaveguideVoice
@@ -81,6 +81,9 @@ class WaveguideOptions:
     collisions: bool = True
     glide: bool = True
     finger_damping: bool = True  # ``fingering.finger_reflection``
+    # every fret's finger damping computed when the guitar is prepared, not when a note is first
+    # held there (a live session's guitar: ``RenderOptions.live_grid``); the samples are the same
+    every_fret: bool = False
     skip_silent: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7  # m/s, as the finite-difference model's
@@ -182,6 +185,8 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
                 warnings.append((f.on / rate, f"string {i}: the finger at {f.on / rate:g} s "
                                  f"presses {f.force:g} N, too lightly to rest the string on "
                                  f"fret {f.fret}: the note sounds dead"))
+        if opts.finger_damping and opts.every_fret:
+            finger_decays(preset, i, rate, range(1, preset.frets + 1))
         voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
                                      opts.dispersion, opts.collisions, opts.glide,
                                      opts.finger_damping, opts.skip_decayed,
@@ -198,15 +203,15 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
 
 def options_from(render_options) -> WaveguideOptions:
     """The waveguide's options for an ``engine.RenderOptions`` (what the two models share).
-    ``live_grid`` (a live session's configuration) leaves out the finger's held-note damping,
-    as a live session does (the module's docstring)."""
+    ``live_grid`` (a live session's configuration) computes the finger's damping of every fret
+    when the guitar is prepared (``WaveguideOptions.every_fret``)."""
     if render_options is None:
         return WaveguideOptions()
     return WaveguideOptions(skip_silent=render_options.skip_silent,
                             skip_decayed=render_options.skip_decayed,
                             decay_velocity=render_options.decay_velocity,
                             block_frames=render_options.block_frames,
-                            finger_damping=not render_options.live_grid)
+                            every_fret=render_options.live_grid)
 
 
 def timeline_of(voice: WaveguideVoice, events: list):

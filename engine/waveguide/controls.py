@@ -104,9 +104,15 @@ class Timeline:
     ratios: list[float] = field(default_factory=list)
     last_step: int = 0
 
-    def stops(self, preset: Preset, spec: StringSpec) -> list[tuple[int, int | None, bool]]:
-        """(step, stopping fret or None, strike speed: m/s, 0 for none) at every change of the
-        stopping fret on string ``spec`` (its frets measured from its compensated nut)."""
+    def stops(self, preset: Preset, spec: StringSpec
+              ) -> list[tuple[int, int | None, float, bool]]:
+        """(step, stopping fret or None, strike speed: m/s, 0 for none; held) at every change of
+        the stopping fret on string ``spec`` (its frets measured from its compensated nut), or of
+        whether a finger rests on it: ``held`` where the finger stopping it is not on its way
+        (a fretted, tapped or hammered note; a slide before it moves and at its goal), not where
+        a sliding finger passes the crowns (``fingering.finger_reflection``).  Each depends on
+        its finger's own event only, not on the events after it, so a live session decides it
+        as a render does."""
         points = {0}
         for f in self.fingers:
             if not f.seated:
@@ -119,18 +125,21 @@ class Timeline:
                     if min(x0, x1) < xq < max(x0, x1) and me > ms:
                         at = ms + (xq - x0) / (x1 - x0) * (me - ms)
                         points.update((int(math.floor(at)), int(math.floor(at)) + 1))
-                points.add(me)
-        out: list[tuple[int, int | None, bool]] = []
+                points.update((ms, me))
+        out: list[tuple[int, int | None, float, bool]] = []
         for step in sorted(p for p in points if p < NEVER):
-            best, strike = None, 0.0
+            best, strike, held = None, 0.0, False
             for f in self.fingers:
                 if not f.seated or not f.on <= step < f.rel:
                     continue
                 q = _stopping_fret(preset, spec, f, step)
+                resting = f.slide is None or not f.slide[0] <= step < f.slide[1]
                 if q is not None and (best is None or q > best):
-                    best, strike = q, f.strike if f.on == step else 0.0
-            if not out or out[-1][1] != best:
-                out.append((step, best, strike))
+                    best, strike, held = q, f.strike if f.on == step else 0.0, resting
+                elif q is not None and q == best:
+                    held = held or resting
+            if not out or (out[-1][1], out[-1][3]) != (best, held):
+                out.append((step, best, strike, held))
         return out
 
 

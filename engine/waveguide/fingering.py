@@ -30,11 +30,16 @@ gives the held mode's decay by the finger, D dB/s (``finger_decay_db_s``), and
 
 the amplitude the mode loses per period, a frequency-independent loss of the loop: every partial
 of the stopped loop decays D dB/s faster than the loss filter alone makes it (the finger's own
-decay is fitted at the fundamental only).  g_f <= 1: passive.  It applies to a fret where a
-finger stays at least ``FINGER_HOLD_S`` (a held, tapped or hammered note, a slide's goal); the
-frets a slide crosses in passing are stopped by the crown alone (the finger's effect over a few
-milliseconds is below a tenth of a dB, and each fret's analysis costs an eigenvalue problem,
-about a second, cached per process as the finite-difference model's fret calibration is).
+decay is fitted at the fundamental only).  g_f <= 1: passive.  It applies where a finger rests
+on the fret (a fretted, tapped or hammered note, a slide before it moves and from its goal on);
+the crowns a sliding finger passes stop the string by the crown alone (the finger's effect over
+a few milliseconds is below a tenth of a dB, and each fret's analysis costs an eigenvalue
+problem).  Whether a finger rests is its own event's to say (``controls.Timeline.stops``), not
+the later events', so a live session damps a note as a render does from the step the finger
+lands.  Each fret's analysis is kept per process and on disk per machine as the
+finite-difference model's fret calibrations are (``engine.calibration_store``); a live session's
+guitar (``RenderOptions.live_grid``) computes every fret's when it is prepared, so that no note
+held later waits for it.
 ``benchmarks/waveguide.py`` prints the fretted notes' decay against the finite-difference
 reference.  The light fingering junction of (40)
 without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
@@ -75,27 +80,47 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
+from threadpoolctl import threadpool_limits
+
+from .. import calibration_store
 from ..controls import finger_x_m
 from ..presets import Preset
 from .string import Physical
 
 FRET_REFLECTION = 1.0  # the crown's own reflection
-FINGER_HOLD_S = 0.05  # a finger that stays this long on a fret damps the note (``finger_reflection``)
 INTONATION = ("ideal", "physical")
+# the code ``finger_decay_db_s`` adds to the fret calibrations' (``calibration_store._SOURCES``)
+SOURCES = ("waveguide/fingering.py",)
 
 
 @lru_cache(maxsize=4096)
 def finger_decay_db_s(preset: Preset, string: int, rate: float, fret: int) -> float:
     """dB/s (<= 0) of the held note at ``fret`` by the finger's contact damping: the
     finite-difference model's held-note analysis on its converged grid (``engine.intonation``);
-    0 where it finds no mode near the note.  Cached per process."""
-    from ..intonation import held_note, reference_model
-    from ..string import tune
+    0 where it finds no mode near the note.  Cached per process, and on disk per machine
+    (``engine.calibration_store``: the value read back is the one computed, to the bit)."""
+    rate = float(rate)
 
-    spec = preset.strings[string - 1]
-    model = reference_model(tune(spec, preset.string_length_m(string), rate))
-    d = held_note(model, preset, fret, spec.frequency_hz * 2 ** (fret / 12)).decay_db_s
-    return min(d, 0.0) if math.isfinite(d) else 0.0
+    def compute() -> tuple[float]:
+        from ..intonation import held_note, reference_model
+        from ..string import tune
+
+        spec = preset.strings[string - 1]
+        model = reference_model(tune(spec, preset.string_length_m(string), rate))
+        # BLAS on one thread, as the fret calibrations (``intonation._each_fret``): the value
+        # does not depend on the machine's thread count, nor on who computed it first
+        with threadpool_limits(limits=1, user_api="blas"):
+            d = held_note(model, preset, fret, spec.frequency_hz * 2 ** (fret / 12)).decay_db_s
+        return (min(d, 0.0) if math.isfinite(d) else 0.0,)
+
+    return calibration_store.recall("finger_decay_db_s", (preset, string, rate, fret), compute,
+                                    sources=SOURCES)[0]
+
+
+def finger_decays(preset: Preset, string: int, rate: float, frets) -> dict[int, float]:
+    """``finger_decay_db_s`` of each of ``frets`` (a live session's: every fret, computed when
+    its guitar is prepared rather than when a note is first held)."""
+    return {q: finger_decay_db_s(preset, string, rate, q) for q in frets}
 
 
 def finger_reflection(decay_db_s: float, f1: float) -> float:

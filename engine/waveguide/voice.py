@@ -33,7 +33,6 @@ from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
 from .fingering import (
-    FINGER_HOLD_S,
     FRET_REFLECTION,
     finger_decay_db_s,
     finger_reflection,
@@ -123,6 +122,7 @@ class WaveguideVoice:
         self._stops_and_pitch(self.timeline)
         self.change_i = 0
         self.stop_fret: int | None = None
+        self.stop_held = False
         self.cfg = np.zeros(11)
         self._configure(None)
         self.ist[K.I_NT] = self._place(self.open_loop)
@@ -169,12 +169,9 @@ class WaveguideVoice:
         """The pitch ratio's breakpoints and the changes of the stop."""
         self.pb_step = np.array(tl.ratio_steps, np.int64)
         self.pb_f = np.array(tl.ratios, float)
+        # (step, fret, strike, held): a finger resting on the fret damps the note, one sliding
+        # past the crowns does not (``fingering``)
         self.changes = tl.stops(self.preset, self.spec)
-        # a stop that lasts FINGER_HOLD_S is held by a finger that damps it; the frets a slide
-        # crosses in passing are not (``fingering``)
-        ends = [c[0] for c in self.changes[1:]] + [NEVER]
-        self.held = [e - c[0] >= FINGER_HOLD_S * self.rate
-                     for c, e in zip(self.changes, ends, strict=True)]
 
     def rebuild(self, tl: Timeline) -> None:
         """Take a new timeline at the current step, keeping the string's state: a live session
@@ -278,6 +275,7 @@ class WaveguideVoice:
         c[K.C_DECAY_V] = self.decay_velocity if self.skip_decayed else 0.0
         self.disp_m = lp.disp_m
         self.stop_fret = fret
+        self.stop_held = held
         if len(self.col_n):
             rest = self._rest(fret, self.x_of(self.col_n))
             self.col_ref = self.col_abs - rest
@@ -325,6 +323,8 @@ class WaveguideVoice:
     def _change(self, fret: int | None, strike: float, held: bool) -> None:
         old = self.stop_fret
         if fret == old:
+            if held != self.stop_held:  # a finger comes to rest on the fret or slides off it:
+                self._configure(fret, held)  # only the termination's reflection changes
             return
         mask = len(self.R) - 1
         s = self.step
@@ -414,8 +414,8 @@ class WaveguideVoice:
             fresh = False
             while (self.change_i < len(self.changes)
                    and self.changes[self.change_i][0] <= self.step):
-                _, fret, strike = self.changes[self.change_i]
-                self._change(fret, strike, self.held[self.change_i])
+                _, fret, strike, held = self.changes[self.change_i]
+                self._change(fret, strike, held)
                 self.change_i += 1
                 fresh = True
             nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)

@@ -1,6 +1,7 @@
 """Fret calibrations on disk (``engine.calibration_store``): a calibration read back is the one
-computed, to the last bit; a render is the same with the store cold, warm or off; a store that
-cannot be written changes nothing."""
+computed, to the last bit; a render is the same with the store cold, warm or off, on both models
+(the waveguide keeps the finger's damping of its held notes there); a store that cannot be
+written changes nothing."""
 
 from __future__ import annotations
 
@@ -12,8 +13,19 @@ from engine import calibration_store, config, intonation
 from engine.guitar import prepare
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck, scene
+from engine.waveguide import fingering
 
 SCENE = scene([fret(2, 7), pluck(2, time=0.01, force=2.0)], 0.1)
+WAVEGUIDE = {**scene([fret(2, 7), fret(5, 3), pluck(2, time=0.01, force=2.0),
+                      pluck(5, time=0.02)], 0.3), "model": "waveguide"}
+
+
+def _forget() -> None:
+    """The process's own caches of what the store keeps."""
+    calibration_store.reset()
+    intonation.fret_calibration.cache_clear()
+    intonation._stored_shift.cache_clear()
+    fingering.finger_decay_db_s.cache_clear()
 
 
 @pytest.fixture
@@ -21,13 +33,9 @@ def store(tmp_path, monkeypatch):
     """A store in a fresh directory, and the process's in-memory caches emptied around the test."""
     monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.setattr(config, "CALIBRATION_CACHE", True)
-    calibration_store.reset()
-    intonation.fret_calibration.cache_clear()
-    intonation._stored_shift.cache_clear()
+    _forget()
     yield tmp_path / "cache"
-    calibration_store.reset()
-    intonation.fret_calibration.cache_clear()
-    intonation._stored_shift.cache_clear()
+    _forget()
 
 
 def _model_and_preset():
@@ -68,6 +76,42 @@ def test_a_render_is_the_same_cold_warm_and_without_the_store(store, monkeypatch
     calibration_store.reset()
     intonation.fret_calibration.cache_clear()
     off = engine.render(SCENE)
+    assert np.array_equal(cold, warm) and np.array_equal(cold, off)
+
+
+def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):
+    """The waveguide's finger damping of a held note (``fingering.finger_decay_db_s``), read back
+    in a process that has not computed it, without the held-note analysis."""
+    preset = engine.get_preset("steel-acoustic")
+    computed = fingering.finger_decay_db_s(preset, 2, 44100.0, 12)
+    assert computed < 0.0
+    fingering.finger_decay_db_s.cache_clear()
+    calibration_store.reset()
+    calls = []
+
+    def analysis(*a, **kw):  # must not be needed
+        calls.append(a)
+        raise AssertionError("the held-note analysis ran")
+
+    monkeypatch.setattr(intonation, "held_note", analysis)
+    assert fingering.finger_decay_db_s(preset, 2, 44100, 12) == computed  # an int rate: the same
+    assert calls == []
+    with pytest.raises(AssertionError):  # another rate is another calibration
+        fingering.finger_decay_db_s(preset, 2, 48000.0, 12)
+    # the finger damping's key holds its own module's code, and is not a fret calibration's
+    k = calibration_store.key("finger_decay_db_s", preset, 2, 44100.0, 12,
+                              sources=fingering.SOURCES)
+    assert k != calibration_store.key("finger_decay_db_s", preset, 2, 44100.0, 12)
+
+
+def test_a_waveguide_render_is_the_same_cold_warm_and_without_the_store(store, monkeypatch):
+    cold = engine.render(WAVEGUIDE)
+    fingering.finger_decay_db_s.cache_clear()
+    warm = engine.render(WAVEGUIDE)
+    monkeypatch.setattr(config, "CALIBRATION_CACHE", False)
+    _forget()
+    off = engine.render(WAVEGUIDE)
+    assert np.max(np.abs(cold)) > 0.0
     assert np.array_equal(cold, warm) and np.array_equal(cold, off)
 
 

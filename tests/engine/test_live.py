@@ -245,6 +245,36 @@ def test_a_copy_of_a_prepared_waveguide_session_plays_the_same():
     assert np.array_equal(copied, play(template, PLAN, 100))
 
 
+def test_a_waveguide_session_damps_a_held_note_as_a_render_does():
+    """A note held at fret 12 of string 2 (where the finite-difference finger damps the steel
+    set's held notes most of frets 1, 5 and 12): the session's audio is the plain offline render
+    of its events (not a live-grid one) to the bit, and its fundamental decays faster than with
+    the finger's damping left out by the finger's rate D (``finger_decay_db_s``) to 0.2 dB/s,
+    as an offline render's does (``tests/engine/waveguide/test_finger_damping.py``)."""
+    from engine import waveguide
+    from engine.analysis import decay_db_per_s
+    from engine.waveguide.fingering import finger_decay_db_s
+
+    string, fret = 2, 12
+    s = engine.Session("steel-acoustic", 44100, BLOCK, record=True, model="waveguide")
+    plan = {1: [{"type": "fret", "string": string, "fret": fret}],
+            2: [{"type": "pluck", "string": string}]}
+    live = play(s, plan, int(1.3 * 44100 / BLOCK))
+    scene = s.scene()
+    assert np.array_equal(live, np.concatenate(list(engine.blocks(scene, BLOCK))))
+    undamped = waveguide.render(engine.parse_scene(scene), waveguide.WaveguideOptions(
+        finger_damping=False)) * engine.FIXED_GAIN
+    preset = engine.get_preset("steel-acoustic")
+    f = preset.strings[string - 1].frequency_hz * 2 ** (fret / 12)
+    start = next(e["time"] for e in scene["events"] if e["type"] == "pluck")
+    d_live = decay_db_per_s(live, 44100, f, start + 0.2, start + 1.15)
+    d_off = decay_db_per_s(undamped, 44100, f, start + 0.2, start + 1.15)
+    d = finger_decay_db_s(preset, string, 44100.0, fret)
+    print(f"finger {d:+.2f} dB/s; live {d_live:+.2f}, without the finger {d_off:+.2f}")
+    assert d < -1.0
+    assert abs((d_live - d_off) - d) < 0.2
+
+
 @pytest.mark.parametrize("strings, field, text", [
     ([{"string": 6, "nut_compensation_m": 0.001}], "guitar.strings", "string 6 outside 1..4"),
     ([{"string": 2, "nut_compensation_m": 0.009}], "guitar.strings[0].nut_compensation_m",

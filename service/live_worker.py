@@ -24,7 +24,11 @@ machine, a fraction of a second once the calibrations are on disk, ``engine.cali
 and ``benchmarks/calibration.py``), which would stall the other sessions of the process for that
 long.  So each guitar, rate, quality and model is prepared once and kept (``_TEMPLATES``, the
 most recent few); a session is a copy of it (about a millisecond).  The warm-up prepares the
-default guitar at 44.1 and 48 kHz on both models.
+default guitar at 44.1 and 48 kHz on both models.  A guitar not prepared yet is prepared in a
+thread of the process (``_Preparing``) while its loop goes on computing the other sessions' blocks
+(the preparation's numerical work runs in numpy, LAPACK and numba code that releases the GIL);
+the new session's ``opened`` is sent when it is ready, and the events sent before that are kept
+and applied then, in order.
 """
 
 from __future__ import annotations
@@ -35,6 +39,8 @@ import json
 import os
 import signal
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -44,21 +50,52 @@ _TEMPLATES: dict[str, Any] = {}  # prepared sessions, most recently used last
 _MAX_TEMPLATES = 8
 
 
-def _new_session(engine: Any, opened: Any) -> Any:
-    """A session for a validated open message: a copy of the prepared one for its guitar, rate,
-    quality and model (prepared now if it is new)."""
-    key = json.dumps([opened.scene_guitar().model_dump(), opened.sample_rate, opened.quality,
-                      opened.model])
-    template = _TEMPLATES.pop(key, None)
-    if template is None:
-        template = engine.Session(opened.scene_guitar(), opened.sample_rate, 256, opened.quality,
-                                  model=opened.model)
+def _key(opened: Any) -> str:
+    return json.dumps([opened.scene_guitar().model_dump(), opened.sample_rate, opened.quality,
+                       opened.model])
+
+
+def _prepare(engine: Any, opened: Any) -> Any:
+    """The prepared session of an open message's guitar, rate, quality and model (seconds, the
+    first time on a machine)."""
+    return engine.Session(opened.scene_guitar(), opened.sample_rate, 256, opened.quality,
+                          model=opened.model)
+
+
+def _keep(key: str, template: Any) -> None:
+    _TEMPLATES.pop(key, None)
     _TEMPLATES[key] = template
     while len(_TEMPLATES) > _MAX_TEMPLATES:
         _TEMPLATES.pop(next(iter(_TEMPLATES)))
+
+
+def _copy(template: Any, opened: Any) -> Any:
     s = copy.deepcopy(template)
     s.block_frames = opened.block_frames
     return s
+
+
+def _new_session(engine: Any, opened: Any) -> Any:
+    """A session for a validated open message: a copy of the prepared one for its guitar, rate,
+    quality and model (prepared now, in this thread, if it is new)."""
+    key = _key(opened)
+    template = _TEMPLATES.get(key)
+    if template is None:
+        template = _prepare(engine, opened)
+    _keep(key, template)
+    return _copy(template, opened)
+
+
+@dataclass
+class _Preparing:
+    """A session waiting for its guitar, prepared in ``_Server.preparer``: its open message, the
+    preparation (shared by every session that asked for the same guitar meanwhile) and the
+    messages that came for it before it was ready."""
+
+    opened: Any
+    key: str
+    future: Future
+    messages: list[tuple] = field(default_factory=list)
 
 
 class _Live:
@@ -105,43 +142,92 @@ def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
         pass
 
 
+PREPARING_POLL_S = 0.01  # how often the loop looks whether a preparation has finished
+
+
 def _serve(conn: Connection, engine: Any, lead_s: float) -> None:
     sessions: dict[int, _Live] = {}
-    while True:
-        now = time.monotonic()
-        wait = min((s.due for s in sessions.values()), default=now + 1.0) - now
-        if conn.poll(max(wait, 0.0)):
-            while True:  # every message waiting, then the blocks due
-                msg = conn.recv()
-                if msg is None:
-                    return
-                _handle(conn, engine, sessions, msg, lead_s)
-                if not conn.poll(0):
-                    break
-        now = time.monotonic()
-        due = [(s.due, sid) for sid, s in sessions.items() if s.due <= now]
-        heapq.heapify(due)
-        while due:
-            _, sid = heapq.heappop(due)
-            _block(conn, sessions, sid)
+    preparing: dict[int, _Preparing] = {}
+    with ThreadPoolExecutor(1, thread_name_prefix="prepare") as preparer:
+        while True:
+            now = time.monotonic()
+            wait = min((s.due for s in sessions.values()), default=now + 1.0) - now
+            if preparing:
+                wait = min(wait, PREPARING_POLL_S)
+            if conn.poll(max(wait, 0.0)):
+                while True:  # every message waiting, then the blocks due
+                    msg = conn.recv()
+                    if msg is None:
+                        for p in preparing.values():
+                            p.future.cancel()
+                        return
+                    _handle(conn, engine, sessions, preparing, preparer, msg, lead_s)
+                    if not conn.poll(0):
+                        break
+            for sid in [sid for sid, p in preparing.items() if p.future.done()]:
+                _prepared(conn, engine, sessions, preparing.pop(sid), sid, lead_s)
+            now = time.monotonic()
+            due = [(s.due, sid) for sid, s in sessions.items() if s.due <= now]
+            heapq.heapify(due)
+            while due:
+                _, sid = heapq.heappop(due)
+                _block(conn, sessions, sid)
 
 
-def _handle(conn: Connection, engine: Any, sessions: dict[int, _Live], msg: tuple,
+def _open(conn: Connection, sessions: dict[int, _Live], sid: int, s: Any, lead_s: float) -> None:
+    live = sessions[sid] = _Live(s, lead_s)
+    conn.send(("opened", sid, {"sample_rate": s.sample_rate, "block_frames": s.block_frames,
+                               "delay_frames": s.delay, "quality": s.quality,
+                               "model": s.model,
+                               "strings": s.preset.n_strings, "frets": s.preset.frets,
+                               "preset": s.preset.name, "lead_s": lead_s,
+                               "block_seconds": live.block_s}))
+
+
+def _prepared(conn: Connection, engine: Any, sessions: dict[int, _Live], p: _Preparing, sid: int,
+              lead_s: float) -> None:
+    """A preparation has finished: open the session (or say why not) and play what came for it."""
+    try:
+        template = p.future.result()
+    except Exception as exc:
+        conn.send(("failed", sid, f"{type(exc).__name__}: {exc}"))
+        return
+    _keep(p.key, template)
+    _open(conn, sessions, sid, _copy(template, p.opened), lead_s)
+    for msg in p.messages:
+        _handle(conn, engine, sessions, {}, None, msg, lead_s)
+
+
+def _handle(conn: Connection, engine: Any, sessions: dict[int, _Live],
+            preparing: dict[int, _Preparing], preparer: ThreadPoolExecutor | None, msg: tuple,
             lead_s: float) -> None:
     kind, sid = msg[0], msg[1]
+    if sid in preparing:  # not open yet: kept until it is, or forgotten with it
+        if kind == "close":
+            p = preparing.pop(sid)
+            if not any(q.future is p.future for q in preparing.values()):
+                p.future.cancel()  # not started yet: dropped; under way: it runs out, unused
+        else:
+            preparing[sid].messages.append(msg)
+        return
     if kind == "open":
         try:
-            s = _new_session(engine, engine.parse_live_open(msg[2]))
+            opened = engine.parse_live_open(msg[2])
+            key = _key(opened)
+            template = _TEMPLATES.get(key)
+            if template is None and preparer is not None:
+                same = next((p.future for p in preparing.values() if p.key == key), None)
+                preparing[sid] = _Preparing(opened, key,
+                                            same or preparer.submit(_prepare, engine, opened))
+                return
+            if template is None:
+                template = _prepare(engine, opened)
+            _keep(key, template)
+            s = _copy(template, opened)
         except Exception as exc:
             conn.send(("failed", sid, f"{type(exc).__name__}: {exc}"))
             return
-        live = sessions[sid] = _Live(s, lead_s)
-        conn.send(("opened", sid, {"sample_rate": s.sample_rate, "block_frames": s.block_frames,
-                                   "delay_frames": s.delay, "quality": s.quality,
-                                   "model": s.model,
-                                   "strings": s.preset.n_strings, "frets": s.preset.frets,
-                                   "preset": s.preset.name, "lead_s": lead_s,
-                                   "block_seconds": live.block_s}))
+        _open(conn, sessions, sid, s, lead_s)
     elif kind == "event":
         live = sessions.get(sid)
         if live is None:

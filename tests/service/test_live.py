@@ -179,6 +179,50 @@ def test_session_limit_closes_with_1013(live_server):
         time.sleep(0.1)
 
 
+def test_a_new_guitar_is_prepared_while_the_other_sessions_play(live_server):
+    """A guitar the worker has not prepared (here one with an action no store has seen, on the
+    waveguide: the finger's damping analysed at every fret, seconds) is prepared beside the loop:
+    the session already playing on the same worker gets its blocks on time meanwhile."""
+    action = 3e-3 + (time.time_ns() % 10**6) * 1e-12  # new on every run: nothing stored
+    new = {**OPEN, "model": "waveguide", "guitar": {"action_12th_m": action, "frets": 12}}
+
+    async def play():
+        arrivals: list[float] = []
+        async with websockets.connect(ws_url(live_server)) as a:
+            await a.send(json.dumps(OPEN))
+            assert (await _next_text(a))["type"] == "opened"
+
+            async def receive():
+                async for m in a:
+                    if isinstance(m, bytes):
+                        arrivals.append(time.monotonic())
+
+            async def keep_playing():  # events, so that the idle timeout leaves it open
+                while True:
+                    await a.send(json.dumps({"type": "pluck", "string": 1}))
+                    await asyncio.sleep(0.5)
+
+            tasks = [asyncio.create_task(receive()), asyncio.create_task(keep_playing())]
+            await asyncio.sleep(0.3)
+            async with websockets.connect(ws_url(live_server)) as b:
+                t_open = time.monotonic()
+                await b.send(json.dumps(new))
+                opened = await asyncio.wait_for(_next_text(b), 60.0)
+                t_opened = time.monotonic()
+            await asyncio.sleep(0.3)
+            tasks[1].cancel()
+            await a.close()
+            await tasks[0]
+        return opened, t_open, t_opened, arrivals
+
+    opened, t_open, t_opened, arrivals = asyncio.run(play())
+    assert opened["type"] == "opened" and opened["model"] == "waveguide", opened
+    assert t_opened - t_open > 1.0  # the preparation took long enough for a stall to show
+    during = [t for t in arrivals if t_open - 0.1 <= t <= t_opened + 0.1]
+    gaps = np.diff(during)
+    assert len(during) > 10 and gaps.max() < 0.5, (len(during), gaps.max())
+
+
 def test_idle_session_is_closed_with_4408(live_server):
     async def play():
         async with websockets.connect(ws_url(live_server)) as ws:

@@ -5,8 +5,8 @@ process once.
 contact damping of the finger stopping it) with a few eigenvalue solves of the held note: tens of
 milliseconds a fret, seconds for every fret of a guitar (the grid of a live session).  The
 waveguide model asks the same held-note analysis, on the converged grid, for the finger's damping
-of each held fret (``engine.waveguide.fingering.finger_decay_db_s``), which costs more: tens of
-seconds for every fret of a guitar (``benchmarks/calibration.py`` prints both).  A result depends
+of each held fret (``engine.waveguide.fingering.finger_decay_db_s``): seconds for every fret of
+a guitar too (``benchmarks/calibration.py`` prints both).  A result depends
 only on its inputs (the string model, or the preset, string and rate; the fret) and on the code
 that computes it, so it is kept in a SQLite file under ``config.CACHE_DIR``, keyed by a hash of
 both: a changed input or a changed module computes anew.  The values are stored as written by

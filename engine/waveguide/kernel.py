@@ -35,25 +35,25 @@ come): the period's stretch looks ``GLIDE_EVERY`` steps ahead at the pitch ratio
 next ``BLOCK`` step, ends at a call's start if a junction or a pitch breakpoint now falls within
 it.
 
-That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found
-live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
-loop of their own up to the next step that needs the general one (a period update every
-``GLIDE_EVERY`` steps, a reach, a junction's onset), compiled apart so that its few values stay in
-registers; with a steady period (no glide or bend moving it) it stops recomputing the delay once
-a step has neither walked the termination nor moved the taps (every later step of the run would
-compute the same), and a single pickup keeps its constants and last displacement in registers.
-With no live collision point a plain run goes in chunks (``_plain_free``): within a chunk of at
-most N - n_t steps the termination reads only what the bridge wrote before it, so the chunk runs
-the termination over all its steps (``_term_run``), then the bridge, then the pickups
-(``_pickup_run``), each a loop with only its own values in registers, the same arithmetic in
-another order; while the glide moves the period, the termination skips the delay's computation
-at every step whose period lies in the window where it could neither walk nor move the taps
-(``_window``, with a margin far above the rounding).  All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
-samples do not depend on where a plain run starts or ends.  Collision reach (``_reach``) runs
-every ``REACH_EVERY`` steps; when the string is quiet (no junction, a steady pitch, and the
-energy bound ``QUIET_MARGIN`` times below every obstacle) it is not needed again before the next
-``BLOCK`` step.  The filters' states live in registers for a call (``_terminate``), and ring
-indices are masked by a mask the compiler knows to be non-negative (no wraparound test).
+That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found live):
+no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a loop of
+their own up to the next step that needs the general one (a period update every ``GLIDE_EVERY``
+steps, a reach, a junction's onset), compiled apart so that its few values stay in registers; with a
+steady period (no glide or bend moving it) it stops recomputing the delay once a step has neither
+walked the termination nor moved the taps (every later step of the run would compute the same), and
+a single pickup keeps its constants and last displacement in registers.  With no live collision
+point a plain run goes in chunks (``_plain_free``): within a chunk of at most N - n_t steps the
+termination reads only what the bridge wrote before it, so the chunk runs the termination over all
+its steps (``_term_run``), then the bridge, then the pickups (``_pickup_run``), each a loop with
+only its own values in registers, the same arithmetic in another order; while the glide moves the
+period, the termination skips the delay's computation at every step whose period lies in the window
+where it could neither walk nor move the taps (``_window``, with a margin far above the rounding).
+All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
+depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
+steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
+times below every obstacle) it is not needed again before the next ``BLOCK`` step.  The filters'
+states live in registers for a call (``_terminate``), and ring indices are masked by a mask the
+compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -97,10 +97,10 @@ MAX_SECTIONS = 4  # dispersion allpass sections at most (``string``)
 NONNEG = (1 << 62) - 1
 LOOKAHEAD = max(GLIDE_EVERY, REACH_EVERY)  # steps ahead a call looks at the events
 SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost as much as the rest)
-# the Lagrange taps follow the delay in steps of this many samples: while the glide moves it by
-# far less than that a sample they are not computed again every sample (a period off by at most
-# 1e-5 samples: under 0.01 cent on a loop as short as 2 samples)
-TAP_STEP = 1e-5
+# the Lagrange taps follow the delay in steps of this fraction of the loop's period: while the
+# glide moves it by far less than that a sample they are not computed again every sample (the
+# loop's period off by at most 5e-6 of itself: 1200 log2(1 + 5e-6) = 0.0087 cent at most)
+TAP_REL = 5e-6
 WINDOW_MARGIN = 1e-9  # samples (``_window``)
 
 
@@ -373,9 +373,9 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
 
 @njit(**JIT_HELPER)
 def _tap_tol(period):
-    """How far the delay may move from the one the taps were computed for before they are
-    computed again (``TAP_STEP``)."""
-    return TAP_STEP + 0.0 * period
+    """How far (samples) the delay may move from the one the taps were computed for before they
+    are computed again, for a loop of ``period`` samples (``TAP_REL``)."""
+    return TAP_REL * period
 
 
 @njit(**JIT_HELPER)
@@ -383,7 +383,7 @@ def _walk(period, N, n_t, tau, dcap, d_taps, j0, h0, h1, h2, h3):
     """The termination's place and taps for the loop's period ``period``: the fractional delay
     d = period - 2 (N - n_t) - tau is kept in [1, 3) by walking n_t one point (walk = +1
     towards the bridge, -1 towards the nut, else 0); the taps follow d in steps of
-    ``TAP_STEP``.  Returns (walk, n_t, d_taps, j0, h0, h1, h2, h3)."""
+    ``_tap_tol``.  Returns (walk, n_t, d_taps, j0, h0, h1, h2, h3)."""
     d = period - 2.0 * (N - n_t) - tau
     walk = 0
     if d < 1.0 and n_t < N - 1:
@@ -524,39 +524,50 @@ def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps
     state."""
     mask &= NONNEG
     plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+    # the Lagrange read's last three inputs: at step q it reads Mb at q + n_t - j0 and the three
+    # before, three of which the step before read (nothing writes Mb during the run)
+    base = s + n_t - j0
+    m1 = Mb[(base - 1) & mask]
+    m2 = Mb[(base - 2) & mask]
+    m3 = Mb[(base - 3) & mask]
     for q in range(s, b):
-        if steady:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(q - n_t) & mask] = v
-            continue
-        period += dper
-        if plo < period < phi:  # ``_walk`` would neither walk nor move the taps
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(q - n_t) & mask] = v
-            steady = dper == 0.0
-            continue
-        d_was = d_taps
-        walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps, j0, h0,
-                                                      h1, h2, h3)
-        if walk == -1:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(q - n_t - 1) & mask] = v
-        if walk <= 0:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(q - n_t) & mask] = v
-        steady = dper == 0.0 and walk == 0 and d_taps == d_was
-        plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-        if walk != 0:
-            return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3,
-                    y0, y1, y2, y3)
+        if not steady:
+            period += dper
+            if plo < period < phi:  # ``_walk`` would neither walk nor move the taps
+                steady = dper == 0.0
+            else:
+                d_was = d_taps
+                walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps,
+                                                              j0, h0, h1, h2, h3)
+                if walk == -1:
+                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                        Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
+                        disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+                    R[(q - n_t - 1) & mask] = v
+                if walk <= 0:
+                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                        Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
+                        refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+                    R[(q - n_t) & mask] = v
+                steady = dper == 0.0 and walk == 0 and d_taps == d_was
+                if walk != 0:
+                    return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1,
+                            x2, x3, y0, y1, y2, y3)
+                plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+                base = q + 1 + n_t - j0  # the next step's read (the taps may have moved)
+                m1 = Mb[(base - 1) & mask]
+                m2 = Mb[(base - 2) & mask]
+                m3 = Mb[(base - 3) & mask]
+                continue
+        # ``_terminate`` at q + n_t, its read's last three inputs kept from the step before
+        m0 = Mb[(q + n_t - j0) & mask]
+        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
+            h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0,
+            x1, x2, x3, y0, y1, y2, y3)
+        R[(q - n_t) & mask] = v
+        m3 = m2
+        m2 = m1
+        m1 = m0
     return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
@@ -589,9 +600,16 @@ def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, 
             out[(q - step0) & NONNEG] = acc
             peak = max(peak, abs(acc))
         return pu, peak
+    # each step reads u+ at pn, pn + 1 and u- at pn, pn + 1: its u+(pn + 1) is the step
+    # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (nothing writes the rails here)
+    rp1 = R[(s - pn - 1) & mask]
+    mm0 = Mb[(s + pn) & mask]
     for q in range(s, t):
-        u = (pw1 * (R[(q - pn) & mask] + Mb[(q + pn) & mask])
-             + pw * (R[(q - pn - 1) & mask] + Mb[(q + pn + 1) & mask]))
+        rp0 = R[(q - pn) & mask]
+        mm1 = Mb[(q + pn + 1) & mask]
+        u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
+        rp1 = rp0
+        mm0 = mm1
         acc = 0.0
         acc += pg * (u - pu) * fs
         pu = u
@@ -629,12 +647,18 @@ def _taps(d):
 def _terminate(Mb, mask, at, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
                x0, x1, x2, x3, y0, y1, y2, y3):
     """The termination's output: Lagrange read of the u- history before index ``at`` (taps
-    ``_taps``), the loss one-pole (gain loss_gg = g (1 + a), state ly), the dispersion allpasses
-    (disp_m of the MAX_SECTIONS, states x, y), the reflection; returns the output and the
-    states."""
+    ``_taps``), then ``_filters``; returns the output and the states."""
     base = at - j0
     y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
          + h3 * Mb[(base - 3) & mask])
+    return _filters(y, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+
+
+@njit(**JIT_INLINE)
+def _filters(y, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """The termination's filters on the Lagrange read y: the loss one-pole (gain
+    loss_gg = g (1 + a), state ly), the dispersion allpasses (disp_m of the MAX_SECTIONS, states
+    x, y), the reflection; returns the output and the states."""
     y = loss_gg * y - loss_a * ly
     ly = y
     if disp_m > 0:  # the sections' states are scalars, so that they stay in registers

@@ -44,7 +44,7 @@ walked the termination nor moved the taps (every later step of the run would com
 a single pickup keeps its constants and last displacement in registers.  With no live collision
 point a plain run goes in chunks (``_plain_free``): within a chunk of at most N - n_t steps the
 termination reads only what the bridge wrote before it, so the chunk runs the termination over all
-its steps (``_term_run``), then the bridge, then the pickups (``_pickup_run``), each a loop with
+its steps (``_term_run``), then the bridge and the pickups (``_pickup_run``), each a loop with
 only its own values in registers, the same arithmetic in another order; while the glide moves the
 period, the termination skips the delay's computation at every step whose period lies in the window
 where it could neither walk nor move the taps (``_window``, with a margin far above the rounding).
@@ -423,15 +423,32 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     # a steady period (dper = 0) at a step that neither walked the termination nor moved the
     # taps: every later step of the run computes the same delay, so it only terminates
     steady = False
+    # as in ``_term_run``: the period window in which a step changes neither the place nor the
+    # taps, and the Lagrange read's last three inputs (the collisions write u-(n) for n > n_t
+    # only at steps before the termination reads it)
+    plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+    base = s1 + n_t - j0
+    m1 = Mb[(base - 1) & mask]
+    m2 = Mb[(base - 2) & mask]
+    m3 = Mb[(base - 3) & mask]
     for s in range(s1, e):
-        if steady:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        fast = steady
+        if not steady:
+            period += dper
+            if plo < period < phi:
+                steady = dper == 0.0
+                fast = True
+        if fast:
+            m0 = Mb[(s + n_t - j0) & mask]
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
+                h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
+                x0, x1, x2, x3, y0, y1, y2, y3)
             R[(s - n_t) & mask] = v
             Mb[(s + N) & mask] = -R[(s - N) & mask]
+            m3 = m2
+            m2 = m1
+            m1 = m0
         else:
-            period += dper
             nt_was = n_t
             d_was = d_taps
             (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
@@ -439,6 +456,11 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
                                    h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
                                    x3, y0, y1, y2, y3)
             steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
+            plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+            base = s + 1 + n_t - j0
+            m1 = Mb[(base - 1) & mask]
+            m2 = Mb[(base - 2) & mask]
+            m3 = Mb[(base - 3) & mask]
         for q in range(nlive):
             c = col_list[q] & NONNEG
             n = col_n[c]
@@ -472,7 +494,7 @@ def _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
     order.  Within a chunk of at most N - n_t steps the termination reads only what the bridge
     wrote before the chunk (its input at step s left the bridge at s - (N - n_t) or earlier), and
     the bridge only what the termination wrote before it, so the chunk runs the termination over
-    all its steps, then the bridge, then the pickups (which read both rails after both wrote
+    all its steps, then the bridge and the pickups (which read both rails after both wrote
     them), each a loop with only its own values in registers.  A chunk ends after a step that
     walked the termination, so that every pickup reads with the n_t of its own step.  The
     chunk is also short enough that no step of it overwrites a ring slot that another step of
@@ -496,9 +518,7 @@ def _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
          y3) = _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0,
                          h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
                          x3, y0, y1, y2, y3)
-        for q in range(s, t):
-            Mb[(q + N) & mask] = -R[(q - N) & mask]
-        if one:
+        if one:  # the bridge in the pickup's loop
             # the step that walked (the chunk's last) reads with its new place
             pu, peak = _pickup_run(R, Mb, mask, s, t - 1, step0, out, nt0, N, pn, pw, pw1, pg,
                                    pu, fs, peak)
@@ -506,6 +526,7 @@ def _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
                                    pu, fs, peak)
         else:
             for q in range(s, t):
+                Mb[(q + N) & mask] = -R[(q - N) & mask]
                 nq = n_t if q == t - 1 else nt0
                 acc = _pickups(R, Mb, mask, q, nq, N, fst, pk_n, pk_w, pk_g, fs)
                 out[(q - step0) & NONNEG] = acc
@@ -589,11 +610,13 @@ def _window(N, n_t, tau, dcap, d_taps, period):
 
 @njit(**JIT_STEP)
 def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, peak):
-    """One pickup (``_pickups``' arithmetic) at steps s .. t - 1, the termination at n_t: each
-    step's output into out and the largest |output|; returns the last displacement and that."""
+    """The bridge and one pickup (``_pickups``' arithmetic) at steps s .. t - 1, the termination
+    at n_t: each step's output into out and the largest |output|; returns the last displacement
+    and that."""
     mask &= NONNEG
     if pn <= n_t or pn + 1 > N:
         for q in range(s, t):
+            Mb[(q + N) & mask] = -R[(q - N) & mask]
             acc = 0.0
             acc += pg * (0.0 - pu) * fs
             pu = 0.0
@@ -601,10 +624,11 @@ def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, 
             peak = max(peak, abs(acc))
         return pu, peak
     # each step reads u+ at pn, pn + 1 and u- at pn, pn + 1: its u+(pn + 1) is the step
-    # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (nothing writes the rails here)
+    # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (the bridge writes only u-(N))
     rp1 = R[(s - pn - 1) & mask]
     mm0 = Mb[(s + pn) & mask]
     for q in range(s, t):
+        Mb[(q + N) & mask] = -R[(q - N) & mask]
         rp0 = R[(q - pn) & mask]
         mm1 = Mb[(q + pn + 1) & mask]
         u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)

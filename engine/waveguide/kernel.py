@@ -35,19 +35,25 @@ come): the period's stretch looks ``GLIDE_EVERY`` steps ahead at the pitch ratio
 next ``BLOCK`` step, ends at a call's start if a junction or a pitch breakpoint now falls within
 it.
 
-That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found
-live): no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a
-loop of their own up to the next step that needs the general one (a period update every
-``GLIDE_EVERY`` steps, a reach, a junction's onset), compiled apart so that its few values stay in
-registers; with a steady period (no glide or bend moving it) it stops recomputing the delay once
-a step has neither walked the termination nor moved the taps (every later step of the run would
-compute the same), and a single pickup keeps its constants and last displacement in registers.
-Both are compiled without fastmath (``config.JIT_STEP``): they round alike, so the
-samples do not depend on where a plain run starts or ends.  Collision reach (``_reach``) runs
-every ``REACH_EVERY`` steps; when the string is quiet (no junction, a steady pitch, and the
-energy bound ``QUIET_MARGIN`` times below every obstacle) it is not needed again before the next
-``BLOCK`` step.  The filters' states live in registers for a call (``_terminate``), and ring
-indices are masked by a mask the compiler knows to be non-negative (no wraparound test).
+That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found live):
+no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a loop of
+their own up to the next step that needs the general one (a period update every ``GLIDE_EVERY``
+steps, a reach, a junction's onset), compiled apart so that its few values stay in registers; with a
+steady period (no glide or bend moving it) it stops recomputing the delay once a step has neither
+walked the termination nor moved the taps (every later step of the run would compute the same), and
+a single pickup keeps its constants and last displacement in registers.  With no live collision
+point a plain run goes in chunks (``_plain_free``): within a chunk of at most N - n_t steps the
+termination reads only what the bridge wrote before it, so the chunk runs the termination over all
+its steps (``_term_run``), then the bridge and the pickups (``_pickup_run``), each a loop with
+only its own values in registers, the same arithmetic in another order; while the glide moves the
+period, the termination skips the delay's computation at every step whose period lies in the window
+where it could neither walk nor move the taps (``_window``, with a margin far above the rounding).
+All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
+depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
+steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
+times below every obstacle) it is not needed again before the next ``BLOCK`` step.  The filters'
+states live in registers for a call (``_terminate``), and ring indices are masked by a mask the
+compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -91,10 +97,11 @@ MAX_SECTIONS = 4  # dispersion allpass sections at most (``string``)
 NONNEG = (1 << 62) - 1
 LOOKAHEAD = max(GLIDE_EVERY, REACH_EVERY)  # steps ahead a call looks at the events
 SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost as much as the rest)
-# the Lagrange taps follow the delay in steps of this many samples: while the glide moves it by
-# far less than that a sample they are not computed again every sample (a period off by at most
-# 1e-5 samples: under 0.01 cent on a loop as short as 2 samples)
-TAP_STEP = 1e-5
+# the Lagrange taps follow the delay in steps of this fraction of the loop's period: while the
+# glide moves it by far less than that a sample they are not computed again every sample (the
+# loop's period off by at most 5e-6 of itself: 1200 log2(1 + 5e-6) = 0.0087 cent at most)
+TAP_REL = 5e-6
+WINDOW_MARGIN = 1e-9  # samples (``_window``)
 
 
 @njit(**JIT_STEP)
@@ -285,12 +292,19 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                 e = min(e, js_on[j])
             elif s1 < js_off[j] + js_rel[j] + tail:
                 e = s1
-        if e > s1:
+        if e > s1 and nlive == 0:
+            (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
+             peak) = _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau,
+                                 dcap, d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
+                                 disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n,
+                                 pk_w, pk_g, fs, peak)
+        elif e > s1:
             (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
              peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
                             d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
                             ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n, pk_w, pk_g, fs, peak,
                             col_n, col_ref, col_cr, col_prev, col_list, nlive)
+        if e > s1:
             i += e - s1
             ri += e - s1
             if decay_v > 0.0 and e % BLOCK == 0:
@@ -333,14 +347,43 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
 def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3,
                     loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
     """Steps 2 and 3 of sample s, the same in the general step and in ``_plain``: the termination
-    at n_t, with the loop's period ``period``, and the bridge.  Returns the state they change.
+    at n_t, with the loop's period ``period`` (its place and taps: ``_walk``), and the bridge.
+    Returns the state they change.
 
-    The termination's fractional delay d = period - 2 (N - n_t) - tau is kept in [1, 3) by walking
-    n_t one point.  A step towards the bridge leaves the loop two samples shorter on the grid and
-    d two longer: the sample the termination would write now is the one it wrote a step ago (now
-    one point further on), and its input the one it read then, so it does nothing this step.  A
-    step towards the nut writes two samples, the old place's and the new one's, from two
-    consecutive inputs."""
+    A step towards the bridge leaves the loop two samples shorter on the grid and d two longer:
+    the sample the termination would write now is the one it wrote a step ago (now one point
+    further on), and its input the one it read then, so it does nothing this step.  A step
+    towards the nut writes two samples, the old place's and the new one's, from two consecutive
+    inputs."""
+    walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps, j0, h0, h1,
+                                                  h2, h3)
+    if walk == -1:
+        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+            Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+            ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        R[(s - n_t - 1) & mask] = v
+    if walk <= 0:
+        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+            Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+            ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        R[(s - n_t) & mask] = v
+    Mb[(s + N) & mask] = -R[(s - N) & mask]
+    return n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _tap_tol(period):
+    """How far (samples) the delay may move from the one the taps were computed for before they
+    are computed again, for a loop of ``period`` samples (``TAP_REL``)."""
+    return TAP_REL * period
+
+
+@njit(**JIT_HELPER)
+def _walk(period, N, n_t, tau, dcap, d_taps, j0, h0, h1, h2, h3):
+    """The termination's place and taps for the loop's period ``period``: the fractional delay
+    d = period - 2 (N - n_t) - tau is kept in [1, 3) by walking n_t one point (walk = +1
+    towards the bridge, -1 towards the nut, else 0); the taps follow d in steps of
+    ``_tap_tol``.  Returns (walk, n_t, d_taps, j0, h0, h1, h2, h3)."""
     d = period - 2.0 * (N - n_t) - tau
     walk = 0
     if d < 1.0 and n_t < N - 1:
@@ -355,21 +398,10 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
         d = 1.0
     if d > dcap:
         d = dcap
-    if abs(d - d_taps) >= TAP_STEP:
+    if abs(d - d_taps) >= _tap_tol(period):
         j0, h0, h1, h2, h3 = _taps(d)
         d_taps = d
-    if walk == -1:
-        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-            Mb, mask, s + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-            ly, x0, x1, x2, x3, y0, y1, y2, y3)
-        R[(s - n_t - 1) & mask] = v
-    if walk <= 0:
-        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-            Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-            ly, x0, x1, x2, x3, y0, y1, y2, y3)
-        R[(s - n_t) & mask] = v
-    Mb[(s + N) & mask] = -R[(s - N) & mask]
-    return n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+    return walk, n_t, d_taps, j0, h0, h1, h2, h3
 
 
 @njit(**JIT_STEP)
@@ -391,15 +423,32 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     # a steady period (dper = 0) at a step that neither walked the termination nor moved the
     # taps: every later step of the run computes the same delay, so it only terminates
     steady = False
+    # as in ``_term_run``: the period window in which a step changes neither the place nor the
+    # taps, and the Lagrange read's last three inputs (the collisions write u-(n) for n > n_t
+    # only at steps before the termination reads it)
+    plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+    base = s1 + n_t - j0
+    m1 = Mb[(base - 1) & mask]
+    m2 = Mb[(base - 2) & mask]
+    m3 = Mb[(base - 3) & mask]
     for s in range(s1, e):
-        if steady:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        fast = steady
+        if not steady:
+            period += dper
+            if plo < period < phi:
+                steady = dper == 0.0
+                fast = True
+        if fast:
+            m0 = Mb[(s + n_t - j0) & mask]
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
+                h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
+                x0, x1, x2, x3, y0, y1, y2, y3)
             R[(s - n_t) & mask] = v
             Mb[(s + N) & mask] = -R[(s - N) & mask]
+            m3 = m2
+            m2 = m1
+            m1 = m0
         else:
-            period += dper
             nt_was = n_t
             d_was = d_taps
             (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
@@ -407,6 +456,11 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
                                    h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
                                    x3, y0, y1, y2, y3)
             steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
+            plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+            base = s + 1 + n_t - j0
+            m1 = Mb[(base - 1) & mask]
+            m2 = Mb[(base - 2) & mask]
+            m3 = Mb[(base - 3) & mask]
         for q in range(nlive):
             c = col_list[q] & NONNEG
             n = col_n[c]
@@ -430,6 +484,162 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     if one:
         fst[F_PICKUP] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
+
+
+@njit(**JIT_STEP)
+def _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0,
+                h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2,
+                y3, fst, pk_n, pk_w, pk_g, fs, peak):
+    """``_plain`` with no live collision point, in chunks: the samples of ``_plain`` in another
+    order.  Within a chunk of at most N - n_t steps the termination reads only what the bridge
+    wrote before the chunk (its input at step s left the bridge at s - (N - n_t) or earlier), and
+    the bridge only what the termination wrote before it, so the chunk runs the termination over
+    all its steps, then the bridge and the pickups (which read both rails after both wrote
+    them), each a loop with only its own values in registers.  A chunk ends after a step that
+    walked the termination, so that every pickup reads with the n_t of its own step.  The
+    chunk is also short enough that no step of it overwrites a ring slot that another step of
+    it still reads: the bridge's read at step q and the termination's write at step t are
+    (t - q) + N - n_t slots apart (and the pickups' reads nearer), less than the ring's size
+    when the chunk is at most size - (N - n_t) - 1 steps long."""
+    mask &= NONNEG
+    size = mask + 1
+    one = pk_n.shape[0] == 1
+    pn = pk_n[0] if one else 0
+    pw = pk_w[0] if one else 0.0
+    pw1 = 1.0 - pw
+    pg = pk_g[0] if one else 0.0
+    pu = fst[F_PICKUP] if one else 0.0
+    steady = False  # as in ``_plain``
+    s = s1
+    while s < e:
+        b = min(e, s + min(N - n_t, size - (N - n_t) - 1))
+        nt0 = n_t
+        (t, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
+         y3) = _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0,
+                         h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
+                         x3, y0, y1, y2, y3)
+        if one:  # the bridge in the pickup's loop
+            # the step that walked (the chunk's last) reads with its new place
+            pu, peak = _pickup_run(R, Mb, mask, s, t - 1, step0, out, nt0, N, pn, pw, pw1, pg,
+                                   pu, fs, peak)
+            pu, peak = _pickup_run(R, Mb, mask, t - 1, t, step0, out, n_t, N, pn, pw, pw1, pg,
+                                   pu, fs, peak)
+        else:
+            for q in range(s, t):
+                Mb[(q + N) & mask] = -R[(q - N) & mask]
+                nq = n_t if q == t - 1 else nt0
+                acc = _pickups(R, Mb, mask, q, nq, N, fst, pk_n, pk_w, pk_g, fs)
+                out[(q - step0) & NONNEG] = acc
+                peak = max(peak, abs(acc))
+        s = t
+    if one:
+        fst[F_PICKUP] = pu
+    return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
+
+
+@njit(**JIT_STEP)
+def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0, h0, h1,
+              h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """The termination (``_terminate_step`` without the bridge) at steps s .. b - 1, or up to and
+    including the first step that walks it; returns the step after the last one run and the
+    state."""
+    mask &= NONNEG
+    plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+    # the Lagrange read's last three inputs: at step q it reads Mb at q + n_t - j0 and the three
+    # before, three of which the step before read (nothing writes Mb during the run)
+    base = s + n_t - j0
+    m1 = Mb[(base - 1) & mask]
+    m2 = Mb[(base - 2) & mask]
+    m3 = Mb[(base - 3) & mask]
+    for q in range(s, b):
+        if not steady:
+            period += dper
+            if plo < period < phi:  # ``_walk`` would neither walk nor move the taps
+                steady = dper == 0.0
+            else:
+                d_was = d_taps
+                walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps,
+                                                              j0, h0, h1, h2, h3)
+                if walk == -1:
+                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                        Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
+                        disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+                    R[(q - n_t - 1) & mask] = v
+                if walk <= 0:
+                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                        Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
+                        refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+                    R[(q - n_t) & mask] = v
+                steady = dper == 0.0 and walk == 0 and d_taps == d_was
+                if walk != 0:
+                    return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1,
+                            x2, x3, y0, y1, y2, y3)
+                plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+                base = q + 1 + n_t - j0  # the next step's read (the taps may have moved)
+                m1 = Mb[(base - 1) & mask]
+                m2 = Mb[(base - 2) & mask]
+                m3 = Mb[(base - 3) & mask]
+                continue
+        # ``_terminate`` at q + n_t, its read's last three inputs kept from the step before
+        m0 = Mb[(q + n_t - j0) & mask]
+        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
+            h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0,
+            x1, x2, x3, y0, y1, y2, y3)
+        R[(q - n_t) & mask] = v
+        m3 = m2
+        m2 = m1
+        m1 = m0
+    return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _window(N, n_t, tau, dcap, d_taps, period):
+    """The periods p, plo < p < phi, for which ``_walk`` at n_t neither walks the termination nor
+    moves the taps from d_taps: its delay d = p - 2 (N - n_t) - tau stays in [1, 3) and within
+    the taps' tolerance of d_taps, with a margin of ``WINDOW_MARGIN`` samples (far above the
+    rounding of d), so that a step inside it may skip ``_walk`` and give the same samples.  The
+    tolerance is taken at the smallest period the window can hold (below ``period`` by less than
+    a sample: the window is narrower than 2 tolerances).  Empty (plo > phi) when there is no
+    such period."""
+    tol = _tap_tol(period - 1.0)
+    lo = max(1.0, d_taps - tol) + WINDOW_MARGIN
+    hi = min(3.0, dcap, d_taps + tol) - WINDOW_MARGIN
+    base = 2.0 * (N - n_t) + tau
+    return lo + base, hi + base
+
+
+@njit(**JIT_STEP)
+def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, peak):
+    """The bridge and one pickup (``_pickups``' arithmetic) at steps s .. t - 1, the termination
+    at n_t: each step's output into out and the largest |output|; returns the last displacement
+    and that."""
+    mask &= NONNEG
+    if pn <= n_t or pn + 1 > N:
+        for q in range(s, t):
+            Mb[(q + N) & mask] = -R[(q - N) & mask]
+            acc = 0.0
+            acc += pg * (0.0 - pu) * fs
+            pu = 0.0
+            out[(q - step0) & NONNEG] = acc
+            peak = max(peak, abs(acc))
+        return pu, peak
+    # each step reads u+ at pn, pn + 1 and u- at pn, pn + 1: its u+(pn + 1) is the step
+    # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (the bridge writes only u-(N))
+    rp1 = R[(s - pn - 1) & mask]
+    mm0 = Mb[(s + pn) & mask]
+    for q in range(s, t):
+        Mb[(q + N) & mask] = -R[(q - N) & mask]
+        rp0 = R[(q - pn) & mask]
+        mm1 = Mb[(q + pn + 1) & mask]
+        u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
+        rp1 = rp0
+        mm0 = mm1
+        acc = 0.0
+        acc += pg * (u - pu) * fs
+        pu = u
+        out[(q - step0) & NONNEG] = acc  # q >= step0: the mask only tells the compiler so
+        peak = max(peak, abs(acc))
+    return pu, peak
 
 
 @njit(**JIT_INLINE)
@@ -461,12 +671,18 @@ def _taps(d):
 def _terminate(Mb, mask, at, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
                x0, x1, x2, x3, y0, y1, y2, y3):
     """The termination's output: Lagrange read of the u- history before index ``at`` (taps
-    ``_taps``), the loss one-pole (gain loss_gg = g (1 + a), state ly), the dispersion allpasses
-    (disp_m of the MAX_SECTIONS, states x, y), the reflection; returns the output and the
-    states."""
+    ``_taps``), then ``_filters``; returns the output and the states."""
     base = at - j0
     y = (h0 * Mb[base & mask] + h1 * Mb[(base - 1) & mask] + h2 * Mb[(base - 2) & mask]
          + h3 * Mb[(base - 3) & mask])
+    return _filters(y, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+
+
+@njit(**JIT_INLINE)
+def _filters(y, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """The termination's filters on the Lagrange read y: the loss one-pole (gain
+    loss_gg = g (1 + a), state ly), the dispersion allpasses (disp_m of the MAX_SECTIONS, states
+    x, y), the reflection; returns the output and the states."""
     y = loss_gg * y - loss_a * ly
     ly = y
     if disp_m > 0:  # the sections' states are scalars, so that they stay in registers

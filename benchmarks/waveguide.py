@@ -34,8 +34,10 @@ columns move by up to a factor 1.5 between runs with the load of the shared two-
 * cost: the waveguide.  Single notes 299-880x real time against the finite-difference model's
   24.6-143x at ``standard`` (median 646 against 42.5); the fretted C/G strum 190x against 11.2x,
   17.0x cheaper: short of the issue's 20x.  ``python -m tools.instructions --waveguide`` counts
-  the strum's instructions, which do not move with the load: 65.9 million per second of audio
-  against 1001.3 million at ``standard``, 15.2x fewer (at 7822326).  What is left of the
+  the strum's instructions, which do not move with the load: 52.8 million per second of audio
+  against 999.8 million at ``standard``, 18.9x fewer (at da00cd0, after the kernel's plain runs
+  were made cheaper; ``benchmarks.pareto``'s six-string F barre chord at da00cd0: 20.7x cheaper
+  by time).  What is left of the
   waveguide's cost is the loop's own work per sample (the termination's Lagrange read, loss and
   allpass sections, the walk of the termination, the bridge, a pickup), the checks of the
   collision points a fretted string's vibration keeps within reach for its first second and

@@ -6,6 +6,8 @@
 - ``stability``: a render's physics checks: finite output, energy balance, stored energy bounded
   by the work done, non-negative dissipation, the contact potentials' auxiliary variables
   (``check``, ``violations``, ``LIMITS``).
+- ``waveguide_stability``: the waveguide model's check of a render: finite output, the rails'
+  windowed energy after each string's last event not growing (``check``, ``GROWTH``).
 - ``random_scenes``: the one generator of random valid scenes, drawn from hypothesis in the tests
   (so failures shrink) and from a seeded numpy generator in the soak (so cases replay).
 - ``measure``: measurements that need the engine's state, not just its audio: how deep a string

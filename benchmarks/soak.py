@@ -3,7 +3,7 @@ output, energy balance, stored energy bounded by the work done, non-negative dis
 auxiliary variables of sec. 4.7 (``engine.testing.stability``), on scenes from
 ``engine.testing.random_scenes``, the generator the tests draw from through hypothesis.
 
-    python -m benchmarks.soak [--minutes 3] [--seed 0] [--jobs 2] [--no-docs]
+    python -m benchmarks.soak [--minutes 3] [--seed 0] [--jobs 2] [--no-docs] [--model waveguide]
 
 Case i is generated from seed (--seed, i), so any case can be replayed:
 
@@ -19,6 +19,17 @@ exception on a valid scene is a finding too, grouped by message.
 One case in ``LONG_EVERY`` is a 60-second scene with up to 4 events (draft); the rest last
 0.02-0.2 s with up to 16 events (qualities ``QUALITIES``).  The summary is printed and written
 to docs/accuracy.md between the ``soak:begin`` / ``soak:end`` markers.
+
+With ``--model waveguide`` every case is rendered on the waveguide model and judged by its own
+check (``engine.testing.waveguide_stability``: finite output, and the rails' windowed energy after
+each string's last event never growing by more than ``GROWTH`` with the tension modulation off,
+never rising above its first window with it on), since that model has no discrete energy balance.
+Its cases are drawn longer (``WG_SHORT_S`` with up to 12 events, so that the energy has windows
+after the last event; one in ``WG_LONG_EVERY`` a 60-second scene with up to 4 events, checked in
+0.2 s windows) from a stream of their own (``--replay`` with ``--model waveguide`` replays them),
+and written between the ``soak-waveguide`` markers.  A broken check is attributed as the default
+model's are (``causes_waveguide``): a growth gone in windows twice as long to partials beating
+slower than the window, a rise with the glide on to a glide past an octave.
 """
 
 from __future__ import annotations
@@ -37,21 +48,126 @@ from pydantic import ValidationError
 
 from benchmarks.pareto import write_docs
 from engine.options import RenderOptions
+from engine.testing import waveguide_stability
 from engine.testing.random_scenes import NumpyDraw, random_scene
 from engine.testing.stability import LIMITS, Report, check, violations
 
 LONG_EVERY = 100
 LONG_S = 60.0
 QUALITIES = ("draft",) * 14 + ("standard",) * 5 + ("high",)
+WG_LONG_EVERY = 10
+WG_SHORT_S = (0.3, 2.0)
+WG_LONG_WINDOW_S = 0.2
+WG_STREAM = 1  # the waveguide's cases: a stream of their own, apart from the default model's
 
 
-def make_case(seed: int, i: int) -> tuple[str, dict]:
+def make_case(seed: int, i: int, model: str = "fdtd") -> tuple[str, dict]:
+    if model == "waveguide":
+        d = NumpyDraw(np.random.default_rng([seed, i, WG_STREAM]))
+        if i % WG_LONG_EVERY == WG_LONG_EVERY - 1:
+            sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4)
+            return "60 s", {**sc, "model": "waveguide"}
+        sc = random_scene(d, max_duration=WG_SHORT_S[1], min_duration=WG_SHORT_S[0],
+                          max_events=12)
+        return "short", {**sc, "model": "waveguide"}
     d = NumpyDraw(np.random.default_rng([seed, i]))
     if i % LONG_EVERY == LONG_EVERY - 1:
         sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4,
                           qualities=("draft",))
         return "60 s", sc
     return "short", random_scene(d, max_duration=0.2, max_events=16, qualities=QUALITIES)
+
+
+def check_waveguide(kind: str, sc: dict, stretch: float = 1.0) -> waveguide_stability.Report:
+    window = WG_LONG_WINDOW_S if kind == "60 s" else waveguide_stability.WINDOW_S
+    return waveguide_stability.check(sc, window_s=stretch * window)
+
+
+def causes_waveguide(kind: str, sc: dict, rep: waveguide_stability.Report) -> str:
+    """A broken waveguide check's known cause, or 'not attributed'.  A growth with the glide
+    off that is gone in windows twice as long is the beating of partials slower than the window
+    (the rails' energy leaves out what the termination's filters hold, which beats against it);
+    a rise with the glide on past an octave of glide is the tension modulation's: the loop
+    realises it by moving its termination, which does work on the waves (``glide``)."""
+    out = []
+    if not rep.finite:
+        return "non-finite output"
+    if rep.growth > waveguide_stability.GROWTH:
+        longer = check_waveguide(kind, sc, stretch=2.0)
+        out.append("growth: beats slower than the window (gone in windows twice as long)"
+                   if longer.growth <= waveguide_stability.GROWTH else
+                   "growth: not attributed")
+    if rep.rise > waveguide_stability.GROWTH:
+        out.append("rise: the glide went past an octave" if rep.glide_max > 2.0 else
+                   "rise: not attributed")
+    return "; ".join(out)
+
+
+def run_case_waveguide(args):
+    seed, i = args
+    kind, sc = make_case(seed, i, "waveguide")
+    try:
+        rep = check_waveguide(kind, sc)
+    except ValidationError:
+        return {"i": i, "kind": kind, "valid": False}
+    except Exception as e:  # noqa: BLE001 - an engine error on a valid scene is a finding
+        return {"i": i, "kind": kind, "valid": True, "error": f"{type(e).__name__}: {e}",
+                "seconds": sc["duration"], "rate": sc["sample_rate"],
+                "preset": sc["guitar"]["preset"]}
+    return {"i": i, "kind": kind, "valid": True, "error": "", "seconds": rep.seconds,
+            "wall": rep.wall, "finite": rep.finite, "growth": rep.growth, "rise": rep.rise,
+            "glide_max": rep.glide_max, "ok": rep.ok, "rate": sc["sample_rate"],
+            "preset": sc["guitar"]["preset"],
+            "cause": "" if rep.ok else causes_waveguide(kind, sc, rep)}
+
+
+def summarise_waveguide(results: list[dict], seed: int, wall: float, jobs: int) -> str:
+    valid = [r for r in results if r["valid"]]
+    long_ = [r for r in valid if r["kind"] == "60 s"]
+    lo, hi = WG_SHORT_S
+    lines = [
+        f"{len(valid)} valid random scenes on the waveguide model in {wall / 60:.1f} minutes on "
+        f"{jobs} processes (seed {seed}; {len(results) - len(valid)} drawn scenes failed "
+        f"validation and were skipped): {len(long_)} of 60 s and {len(valid) - len(long_)} of "
+        f"{lo:g}-{hi:g} s, {sum(r['seconds'] for r in valid):.0f} s of audio, each rendered "
+        f"twice (tension modulation off and on); sample rates "
+        f"{min(r['rate'] for r in valid)}-{max(r['rate'] for r in valid)} Hz; "
+        + ", ".join(f"{p} {n}" for p, n in sorted(collections.Counter(
+            r["preset"] for r in valid).items())) + ".",
+        "",
+        "| check | limit | worst value over all cases | worst case | cases over the limit |",
+        "|---|---|---|---|---|",
+    ]
+    ran = [r for r in valid if not r["error"]]
+    lines.append(f"| finite output | - | - | - | {sum(not r['finite'] for r in ran)} |")
+    lines.append(f"| engine raised on a valid scene | - | - | - | "
+                 f"{sum(bool(r['error']) for r in valid)} |")
+    for key, label in (("growth", "energy growth, window to window, glide off (relative)"),
+                       ("rise", "energy above its first window, glide on (relative)")):
+        cases = [r for r in ran if r["finite"]]
+        if cases:
+            w = max(cases, key=lambda r: r[key])
+            over = sum(r[key] > waveguide_stability.GROWTH for r in cases)
+            lines.append(f"| {label} | {waveguide_stability.GROWTH:.0e} | {w[key]:.2e} | "
+                         f"{seed} {w['i']} | {over} |")
+    if ran:
+        g = np.array([r["glide_max"] for r in ran])
+        semitone = 2.0 ** (1.0 / 12.0)
+        lines += ["", f"The tension modulation's pitch ratio (its largest in each case): median "
+                      f"{np.median(g):.4g}, largest {g.max():.4g}; {int((g > semitone).sum())} "
+                      f"cases glided by more than a semitone, {int((g > 2.0).sum())} by more "
+                      f"than an octave."]
+    bad = [r for r in valid if r["error"] or not r["ok"]]
+    lines += ["", f"{len(bad)} of {len(valid)} cases broke at least one check."]
+    if bad:
+        lines += ["", "| case (seed case) | what broke | cause |", "|---|---|---|"]
+        for r in sorted(bad, key=lambda r: r["i"])[:20]:
+            what = r["error"] or (f"growth {r['growth']:.2e}, rise {r['rise']:.2e} (the "
+                                  f"glide's pitch ratio up to {r['glide_max']:.3g})")
+            lines.append(f"| {seed} {r['i']} | {what} | {r.get('cause') or '-'} |")
+        lines += ["", f"Replay a case with `python -m benchmarks.soak --model waveguide --replay "
+                      f"{seed} CASE`."]
+    return "\n".join(lines) + "\n"
 
 
 def kind_of(violation: str) -> str:
@@ -163,7 +279,23 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-docs", action="store_true")
     ap.add_argument("--replay", type=int, nargs=2, metavar=("SEED", "CASE"))
+    ap.add_argument("--model", choices=("fdtd", "waveguide"), default="fdtd",
+                    help="the string model every case is rendered on (default fdtd)")
     args = ap.parse_args()
+    if args.minutes <= 0 or args.jobs < 1:
+        ap.error("--minutes must be > 0 and --jobs >= 1")
+    waveguide = args.model == "waveguide"
+    if args.replay and waveguide:
+        kind, sc = make_case(*args.replay, "waveguide")
+        print(json.dumps(sc, indent=1))
+        try:
+            rep = check_waveguide(kind, sc)
+        except ValidationError as e:  # the soak skips these cases too
+            print(f"case {args.replay[1]} of seed {args.replay[0]} is not a valid scene (the soak "
+                  f"skipped it): {e.errors()[0]['msg']}", file=sys.stderr)
+            sys.exit(2)
+        print(rep, "ok" if rep.ok else "broke a check", sep="\n")
+        return
     if args.replay:
         kind, sc = make_case(*args.replay)
         print(json.dumps(sc, indent=1))
@@ -192,16 +324,23 @@ def main() -> None:
         i = 0
         while time.perf_counter() < deadline:
             slots.acquire()
-            pool.apply_async(run_case, ((args.seed, i),), callback=done, error_callback=failed)
+            pool.apply_async(run_case_waveguide if waveguide else run_case, ((args.seed, i),),
+                             callback=done, error_callback=failed)
             i += 1
         pool.close()
         pool.join()
     wall = time.perf_counter() - t0
-    text = summarise(results, args.seed, wall, args.jobs)
+    if waveguide:
+        text = summarise_waveguide(results, args.seed, wall, args.jobs)
+        command = f"python -m benchmarks.soak --model waveguide --minutes {args.minutes:g}"
+        section, marker = "Stability soak of the waveguide model", "soak-waveguide"
+    else:
+        text = summarise(results, args.seed, wall, args.jobs)
+        command = f"python -m benchmarks.soak --minutes {args.minutes:g}"
+        section, marker = "Stability soak", "soak"
     print(text)
     if not args.no_docs:
-        write_docs("Stability soak", "soak",
-                   f"Printed by `python -m benchmarks.soak --minutes {args.minutes:g}`.\n\n" + text)
+        write_docs(section, marker, f"Printed by `{command}`.\n\n" + text)
 
 
 if __name__ == "__main__":

@@ -140,6 +140,30 @@ def print_rows(title: str, rows: list[dict]) -> None:
               f"{r['s_wg']:5.1f} {r['s_fd']:6.1f}")
 
 
+GLIDE_WINDOWS = ((0.005, 0.025), (0.025, 0.05), (0.05, 0.1), (0.4, 0.6))  # s after the pluck
+GLIDE_PLUCKS = (("pick", 8.0), ("pick", 20.0), ("slap", 20.0), ("pop", 20.0))
+
+
+def glide_rows() -> list[tuple[str, list[float], list[float]]]:
+    """The pitch glide of hard plucks: the fundamental's pitch (cents from nominal) in each of
+    ``GLIDE_WINDOWS`` after a pluck of each of ``GLIDE_PLUCKS`` on open strings 1, 2 and 3, on
+    the waveguide and on the finite-difference model at ``standard`` (the peak searched within
+    half the frequency either way: a glide can be large, and the second partial stays outside;
+    the wound strings are left out, as the first window holds too few of their periods)."""
+    rows = []
+    for s in (1, 2, 3):
+        f = STEEL.strings[s - 1].frequency_hz
+        for style, force in GLIDE_PLUCKS:
+            sc = scene([pluck(s, force=force, style=style)], 0.6)
+            out = []
+            for model in ("wg", "fd"):
+                a = renderer(sc, model)()
+                out.append([float(cents(spectrum_peak(a[int(t0 * SR):int(t1 * SR)], SR, f, 0.5),
+                                        f)) for t0, t1 in GLIDE_WINDOWS])
+            rows.append((f"string {s} {style} {force:g} N", *out))
+    return rows
+
+
 def strum_scene() -> dict:
     """The fretted C/G strum: the fingers down at 0, a 2 N strum at 50 ms, 4 s."""
     evs = [fret(s, q) for s, q in CHORD.items() if q > 0]
@@ -191,6 +215,13 @@ def main() -> None:
           f"finite difference {st['s_fd']:.1f} dB")
     print("  pitch of each string in the chord (cents vs 12-TET), waveguide / finite difference: "
           + ", ".join(f"{s}: {st['c_wg'][s]:+.2f} / {st['c_fd'][s]:+.2f}" for s in CHORD))
+    print("\npitch glide of hard plucks on open strings (cents from nominal), waveguide / finite "
+          "difference (standard)")
+    print(f"{'pluck':22s} | " + " | ".join(f"{1000 * t0:.0f}-{1000 * t1:.0f} ms".rjust(15)
+                                            for t0, t1 in GLIDE_WINDOWS))
+    for name, wg, fd in glide_rows():
+        print(f"{name:22s} | " + " | ".join(f"{a:+7.1f} {b:+7.1f}" for a, b in zip(wg, fd,
+                                                                             strict=True)))
     if args.intonation:
         print("\nwaveguide fretted pitch with intonation='physical' (cents vs 12-TET, frets 1-12)")
         opts = WaveguideOptions(intonation="physical")

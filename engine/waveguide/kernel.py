@@ -190,7 +190,9 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
             if glide_k > 0.0 and phase == 0:
                 # between n_t + 1 and N - 1, whose values at s are final (the termination and
                 # the bridge write theirs below), and u(N) = 0
-                g_new = math.sqrt(1.0 + glide_k * _slope_sum(R, Mb, mask, s, n_t + 1, N - 1))
+                g_new = math.sqrt(1.0 + glide_k * _slope_sum(R, Mb, mask, s, n_t + 1, N - 1,
+                                                             js_on, js_off, js_rel, js_idx,
+                                                             js_np, tail))
             else:
                 g_new = fst[F_GLIDE]
             ratio, ib = _ratio_at(s, pb_step, pb_f, ib)

@@ -47,7 +47,10 @@ termination reads only what the bridge wrote before it, so the chunk runs the te
 its steps (``_term_run``), then the bridge and the pickups (``_pickup_run``), each a loop with
 only its own values in registers, the same arithmetic in another order; while the glide moves the
 period, the termination skips the delay's computation at every step whose period lies in the window
-where it could neither walk nor move the taps (``_window``, with a margin far above the rounding).
+where it could neither walk nor move the taps (``_window``, with a margin far above the rounding):
+such steps run in stretches, the period's steps over a stretch first, then the filters over it in
+a loop of their own for each number of allpass sections (``_term_steps``), which tests nothing
+per step.
 All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
 depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
 steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
@@ -542,7 +545,9 @@ def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps
               h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
     """The termination (``_terminate_step`` without the bridge) at steps s .. b - 1, or up to and
     including the first step that walks it; returns the step after the last one run and the
-    state."""
+    state.  The steps whose period lies in the window where ``_walk`` would neither walk nor move
+    the taps (``_window``; all of them once the period is steady) run in stretches: first the
+    period's steps over the stretch, then the filters over it (``_term_steps``)."""
     mask &= NONNEG
     plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
     # the Lagrange read's last three inputs: at step q it reads Mb at q + n_t - j0 and the three
@@ -551,45 +556,92 @@ def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps
     m1 = Mb[(base - 1) & mask]
     m2 = Mb[(base - 2) & mask]
     m3 = Mb[(base - 3) & mask]
-    for q in range(s, b):
+    q = s
+    while q < b:
+        # the stretch q .. r - 1 that skips ``_walk``
+        r = b
         if not steady:
-            period += dper
-            if plo < period < phi:  # ``_walk`` would neither walk nor move the taps
-                steady = dper == 0.0
-            else:
-                d_was = d_taps
-                walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps,
-                                                              j0, h0, h1, h2, h3)
-                if walk == -1:
-                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                        Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
-                        disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-                    R[(q - n_t - 1) & mask] = v
-                if walk <= 0:
-                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                        Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
-                        refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-                    R[(q - n_t) & mask] = v
-                steady = dper == 0.0 and walk == 0 and d_taps == d_was
-                if walk != 0:
-                    return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1,
-                            x2, x3, y0, y1, y2, y3)
-                plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-                base = q + 1 + n_t - j0  # the next step's read (the taps may have moved)
-                m1 = Mb[(base - 1) & mask]
-                m2 = Mb[(base - 2) & mask]
-                m3 = Mb[(base - 3) & mask]
-                continue
-        # ``_terminate`` at q + n_t, its read's last three inputs kept from the step before
+            r = q
+            while r < b:
+                p = period + dper
+                if not plo < p < phi:
+                    break
+                period = p
+                r += 1
+                if dper == 0.0:  # steady: every later step computes the same delay
+                    steady = True
+                    r = b
+        (m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _term_steps(
+            R, Mb, mask, q, r, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
+            disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        q = r
+        if q >= b:
+            break
+        # step q: the period leaves the window
+        period += dper
+        d_was = d_taps
+        walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps, j0, h0,
+                                                      h1, h2, h3)
+        if walk == -1:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(q - n_t - 1) & mask] = v
+        if walk <= 0:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
+                x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(q - n_t) & mask] = v
+        steady = dper == 0.0 and walk == 0 and d_taps == d_was
+        if walk != 0:
+            return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3,
+                    y0, y1, y2, y3)
+        plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+        q += 1
+        base = q + n_t - j0  # the next step's read (the taps may have moved)
+        m1 = Mb[(base - 1) & mask]
+        m2 = Mb[(base - 2) & mask]
+        m3 = Mb[(base - 3) & mask]
+    return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _term_steps(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
+                disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """``_terminate`` at steps s .. b - 1 with fixed place and taps, the read's last three inputs
+    m1, m2, m3 kept from the step before; a loop for each number of allpass sections, so that
+    none tests it per step.  Returns the inputs and the filters' states."""
+    if disp_m == 0:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 0, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    if disp_m == 1:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 1, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    if disp_m == 2:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 2, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    if disp_m == 3:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 3, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a,
+                      disp_a, 4, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+
+
+@njit(**JIT_INLINE)
+def _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
+               dm, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """``_term_steps``' loop for dm allpass sections (a constant where it is inlined)."""
+    mask &= NONNEG
+    for q in range(s, b):
         m0 = Mb[(q + n_t - j0) & mask]
         v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
-            h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0,
+            h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, dm, refl, ly, x0,
             x1, x2, x3, y0, y1, y2, y3)
         R[(q - n_t) & mask] = v
         m3 = m2
         m2 = m1
         m1 = m0
-    return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+    return m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
 @njit(**JIT_HELPER)

@@ -50,13 +50,15 @@ period, the termination skips the delay's computation at every step whose period
 where it could neither walk nor move the taps (``_window``, with a margin far above the rounding):
 such steps run in stretches, the period's steps over a stretch first, then the filters over it in
 a loop of their own for each number of allpass sections (``_term_steps``), which tests nothing
-per step.
+per step.  The loops of the filters and of the bridge with one pickup go in pieces in which no
+ring offset wraps around, so that their offsets only count up (no mask per step).
 All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
 depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
 steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
 times below every obstacle) it is not needed again before the next ``BLOCK`` step.  The filters'
 states live in registers for a call (``_terminate``), and ring indices are masked by a mask the
-compiler knows to be non-negative (no wraparound test).
+compiler knows to be non-negative (no wraparound test), or in those pieces are an offset masked
+once plus a count up from 0.
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -632,15 +634,23 @@ def _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, 
                dm, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
     """``_term_steps``' loop for dm allpass sections (a constant where it is inlined)."""
     mask &= NONNEG
-    for q in range(s, b):
-        m0 = Mb[(q + n_t - j0) & mask]
-        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
-            h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, dm, refl, ly, x0,
-            x1, x2, x3, y0, y1, y2, y3)
-        R[(q - n_t) & mask] = v
-        m3 = m2
-        m2 = m1
-        m1 = m0
+    size = mask + 1
+    q = s
+    while q < b:
+        # the ring offsets at q, and the steps from q in which neither wraps around the ring
+        im = (q + n_t - j0) & mask
+        ir = (q - n_t) & mask
+        r = min(b - q, size - im, size - ir)
+        for k in range(r):
+            m0 = Mb[im + k]
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
+                h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, dm, refl, ly,
+                x0, x1, x2, x3, y0, y1, y2, y3)
+            R[ir + k] = v
+            m3 = m2
+            m2 = m1
+            m1 = m0
+        q += r
     return m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
@@ -679,18 +689,30 @@ def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, 
     # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (the bridge writes only u-(N))
     rp1 = R[(s - pn - 1) & mask]
     mm0 = Mb[(s + pn) & mask]
-    for q in range(s, t):
-        Mb[(q + N) & mask] = -R[(q - N) & mask]
-        rp0 = R[(q - pn) & mask]
-        mm1 = Mb[(q + pn + 1) & mask]
-        u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
-        rp1 = rp0
-        mm0 = mm1
-        acc = 0.0
-        acc += pg * (u - pu) * fs
-        pu = u
-        out[(q - step0) & NONNEG] = acc  # q >= step0: the mask only tells the compiler so
-        peak = max(peak, abs(acc))
+    size = mask + 1
+    q = s
+    while q < t:
+        # the ring offsets at q (all >= 0), and the steps from q in which none of them wraps
+        # around the ring: in those the offsets only count up (no mask per step)
+        ib = (q - N) & mask
+        jb = (q + N) & mask
+        ip = (q - pn) & mask
+        jp = (q + pn + 1) & mask
+        o = (q - step0) & NONNEG  # q >= step0: the mask only tells the compiler so
+        r = min(t - q, size - ib, size - jb, size - ip, size - jp)
+        for k in range(r):
+            Mb[jb + k] = -R[ib + k]
+            rp0 = R[ip + k]
+            mm1 = Mb[jp + k]
+            u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
+            rp1 = rp0
+            mm0 = mm1
+            acc = 0.0
+            acc += pg * (u - pu) * fs
+            pu = u
+            out[o + k] = acc
+            peak = max(peak, abs(acc))
+        q += r
     return pu, peak
 
 

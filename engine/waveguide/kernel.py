@@ -51,7 +51,9 @@ where it could neither walk nor move the taps (``_window``, with a margin far ab
 such steps run in stretches, the period's steps over a stretch first, then the filters over it in
 a loop of their own for each number of allpass sections (``_term_steps``), which tests nothing
 per step.  The loops of the filters and of the bridge with one pickup go in pieces in which no
-ring offset wraps around, so that their offsets only count up (no mask per step).
+ring offset wraps around, so that their offsets only count up (no mask per step).  The live
+collision points are tested for being cut off by the termination only after it has walked or the
+reach has listed them anew (``_inside``).
 All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
 depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
 steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
@@ -176,6 +178,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     d_taps = fst[F_D]  # the delay the taps were computed for (0 before the first call)
     j0, h0, h1, h2, h3 = _taps(d_taps if d_taps >= 1.0 else 1.5)
     ri = step0 - ist[I_RESTART]  # steps since the schedule's restart
+    inside_nt = -1  # the place of the termination ``inside`` was found for (``_inside``)
+    inside = False
     i = 0
     stopped = False
     while i < nsteps:
@@ -261,14 +265,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
                                             js_kappa, tail, pb_step, ib)
-            for q in range(nlive):
-                c = col_list[q] & NONNEG
-                n = col_n[c]
-                if n <= n_t or n >= N:
-                    col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
-                    continue
-                col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
-                                       fs)
+                inside_nt = -1
+            if n_t != inside_nt:
+                inside = _inside(col_n, col_list, nlive, n_t, N)
+                inside_nt = n_t
+            _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list,
+                        nlive, inside, fs)
         # 6. pickups
         acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
         out[i] = acc
@@ -377,6 +379,37 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
 
 
 @njit(**JIT_HELPER)
+def _inside(col_n, col_list, nlive, n_t, N):
+    """Do the live collision points all lie on the sounding string (n_t < n < N)?"""
+    for q in range(nlive):
+        n = col_n[col_list[q] & NONNEG]
+        if n <= n_t or n >= N:
+            return False
+    return True
+
+
+@njit(**JIT_HELPER)
+def _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list, nlive,
+                inside, fs):
+    """The live collision points at step s (``_collide``); a point the termination has cut off
+    forgets its arrival speed (``NO_PREV``).  ``inside``: none is cut off (``_inside``), so
+    that the loop tests no place."""
+    if inside:
+        for q in range(nlive):
+            c = col_list[q] & NONNEG
+            col_prev[c] = _collide(R, Mb, mask, s, col_n[c], col_ref[c], col_cr[c], col_prev[c],
+                                   fs)
+        return
+    for q in range(nlive):
+        c = col_list[q] & NONNEG
+        n = col_n[c]
+        if n <= n_t or n >= N:
+            col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
+            continue
+        col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
+
+
+@njit(**JIT_HELPER)
 def _tap_tol(period):
     """How far (samples) the delay may move from the one the taps were computed for before they
     are computed again, for a loop of ``period`` samples (``TAP_REL``)."""
@@ -436,6 +469,7 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     m1 = Mb[(base - 1) & mask]
     m2 = Mb[(base - 2) & mask]
     m3 = Mb[(base - 3) & mask]
+    inside = _inside(col_n, col_list, nlive, n_t, N)
     for s in range(s1, e):
         fast = steady
         if not steady:
@@ -461,18 +495,15 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
                                    h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
                                    x3, y0, y1, y2, y3)
             steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
+            if n_t != nt_was:
+                inside = _inside(col_n, col_list, nlive, n_t, N)
             plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
             base = s + 1 + n_t - j0
             m1 = Mb[(base - 1) & mask]
             m2 = Mb[(base - 2) & mask]
             m3 = Mb[(base - 3) & mask]
-        for q in range(nlive):
-            c = col_list[q] & NONNEG
-            n = col_n[c]
-            if n <= n_t or n >= N:
-                col_prev[c] = NO_PREV
-                continue
-            col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
+        _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list, nlive,
+                    inside, fs)
         if one:  # ``_pickups`` for one pickup, the same arithmetic
             if pn <= n_t or pn + 1 > N:
                 u = 0.0

@@ -112,16 +112,36 @@ WINDOW_MARGIN = 1e-9  # samples (``_window``)
 
 
 @njit(**JIT_STEP)
-def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
-              pb_step, pb_f,
-              js_on, js_off, js_len, js_rel, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst,
-              x_k0,
-              col_n, col_ref, col_cr, col_prev, col_live, col_list, seg_p, seg_m,
-              pk_n, pk_w, pk_g):
+def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, pb_f, js_i,
+              js_idx, js_x, jst, x_k0, col_i, col_x, seg, pk_n, pk_w, pk_g):
     """Run nsteps samples from step0 into out; returns the number run (fewer if the decay stop
     acted: ist[I_STOPPED] is then 1), -1 if the string became non-finite, or -2 if the reach's
     segment arrays do not fit this kernel's ``REACH_EVERY`` (a kernel cached from another value
-    of it: numba's cache watches only this file)."""
+    of it: numba's cache watches only this file).  The arrays come in groups (each array of a
+    call costs its unboxing): the rails R, Mb; the allpasses' states dsx, dsy; the junctions'
+    js_on, js_off, js_len, js_rel, js_np and js_f, js_mp, js_rho, js_kappa; the collision
+    points' col_n, col_live, col_list and col_ref, col_cr, col_prev; the reach's seg_p, seg_m."""
+    R = rails[0]
+    Mb = rails[1]
+    dsx = ds[0]
+    dsy = ds[1]
+    js_on = js_i[0]
+    js_off = js_i[1]
+    js_len = js_i[2]
+    js_rel = js_i[3]
+    js_np = js_i[4]
+    js_f = js_x[0]
+    js_mp = js_x[1]
+    js_rho = js_x[2]
+    js_kappa = js_x[3]
+    col_n = col_i[0]
+    col_live = col_i[1]
+    col_list = col_i[2]
+    col_ref = col_x[0]
+    col_cr = col_x[1]
+    col_prev = col_x[2]
+    seg_p = seg[0]
+    seg_m = seg[1]
     if seg_p.shape[0] < N // REACH_EVERY + 2 or seg_m.shape[0] < N // REACH_EVERY + 2:
         return -2
     mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound

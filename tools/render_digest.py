@@ -9,6 +9,16 @@ through the general path); the SHA-256 of the float64 samples is printed with th
 figure and the number of warnings.  The scenes cover fretted, tapped,
 hammered, pulled, slid, bent, muted and harmonic strings, a strum, a hard pluck, several pickups,
 stereo, both built-in bodies and none, the three qualities and an oversampled rate.
+
+    python -m tools.render_digest --waveguide > before.json   # the waveguide's scenes only
+
+``--waveguide`` renders the waveguide's scenes (``WAVEGUIDE``, ``"model": "waveguide"``) instead:
+each as a user renders it (the decay stop on), with the decay stop off, and cut into blocks of
+1000 frames (``RenderOptions.block_frames``; the samples must not depend on the blocks).  They
+cover every path of ``engine/waveguide/kernel.py``: open and fretted plucks, a strum of hard
+plucks that glide, bends, vibrato, slides, hammer-ons, pull-offs, taps, harmonics, palm mutes,
+dead notes, damps, slap and pop against the frets, one, several and cut-off pickups, stereo and
+a body, another rate, and strings that decay to the stop.
 """
 
 from __future__ import annotations
@@ -71,8 +81,113 @@ SCENES: dict[str, dict] = {
 }
 
 
+def _wg(duration: float, events: list, **extra) -> dict:
+    return {"model": "waveguide", "duration": duration, "events": events,
+            "output": {"body": "none", "normalize": False, **extra.pop("output", {})}, **extra}
+
+
+C_G = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
+       for s, q in ((6, 3), (5, 3), (4, 2), (2, 1))]
+WAVEGUIDE: dict[str, dict] = {
+    "wg-open-pluck": _wg(1.0, [{"type": "pluck", "time": 0.0, "string": 1, "force": 1.0}]),
+    "wg-damped-stops": _wg(1.5, [{"type": "pluck", "time": 0.0, "string": 1, "force": 0.5},
+                                  {"type": "damp", "time": 0.05, "string": 1}]),
+    "wg-fretted-damped-stops": _wg(2.5, [
+        {"type": "fret", "time": 0.0, "string": 3, "fret": 5},
+        {"type": "pluck", "time": 0.01, "string": 3},
+        {"type": "damp", "time": 0.1, "string": 3}]),
+    # benchmarks.waveguide's strum (tools.instructions --waveguide counts it)
+    "wg-fretted-strum": _wg(4.0, C_G + [{"type": "strum", "time": 0.05, "force": 2.0,
+                                         "spread": 0.03}]),
+    "wg-hard-strum-glide": _wg(1.5, [{"type": "strum", "time": 0.0, "force": 12.0,
+                                      "spread": 0.02, "style": "pick"}]),
+    "wg-hard-fretted-glide": _wg(1.0, [
+        {"type": "fret", "time": 0.0, "string": 6, "fret": 5},
+        {"type": "pluck", "time": 0.01, "string": 6, "force": 15.0, "position": 0.9}]),
+    "wg-bend-release": _wg(1.0, [
+        {"type": "fret", "time": 0.0, "string": 2, "fret": 7},
+        {"type": "pluck", "time": 0.01, "string": 2, "force": 3.0},
+        {"type": "bend", "time": 0.15, "string": 2, "semitones": 2.0, "duration": 0.2,
+         "release": 0.6}]),
+    "wg-vibrato-two-pickups": _wg(1.0, [
+        {"type": "pluck", "time": 0.0, "string": 3, "force": 4.0},
+        {"type": "vibrato", "time": 0.1, "string": 3, "depth_cents": 60.0, "rate_hz": 7.0,
+         "duration": 0.8}], output={"pickups": [{"position": 0.9}, {"position": 0.7,
+                                                                    "gain": 0.5}]}),
+    "wg-slide-hammer-pull": _wg(1.5, [
+        {"type": "fret", "time": 0.0, "string": 4, "fret": 2},
+        {"type": "pluck", "time": 0.01, "string": 4, "force": 3.0, "style": "pick"},
+        {"type": "hammer_on", "time": 0.25, "string": 4, "fret": 4},
+        {"type": "pull_off", "time": 0.5, "string": 4, "fret": 4},
+        {"type": "slide", "time": 0.75, "string": 4, "from_fret": 2, "to_fret": 9,
+         "duration": 0.2},
+        {"type": "fret", "time": 1.2, "string": 4, "fret": 0}]),
+    "wg-tap-lift": _wg(1.0, [
+        {"type": "tap", "time": 0.0, "string": 3, "fret": 7, "force": 3.0, "velocity": 2.0},
+        {"type": "fret", "time": 0.5, "string": 3, "fret": 0}]),
+    "wg-harmonic-mute": _wg(1.0, [
+        {"type": "harmonic", "time": 0.0, "string": 1, "fret": 12, "release": 0.3},
+        {"type": "pluck", "time": 0.01, "string": 1, "force": 2.0},
+        {"type": "mute", "time": 0.0, "string": 4, "amount": 1.0},
+        {"type": "pluck", "time": 0.02, "string": 4, "force": 3.0},
+        {"type": "harmonic", "time": 0.0, "string": 5, "position": 0.2},
+        {"type": "pluck", "time": 0.02, "string": 5}]),
+    "wg-dead-note-damp": _wg(1.0, [
+        {"type": "fret", "time": 0.0, "string": 3, "fret": 5, "force": 0.05},
+        {"type": "pluck", "time": 0.02, "string": 3},
+        {"type": "pluck", "time": 0.0, "string": 1, "force": 2.0},
+        {"type": "damp", "time": 0.3, "string": 1}]),
+    "wg-slap-pop": _wg(1.0, [
+        {"type": "pluck", "time": 0.0, "string": 5, "force": 15.0, "style": "slap",
+         "position": 0.85},
+        {"type": "pluck", "time": 0.1, "string": 2, "force": 15.0, "style": "pop",
+         "position": 0.85},
+        {"type": "fret", "time": 0.0, "string": 6, "fret": 12, "force": 5.0},
+        {"type": "pluck", "time": 0.2, "string": 6, "force": 15.0, "style": "slap"}]),
+    "wg-cut-off-pickups": _wg(1.0, [
+        {"type": "fret", "time": 0.0, "string": 2, "fret": 12},
+        {"type": "pluck", "time": 0.01, "string": 2, "force": 3.0, "position": 0.9},
+        {"type": "fret", "time": 0.6, "string": 2, "fret": 0}],
+        output={"pickups": [{"position": 0.3}]}),
+    "wg-cut-off-pickups-two": _wg(1.0, [
+        {"type": "fret", "time": 0.0, "string": 5, "fret": 12},
+        {"type": "pluck", "time": 0.01, "string": 5, "force": 3.0, "position": 0.9},
+        {"type": "pluck", "time": 0.0, "string": 1, "force": 3.0}],
+        output={"pickups": [{"position": 0.3}, {"position": 0.85, "gain": 0.7}]}),
+    "wg-palm-muted-strum": _wg(2.5, [{"type": "mute", "time": 0.0, "amount": 1.0},
+                                     {"type": "strum", "time": 0.01, "direction": "up"}]),
+    "wg-electric-stereo-body": {**_wg(0.8, C_G + [
+        {"type": "strum", "time": 0.0, "force": 5.0, "spread": 0.02}],
+        output={"channels": 2, "body": "acoustic"}), "guitar": {"preset": "electric"}},
+    "wg-nylon-48k-legato": {**_wg(0.8, [
+        {"type": "fret", "time": 0.0, "string": 1, "fret": 5},
+        {"type": "pluck", "time": 0.01, "string": 1, "force": 4.0},
+        {"type": "hammer_on", "time": 0.2, "string": 1, "fret": 7, "velocity": 3.0},
+        {"type": "bend", "time": 0.3, "string": 1, "semitones": 1.0, "duration": 0.1,
+         "release": 0.5},
+        {"type": "pluck", "time": 0.0, "string": 6, "force": 6.0},
+        {"type": "damp", "time": 0.6}]),
+        "guitar": {"preset": "nylon-classical"}, "sample_rate": 48000},
+}
+
+
 def digest(audio: np.ndarray) -> str:
     return hashlib.sha256(np.ascontiguousarray(audio, dtype=np.float64).tobytes()).hexdigest()
+
+
+def run_waveguide() -> dict[str, dict]:
+    """Each waveguide scene as a user renders it, with the decay stop off, and in blocks of
+    1000 frames."""
+    out = {}
+    variants = {"plain": engine.RenderOptions(),
+                "no-stop": engine.RenderOptions(skip_decayed=False),
+                "blocks-1000": engine.RenderOptions(block_frames=1000)}
+    for name, scene in WAVEGUIDE.items():
+        for v, opts in variants.items():
+            r = engine.render_result(scene, options=opts)
+            out[f"{name}/{v}"] = {"sha256": digest(r.audio), "warnings": len(r.warnings)}
+            print(f"{name}/{v}: {out[f'{name}/{v}']['sha256'][:16]}", file=sys.stderr)
+    return out
 
 
 def run() -> dict[str, dict]:
@@ -95,13 +210,19 @@ def run() -> dict[str, dict]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", metavar="JSON", help="compare with a digest printed earlier")
+    ap.add_argument("--waveguide", action="store_true",
+                    help="the waveguide's scenes (WAVEGUIDE) instead of the default set")
     args = ap.parse_args()
-    now = run()
-    if not args.check:
+    before = None
+    if args.check:
+        with open(args.check) as f:
+            before = json.load(f)
+    # a digest of the waveguide's scenes is checked against them with or without the flag
+    wg = args.waveguide or (before is not None and all(k.startswith("wg-") for k in before))
+    now = run_waveguide() if wg else run()
+    if before is None:
         json.dump(now, sys.stdout, indent=1)
         return 0
-    with open(args.check) as f:
-        before = json.load(f)
     changed = [k for k in before if before[k] != now.get(k)]
     for k in changed:
         print(f"CHANGED {k}: {before[k]} -> {now.get(k)}")

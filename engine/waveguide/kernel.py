@@ -47,13 +47,20 @@ termination reads only what the bridge wrote before it, so the chunk runs the te
 its steps (``_term_run``), then the bridge and the pickups (``_pickup_run``), each a loop with
 only its own values in registers, the same arithmetic in another order; while the glide moves the
 period, the termination skips the delay's computation at every step whose period lies in the window
-where it could neither walk nor move the taps (``_window``, with a margin far above the rounding).
+where it could neither walk nor move the taps (``_window``, with a margin far above the rounding):
+such steps run in stretches, the period's steps over a stretch first, then the filters over it in
+a loop of their own for each number of allpass sections (``_term_steps``), which tests nothing
+per step.  The loops of the filters and of the bridge with one pickup go in pieces in which no
+ring offset wraps around, so that their offsets only count up (no mask per step).  The live
+collision points are tested for being cut off by the termination only after it has walked or the
+reach has listed them anew (``_inside``).
 All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
 depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
 steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
 times below every obstacle) it is not needed again before the next ``BLOCK`` step.  The filters'
 states live in registers for a call (``_terminate``), and ring indices are masked by a mask the
-compiler knows to be non-negative (no wraparound test).
+compiler knows to be non-negative (no wraparound test), or in those pieces are an offset masked
+once plus a count up from 0.
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -105,16 +112,36 @@ WINDOW_MARGIN = 1e-9  # samples (``_window``)
 
 
 @njit(**JIT_STEP)
-def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
-              pb_step, pb_f,
-              js_on, js_off, js_len, js_rel, js_idx, js_np, js_f, js_mp, js_rho, js_kappa, jst,
-              x_k0,
-              col_n, col_ref, col_cr, col_prev, col_live, col_list, seg_p, seg_m,
-              pk_n, pk_w, pk_g):
+def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, pb_f, js_i,
+              js_idx, js_x, jst, x_k0, col_i, col_x, seg, pk_n, pk_w, pk_g):
     """Run nsteps samples from step0 into out; returns the number run (fewer if the decay stop
     acted: ist[I_STOPPED] is then 1), -1 if the string became non-finite, or -2 if the reach's
     segment arrays do not fit this kernel's ``REACH_EVERY`` (a kernel cached from another value
-    of it: numba's cache watches only this file)."""
+    of it: numba's cache watches only this file).  The arrays come in groups (each array of a
+    call costs its unboxing): the rails R, Mb; the allpasses' states dsx, dsy; the junctions'
+    js_on, js_off, js_len, js_rel, js_np and js_f, js_mp, js_rho, js_kappa; the collision
+    points' col_n, col_live, col_list and col_ref, col_cr, col_prev; the reach's seg_p, seg_m."""
+    R = rails[0]
+    Mb = rails[1]
+    dsx = ds[0]
+    dsy = ds[1]
+    js_on = js_i[0]
+    js_off = js_i[1]
+    js_len = js_i[2]
+    js_rel = js_i[3]
+    js_np = js_i[4]
+    js_f = js_x[0]
+    js_mp = js_x[1]
+    js_rho = js_x[2]
+    js_kappa = js_x[3]
+    col_n = col_i[0]
+    col_live = col_i[1]
+    col_list = col_i[2]
+    col_ref = col_x[0]
+    col_cr = col_x[1]
+    col_prev = col_x[2]
+    seg_p = seg[0]
+    seg_m = seg[1]
     if seg_p.shape[0] < N // REACH_EVERY + 2 or seg_m.shape[0] < N // REACH_EVERY + 2:
         return -2
     mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound
@@ -171,6 +198,8 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
     d_taps = fst[F_D]  # the delay the taps were computed for (0 before the first call)
     j0, h0, h1, h2, h3 = _taps(d_taps if d_taps >= 1.0 else 1.5)
     ri = step0 - ist[I_RESTART]  # steps since the schedule's restart
+    inside_nt = -1  # the place of the termination ``inside`` was found for (``_inside``)
+    inside = False
     i = 0
     stopped = False
     while i < nsteps:
@@ -258,14 +287,12 @@ def run_block(R, Mb, ist, fst, dsx, dsy, step0, nsteps, out, cfg, disp_m, N,
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
                                             js_kappa, tail, pb_step, ib)
-            for q in range(nlive):
-                c = col_list[q] & NONNEG
-                n = col_n[c]
-                if n <= n_t or n >= N:
-                    col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
-                    continue
-                col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c],
-                                       fs)
+                inside_nt = -1
+            if n_t != inside_nt:
+                inside = _inside(col_n, col_list, nlive, n_t, N)
+                inside_nt = n_t
+            _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list,
+                        nlive, inside, fs)
         # 6. pickups
         acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
         out[i] = acc
@@ -374,6 +401,37 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
 
 
 @njit(**JIT_HELPER)
+def _inside(col_n, col_list, nlive, n_t, N):
+    """Do the live collision points all lie on the sounding string (n_t < n < N)?"""
+    for q in range(nlive):
+        n = col_n[col_list[q] & NONNEG]
+        if n <= n_t or n >= N:
+            return False
+    return True
+
+
+@njit(**JIT_HELPER)
+def _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list, nlive,
+                inside, fs):
+    """The live collision points at step s (``_collide``); a point the termination has cut off
+    forgets its arrival speed (``NO_PREV``).  ``inside``: none is cut off (``_inside``), so
+    that the loop tests no place."""
+    if inside:
+        for q in range(nlive):
+            c = col_list[q] & NONNEG
+            col_prev[c] = _collide(R, Mb, mask, s, col_n[c], col_ref[c], col_cr[c], col_prev[c],
+                                   fs)
+        return
+    for q in range(nlive):
+        c = col_list[q] & NONNEG
+        n = col_n[c]
+        if n <= n_t or n >= N:
+            col_prev[c] = NO_PREV  # cut off: no arrival speed when it is back
+            continue
+        col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
+
+
+@njit(**JIT_HELPER)
 def _tap_tol(period):
     """How far (samples) the delay may move from the one the taps were computed for before they
     are computed again, for a loop of ``period`` samples (``TAP_REL``)."""
@@ -433,6 +491,7 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     m1 = Mb[(base - 1) & mask]
     m2 = Mb[(base - 2) & mask]
     m3 = Mb[(base - 3) & mask]
+    inside = _inside(col_n, col_list, nlive, n_t, N)
     for s in range(s1, e):
         fast = steady
         if not steady:
@@ -458,18 +517,15 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
                                    h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
                                    x3, y0, y1, y2, y3)
             steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
+            if n_t != nt_was:
+                inside = _inside(col_n, col_list, nlive, n_t, N)
             plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
             base = s + 1 + n_t - j0
             m1 = Mb[(base - 1) & mask]
             m2 = Mb[(base - 2) & mask]
             m3 = Mb[(base - 3) & mask]
-        for q in range(nlive):
-            c = col_list[q] & NONNEG
-            n = col_n[c]
-            if n <= n_t or n >= N:
-                col_prev[c] = NO_PREV
-                continue
-            col_prev[c] = _collide(R, Mb, mask, s, n, col_ref[c], col_cr[c], col_prev[c], fs)
+        _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list, nlive,
+                    inside, fs)
         if one:  # ``_pickups`` for one pickup, the same arithmetic
             if pn <= n_t or pn + 1 > N:
                 u = 0.0
@@ -544,7 +600,9 @@ def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps
               h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
     """The termination (``_terminate_step`` without the bridge) at steps s .. b - 1, or up to and
     including the first step that walks it; returns the step after the last one run and the
-    state."""
+    state.  The steps whose period lies in the window where ``_walk`` would neither walk nor move
+    the taps (``_window``; all of them once the period is steady) run in stretches: first the
+    period's steps over the stretch, then the filters over it (``_term_steps``)."""
     mask &= NONNEG
     plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
     # the Lagrange read's last three inputs: at step q it reads Mb at q + n_t - j0 and the three
@@ -553,45 +611,100 @@ def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps
     m1 = Mb[(base - 1) & mask]
     m2 = Mb[(base - 2) & mask]
     m3 = Mb[(base - 3) & mask]
-    for q in range(s, b):
+    q = s
+    while q < b:
+        # the stretch q .. r - 1 that skips ``_walk``
+        r = b
         if not steady:
-            period += dper
-            if plo < period < phi:  # ``_walk`` would neither walk nor move the taps
-                steady = dper == 0.0
-            else:
-                d_was = d_taps
-                walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps,
-                                                              j0, h0, h1, h2, h3)
-                if walk == -1:
-                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                        Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
-                        disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-                    R[(q - n_t - 1) & mask] = v
-                if walk <= 0:
-                    v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                        Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m,
-                        refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-                    R[(q - n_t) & mask] = v
-                steady = dper == 0.0 and walk == 0 and d_taps == d_was
-                if walk != 0:
-                    return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1,
-                            x2, x3, y0, y1, y2, y3)
-                plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-                base = q + 1 + n_t - j0  # the next step's read (the taps may have moved)
-                m1 = Mb[(base - 1) & mask]
-                m2 = Mb[(base - 2) & mask]
-                m3 = Mb[(base - 3) & mask]
-                continue
-        # ``_terminate`` at q + n_t, its read's last three inputs kept from the step before
-        m0 = Mb[(q + n_t - j0) & mask]
-        v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
-            h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0,
-            x1, x2, x3, y0, y1, y2, y3)
-        R[(q - n_t) & mask] = v
-        m3 = m2
-        m2 = m1
-        m1 = m0
+            r = q
+            while r < b:
+                p = period + dper
+                if not plo < p < phi:
+                    break
+                period = p
+                r += 1
+                if dper == 0.0:  # steady: every later step computes the same delay
+                    steady = True
+                    r = b
+        (m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _term_steps(
+            R, Mb, mask, q, r, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
+            disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+        q = r
+        if q >= b:
+            break
+        # step q: the period leaves the window
+        period += dper
+        d_was = d_taps
+        walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps, j0, h0,
+                                                      h1, h2, h3)
+        if walk == -1:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
+                ly, x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(q - n_t - 1) & mask] = v
+        if walk <= 0:
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
+                Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
+                x0, x1, x2, x3, y0, y1, y2, y3)
+            R[(q - n_t) & mask] = v
+        steady = dper == 0.0 and walk == 0 and d_taps == d_was
+        if walk != 0:
+            return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3,
+                    y0, y1, y2, y3)
+        plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
+        q += 1
+        base = q + n_t - j0  # the next step's read (the taps may have moved)
+        m1 = Mb[(base - 1) & mask]
+        m2 = Mb[(base - 2) & mask]
+        m3 = Mb[(base - 3) & mask]
     return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _term_steps(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
+                disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """``_terminate`` at steps s .. b - 1 with fixed place and taps, the read's last three inputs
+    m1, m2, m3 kept from the step before; a loop for each number of allpass sections, so that
+    none tests it per step.  Returns the inputs and the filters' states."""
+    if disp_m == 0:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 0, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    if disp_m == 1:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 1, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    if disp_m == 2:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 2, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    if disp_m == 3:
+        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
+                          loss_a, disp_a, 3, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a,
+                      disp_a, 4, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+
+
+@njit(**JIT_INLINE)
+def _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
+               dm, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """``_term_steps``' loop for dm allpass sections (a constant where it is inlined)."""
+    mask &= NONNEG
+    size = mask + 1
+    q = s
+    while q < b:
+        # the ring offsets at q, and the steps from q in which neither wraps around the ring
+        im = (q + n_t - j0) & mask
+        ir = (q - n_t) & mask
+        r = min(b - q, size - im, size - ir)
+        for k in range(r):
+            m0 = Mb[im + k]
+            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
+                h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, dm, refl, ly,
+                x0, x1, x2, x3, y0, y1, y2, y3)
+            R[ir + k] = v
+            m3 = m2
+            m2 = m1
+            m1 = m0
+        q += r
+    return m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
 @njit(**JIT_HELPER)
@@ -629,18 +742,30 @@ def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, 
     # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (the bridge writes only u-(N))
     rp1 = R[(s - pn - 1) & mask]
     mm0 = Mb[(s + pn) & mask]
-    for q in range(s, t):
-        Mb[(q + N) & mask] = -R[(q - N) & mask]
-        rp0 = R[(q - pn) & mask]
-        mm1 = Mb[(q + pn + 1) & mask]
-        u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
-        rp1 = rp0
-        mm0 = mm1
-        acc = 0.0
-        acc += pg * (u - pu) * fs
-        pu = u
-        out[(q - step0) & NONNEG] = acc  # q >= step0: the mask only tells the compiler so
-        peak = max(peak, abs(acc))
+    size = mask + 1
+    q = s
+    while q < t:
+        # the ring offsets at q (all >= 0), and the steps from q in which none of them wraps
+        # around the ring: in those the offsets only count up (no mask per step)
+        ib = (q - N) & mask
+        jb = (q + N) & mask
+        ip = (q - pn) & mask
+        jp = (q + pn + 1) & mask
+        o = (q - step0) & NONNEG  # q >= step0: the mask only tells the compiler so
+        r = min(t - q, size - ib, size - jb, size - ip, size - jp)
+        for k in range(r):
+            Mb[jb + k] = -R[ib + k]
+            rp0 = R[ip + k]
+            mm1 = Mb[jp + k]
+            u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
+            rp1 = rp0
+            mm0 = mm1
+            acc = 0.0
+            acc += pg * (u - pu) * fs
+            pu = u
+            out[o + k] = acc
+            peak = max(peak, abs(acc))
+        q += r
     return pu, peak
 
 

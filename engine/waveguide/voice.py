@@ -54,6 +54,13 @@ LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
 RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
 
 
+def _group(name: str, row: int) -> property:
+    """One of the kernel's arrays as a row of the group it is passed in (``run_block``: each
+    array of a call costs its unboxing, so they go in groups); a view made when it is read, so
+    that a copy of the voice keeps it a view of the copy's group."""
+    return property(lambda self: getattr(self, name)[row])
+
+
 @dataclass
 class WaveguideVoice:
     index: int  # 1-based string number
@@ -77,6 +84,14 @@ class WaveguideVoice:
     _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
     ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
     _ramped: bool = False  # the last kernel call was a step of such a move
+    # the kernel's arrays, in groups (``_group``)
+    R, Mb = _group("rails", 0), _group("rails", 1)
+    dsx, dsy = _group("ds", 0), _group("ds", 1)
+    js_on, js_off, js_len, js_rel, js_np = (_group("js_i", k) for k in range(5))
+    js_f, js_mp, js_rho, js_kappa = (_group("js_x", k) for k in range(4))
+    col_n, col_live, col_list = (_group("col_i", k) for k in range(3))
+    col_ref, col_cr, col_prev = (_group("col_x", k) for k in range(3))
+    seg_p, seg_m = _group("seg", 0), _group("seg", 1)
 
     def __post_init__(self):
         spec = self.preset.strings[self.index - 1]
@@ -88,15 +103,13 @@ class WaveguideVoice:
         # the ring must hold the live rails, the history the termination reads and its delay
         dmax = 0.12 * self.p0 + 16.0 + K.HISTORY
         size = 1 << int(math.ceil(math.log2(n + dmax + 16)))
-        self.R = np.zeros(size)
-        self.Mb = np.zeros(size)
+        self.rails = np.zeros((2, size))  # R and Mb (``_group``)
         self.dcap = float(size - n - 8)
         self.ist = np.zeros(K.N_IST, np.int64)
         self.ist[K.I_FRESH] = 1  # the first call starts the kernel's schedules
         self.fst = np.zeros(K.F_PICKUP + len(self.pickups))
         self.fst[K.F_GLIDE] = 1.0
-        self.dsx = np.zeros(MAX_SECTIONS)
-        self.dsy = np.zeros(MAX_SECTIONS)
+        self.ds = np.zeros((2, MAX_SECTIONS))  # dsx and dsy
         length = self.phys.length_m
         self.x_step = length / (0.5 * self.p0)  # X, metres per grid step
         mu = self.phys.mu
@@ -115,8 +128,7 @@ class WaveguideVoice:
         # collision points: every grid point under the neck, its obstacle's height from the
         # straight rest line and its restitution
         self._collision_points()
-        self.seg_p = np.zeros(n // REACH_EVERY + 2)
-        self.seg_m = np.zeros(n // REACH_EVERY + 2)
+        self.seg = np.zeros((2, n // REACH_EVERY + 2))  # seg_p and seg_m
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / self.x_step
                         if self.glide else 0.0)
         self._stops_and_pitch(self.timeline)
@@ -132,18 +144,14 @@ class WaveguideVoice:
     def _slots(self, slots: list) -> None:
         """The junctions' arrays for the kernel, and their states at rest."""
         ns = len(slots)
-        self.js_on = np.array([s.on for s in slots], np.int64)
-        self.js_off = np.array([s.off for s in slots], np.int64)
-        self.js_len = np.array([s.length for s in slots], np.int64)
+        self.js_i = np.zeros((5, ns), np.int64)  # js_on, js_off, js_len, js_rel, js_np
+        self.js_on[:] = [s.on for s in slots]
+        self.js_off[:] = [s.off for s in slots]
+        self.js_len[:] = [s.length for s in slots]
         # every contact lets go over its pulse's length, at least RELEASE_S
-        self.js_rel = np.array([max(s.length, int(round(RELEASE_S * self.rate)), 1)
-                                for s in slots], np.int64)
+        self.js_rel[:] = [max(s.length, int(round(RELEASE_S * self.rate)), 1) for s in slots]
         self.js_idx = np.zeros((ns, MAX_POINTS), np.int64)
-        self.js_np = np.zeros(ns, np.int64)
-        self.js_f = np.zeros((ns, MAX_POINTS))
-        self.js_mp = np.zeros((ns, MAX_POINTS))
-        self.js_rho = np.zeros((ns, MAX_POINTS))
-        self.js_kappa = np.zeros((ns, MAX_POINTS))
+        self.js_x = np.zeros((4, ns, MAX_POINTS))  # js_f, js_mp, js_rho, js_kappa
         self.jst = np.zeros((ns, MAX_POINTS, J_STATE))
         X = self.x_step
         z = self.z
@@ -218,9 +226,9 @@ class WaveguideVoice:
         p = self.preset
         n = self.n
         if not self.collisions:
-            self.col_n = np.zeros(0, np.int64)
-            self.col_abs = np.zeros(0)
-            self.col_cr = np.zeros(0)
+            idx = np.zeros(0, np.int64)
+            board = np.zeros(0)
+            cr = np.zeros(0)
         else:
             last = float(p.fret_x_m(p.frets + 0.5, self.spec))
             idx = np.arange(1, n)
@@ -236,13 +244,12 @@ class WaveguideVoice:
                 if hit.size:
                     board[hit[0]] = max(board[hit[0]], -float(p.clearance_m(xq)))
                     cr[hit[0]] = FRET_RESTITUTION
-            self.col_n = idx.astype(np.int64)
-            self.col_abs = board
-            self.col_cr = cr
-        self.col_ref = self.col_abs.copy()
-        self.col_prev = np.zeros(len(self.col_n))
-        self.col_live = np.zeros(len(self.col_n), np.int64)
-        self.col_list = np.zeros(len(self.col_n), np.int64)
+        self.col_abs = board
+        self.col_i = np.zeros((3, len(idx)), np.int64)  # col_n, col_live, col_list
+        self.col_n[:] = idx
+        self.col_x = np.zeros((3, len(idx)))  # col_ref, col_cr, col_prev
+        self.col_ref[:] = board
+        self.col_cr[:] = cr
 
     # -- configurations ---------------------------------------------------------------------------
     def loop(self, fret: int | None, held: bool = False) -> Loop:
@@ -278,7 +285,7 @@ class WaveguideVoice:
         self.stop_held = held
         if len(self.col_n):
             rest = self._rest(fret, self.x_of(self.col_n))
-            self.col_ref = self.col_abs - rest
+            self.col_ref[:] = self.col_abs - rest
             self.col_live[:] = 0
 
     def _pb_index(self) -> int:
@@ -430,12 +437,10 @@ class WaveguideVoice:
                 self._ramped = False
             if fresh:
                 self.ist[K.I_FRESH] = 1
-            args = (self.R, self.Mb, self.ist, self.fst, self.dsx, self.dsy, self.step, m,
-                    out[done:done + m], self.cfg, self.disp_m, self.n, self.pb_step, self.pb_f,
-                    self.js_on, self.js_off, self.js_len, self.js_rel, self.js_idx, self.js_np,
-                    self.js_f, self.js_mp, self.js_rho, self.js_kappa, self.jst, self.x_k0,
-                    self.col_n, self.col_ref, self.col_cr, self.col_prev, self.col_live,
-                    self.col_list, self.seg_p, self.seg_m, self.pk_n, self.pk_w, self.gains)
+            args = (self.rails, self.ist, self.fst, self.ds, self.step, m, out[done:done + m],
+                    self.cfg, self.disp_m, self.n, self.pb_step, self.pb_f, self.js_i,
+                    self.js_idx, self.js_x, self.jst, self.x_k0, self.col_i, self.col_x,
+                    self.seg, self.pk_n, self.pk_w, self.gains)
             if self._run is None:  # the argument types are the same in every call
                 self._run = entry_point(K.run_block, args)
             ran = self._run(*args)

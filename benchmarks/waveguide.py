@@ -171,16 +171,37 @@ def strum_scene() -> dict:
     return scene(evs, 4.0)
 
 
+STRUM_ROUNDS = 7  # the strum's rounds: each times both models, one after the other
+
+
 def strum(ref_opts: RenderOptions) -> dict:
+    """The strum on both models, timed in ``STRUM_ROUNDS`` rounds that each render the
+    waveguide and then the finite-difference model once (after an untimed render of each): the
+    speed-up is the median of the rounds' ratios, each taken from two renders seconds apart, so
+    that a change of the machine's speed between rounds (a shared virtual machine's varies by
+    tens of per cent from minute to minute) moves both sides of a ratio alike; the spread of the
+    ratios is printed with it."""
     sc = strum_scene()
-    t_wg, wg = cpu(renderer(sc, "wg"))
-    t_fd, fd = cpu(renderer(sc, "fd"))
+    run_wg, run_fd = renderer(sc, "wg"), renderer(sc, "fd")
+    wg, fd = run_wg(), run_fd()
+    times = []
+    for _ in range(STRUM_ROUNDS):
+        t = time.thread_time()
+        run_wg()
+        t_wg = time.thread_time() - t
+        t = time.thread_time()
+        run_fd()
+        times.append((t_wg, time.thread_time() - t))
+    ratios = sorted(t_fd / t_wg for t_wg, t_fd in times)
+    t_wg = float(np.median([t for t, _ in times]))
+    t_fd = float(np.median([t for _, t in times]))
     ref = renderer(sc, "ref", ref_opts)()
     # each string's pitch: the chord's notes are all different, so each is its own peak
     notes = {s: STEEL.strings[s - 1].frequency_hz * 2 ** (q / 12) for s, q in CHORD.items()}
     c_wg = {s: pitch(wg, f) for s, f in notes.items()}
     c_fd = {s: pitch(fd, f) for s, f in notes.items()}
-    return {"x_wg": 4.0 / t_wg, "x_fd": 4.0 / t_fd, "speedup": t_fd / t_wg,
+    return {"x_wg": 4.0 / t_wg, "x_fd": 4.0 / t_fd, "speedup": float(np.median(ratios)),
+            "ratio_lo": ratios[0], "ratio_hi": ratios[-1],
             "s_wg": spectral_error_db(wg, ref), "s_fd": spectral_error_db(fd, ref),
             "c_wg": c_wg, "c_fd": c_fd}
 
@@ -210,7 +231,9 @@ def main() -> None:
     st = strum(ref_opts)
     print("\nfretted C/G strum (3-3-2-0-1-0, 2 N, 4 s), one core")
     print(f"  waveguide {st['x_wg']:.0f}x real time, finite difference (standard) "
-          f"{st['x_fd']:.1f}x: the waveguide is {st['speedup']:.1f}x cheaper")
+          f"{st['x_fd']:.1f}x (medians of {STRUM_ROUNDS} rounds): the waveguide is "
+          f"{st['speedup']:.1f}x cheaper (median of the rounds' ratios; they range "
+          f"{st['ratio_lo']:.1f}-{st['ratio_hi']:.1f}x)")
     print(f"  spectral error against the reference: waveguide {st['s_wg']:.1f} dB, "
           f"finite difference {st['s_fd']:.1f} dB")
     print("  pitch of each string in the chord (cents vs 12-TET), waveguide / finite difference: "

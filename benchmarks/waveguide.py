@@ -28,23 +28,28 @@ frets 1, 5 and 12; 1-12 with ``--full``), and the fretted six-string C major str
 ``fd`` with fretted pitch within 3 cents).  ``--intonation`` adds the waveguide's fretted pitch
 with ``intonation="physical"`` (``engine.waveguide.fingering``).
 
-Where each model is better (``--intonation`` run at 16722e7, load average about 1; the cost
-columns move by up to a factor 1.5 between runs with the load of the shared two-core machine):
+Where each model is better (``--intonation`` run at 6e8fe11 on a shared two-core virtual machine,
+AMD EPYC, nothing else running; the cost columns move with the machine's speed, which on such a
+machine varies by tens of per cent from minute to minute: two runs of the strum timed with one
+render of each model, minutes apart, printed 15.8x and 38.9x, hence the rounds):
 
-* cost: the waveguide.  Single notes 299-880x real time against the finite-difference model's
-  24.6-143x at ``standard`` (median 646 against 42.5); the fretted C/G strum 190x against 11.2x,
-  17.0x cheaper: short of the issue's 20x.  ``python -m tools.instructions --waveguide`` counts
-  the strum's instructions, which do not move with the load: 52.8 million per second of audio
-  against 999.8 million at ``standard``, 18.9x fewer (at da00cd0, after the kernel's plain runs
-  were made cheaper; this script at da00cd0 timed the strum at 247x against 10.9x real time,
-  22.7x cheaper, and ``benchmarks.pareto``'s six-string F barre chord 20.7x cheaper).  What is
-  left of the
-  waveguide's cost is the loop's own work per sample (the termination's Lagrange read, loss and
-  allpass sections, the walk of the termination, the bridge, a pickup), the checks of the
-  collision points a fretted string's vibration keeps within reach for its first second and
-  their reach bounds (a fretted string's next frets sit a fraction of a millimetre below it, so
-  it is not quiet for long), the glide's slope sums, and the Python around each block
+* cost: the waveguide.  Single notes 281-654x real time against the finite-difference model's
+  15.8-88.4x at ``standard`` (median 512 against 18.5); the fretted C/G strum 175x against 5.9x
+  real time, 26.2x cheaper (the median of seven rounds' ratios, which ranged 20.0-33.6x).
+  ``python -m tools.instructions --waveguide`` counts the strum's instructions, which do not move
+  with the machine: 41.9 million per second of audio against 1000.0 million at ``standard``,
+  23.9x fewer (at 0020dc1).  What is left of the waveguide's cost is the loop's own work per
+  sample (the termination's Lagrange read, loss and allpass sections, the bridge, a pickup), the
+  general steps while a pluck's junction leaks what it put on the string (64 ms a pluck), the
+  checks of the collision points a fretted string's vibration keeps within reach for its first
+  second and their reach bounds, the glide's slope sums, and the Python around each block
   (``engine/waveguide/kernel.py``).
+* glide of hard plucks: the two differ in the first 25 ms and agree after.  After a 20 N pick
+  or pop the waveguide glides less at first (string 2: +8.4 against +57.8 cents after a pick,
+  +163.0 against +399.1 after a pop, 5-25 ms), after a 20 N slap alike (+5.0 against +8.5); from
+  25 ms on the two agree within 6.2 cents.  The waveguide's glide reads the string's slope on its
+  grid, where a pluck's contact is a point junction; the finite-difference string's distributed
+  Kirchhoff-Carrier term sees the pluck's whole shape.
 * pitch: the waveguide, by construction.  Its fractional delay puts open strings within 0.09 cents
   and stopped strings (ideal intonation) within 0.07 cents of 12-TET, where the finite-difference
   model sounds the physics of its frets: -0.67..+0.49 cents at ``standard`` at frets 1, 5 and 12

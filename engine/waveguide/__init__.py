@@ -28,9 +28,10 @@ finite-difference output sample m is the velocity at (m + 1/2) / rate, this one'
 (m - 1/2) / rate (a backward difference), one sample apart.
 
 Where each model is better (``benchmarks/waveguide.py`` measures it and says so in its docstring):
-the waveguide is ten to twenty times cheaper per note (about fifteen times on a fretted six-string
-strum: short of twenty) and tunes every note exactly through its fractional delay (open strings,
-stopped strings, bends); the finite-difference model computes what the waveguide approximates:
+the waveguide is over an order of magnitude cheaper (in instructions, over twenty times on a
+fretted six-string strum; in time, by a ratio that moves with the machine) and tunes every note
+exactly through its fractional delay (open strings, stopped strings, bends); the
+finite-difference model computes what the waveguide approximates:
 the frets' intonation physics (pressing stretch, stiffness over the crown), the finger's own
 dynamics on the string (the waveguide takes only its damping of a held note, fitted to the
 finite-difference analysis: ``fingering``), a distributed Kirchhoff-Carrier tension, penalty

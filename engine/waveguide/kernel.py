@@ -384,6 +384,18 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
     further on), and its input the one it read then, so it does nothing this step.  A step
     towards the nut writes two samples, the old place's and the new one's, from two consecutive
     inputs."""
+    (_, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _walk_terminate(
+        R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a,
+        disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
+    Mb[(s + N) & mask] = -R[(s - N) & mask]
+    return n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_INLINE)
+def _walk_terminate(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3,
+                    loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
+    """Step 2 of sample s (``_terminate_step`` without the bridge): the termination's place and
+    taps for ``period`` (``_walk``), and what it writes there; returns the walk and the state."""
     walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps, j0, h0, h1,
                                                   h2, h3)
     if walk == -1:
@@ -396,8 +408,7 @@ def _terminate_step(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
             Mb, mask, s + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
             ly, x0, x1, x2, x3, y0, y1, y2, y3)
         R[(s - n_t) & mask] = v
-    Mb[(s + N) & mask] = -R[(s - N) & mask]
-    return n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+    return walk, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
 @njit(**JIT_HELPER)
@@ -635,18 +646,10 @@ def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps
         # step q: the period leaves the window
         period += dper
         d_was = d_taps
-        walk, n_t, d_taps, j0, h0, h1, h2, h3 = _walk(period, N, n_t, tau, dcap, d_taps, j0, h0,
-                                                      h1, h2, h3)
-        if walk == -1:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, q + n_t - 1, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                ly, x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(q - n_t - 1) & mask] = v
-        if walk <= 0:
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _terminate(
-                Mb, mask, q + n_t, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly,
-                x0, x1, x2, x3, y0, y1, y2, y3)
-            R[(q - n_t) & mask] = v
+        (walk, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
+         y3) = _walk_terminate(R, Mb, mask, q, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2,
+                               h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0,
+                               y1, y2, y3)
         steady = dper == 0.0 and walk == 0 and d_taps == d_was
         if walk != 0:
             return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3,

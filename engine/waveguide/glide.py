@@ -17,8 +17,8 @@ prints both models' glides after hard plucks.
 The sum leaves out the steps that touch a point of a junction whose contact has let go but whose
 perturbation still leaks away (``pluck``: for 8 time constants of ``LEAK_HZ``).  That perturbation
 is a dent at one or a few grid points, a spike the grid cannot resolve into the string's shape, and
-its squared slope is no elongation of the string: counted, it reads a 20 N slap as a string
-stretched several times over, and the slap's first 20 ms sound hundreds of cents sharp where the
+its squared slope is no elongation of the string: counted, it reads a 20 N slap as more than
+doubling the string's tension, and the slap's first 20 ms sound hundreds of cents sharp where the
 finite-difference string glides by about ten
 (``test_a_hard_slap_glides_as_the_finite_difference_string_does``).
 
@@ -39,31 +39,38 @@ GLIDE_EVERY = 256
 
 
 @njit(**JIT_INLINE)
-def _slope_sum(R, Mb, mask, s, n_lo, n_hi, js_on, js_off, js_rel, js_idx, js_np, tail):
+def _slope_sum(R, Mb, mask, s, n_lo, n_hi, js_off, js_rel, js_idx, js_np, tail):
     """sum (u(n+1) - u(n))^2 over n_lo <= n < n_hi at step s, and u(n_hi)^2 (the step from n_hi
-    to the bridge, where u = 0), leaving out the steps that touch a point of a junction acting at
-    s (its contact, its release or the leak of what it put on the string: ``pluck``)."""
-    acting = False
-    for j in range(js_on.shape[0]):
-        if js_off[j] + js_rel[j] <= s < js_off[j] + js_rel[j] + tail:
-            acting = True
+    to the bridge, where u = 0), leaving out the steps that touch a point of a junction leaking
+    at s (``_leaking``)."""
+    leaking = False
+    for j in range(js_off.shape[0]):
+        leaking |= _leaking(j, s, js_off, js_rel, tail)
     acc = 0.0
     prev = R[(s - n_lo) & mask] + Mb[(s + n_lo) & mask]
     for n in range(n_lo + 1, n_hi + 1):
         u = R[(s - n) & mask] + Mb[(s + n) & mask]
         d = u - prev
         prev = u
-        if acting and _touches(n, s, js_on, js_off, js_rel, js_idx, js_np, tail):
+        if leaking and _touches(n, s, js_off, js_rel, js_idx, js_np, tail):
             continue
         acc += d * d
     return acc + prev * prev  # the last step, to the bridge (u = 0 there)
 
 
 @njit(**JIT_INLINE)
-def _touches(n, s, js_on, js_off, js_rel, js_idx, js_np, tail):
-    """Does the step from n - 1 to n touch a point of a junction acting at s?"""
-    for j in range(js_on.shape[0]):
-        if js_off[j] + js_rel[j] <= s < js_off[j] + js_rel[j] + tail:
+def _leaking(j, s, js_off, js_rel, tail):
+    """Is junction j's contact gone at step s (released) while what it put on the string still
+    leaks away (``pluck``: for ``tail`` steps, 8 time constants of ``LEAK_HZ``)?"""
+    gone = js_off[j] + js_rel[j]
+    return gone <= s < gone + tail
+
+
+@njit(**JIT_INLINE)
+def _touches(n, s, js_off, js_rel, js_idx, js_np, tail):
+    """Does the step from n - 1 to n touch a point of a junction leaking at s?"""
+    for j in range(js_off.shape[0]):
+        if _leaking(j, s, js_off, js_rel, tail):
             for k in range(js_np[j]):
                 if js_idx[j, k] == n or js_idx[j, k] == n - 1:
                     return True

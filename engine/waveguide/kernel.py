@@ -220,8 +220,8 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
                 # between n_t + 1 and N - 1, whose values at s are final (the termination and
                 # the bridge write theirs below), and u(N) = 0
                 g_new = math.sqrt(1.0 + glide_k * _slope_sum(R, Mb, mask, s, n_t + 1, N - 1,
-                                                             js_on, js_off, js_rel, js_idx,
-                                                             js_np, tail))
+                                                             js_off, js_rel, js_idx, js_np,
+                                                             tail))
             else:
                 g_new = fst[F_GLIDE]
             ratio, ib = _ratio_at(s, pb_step, pb_f, ib)

@@ -86,7 +86,7 @@ def check(sc: dict, window_s: float = WINDOW_S) -> Report:
     growth) and on (its rise).  Raises pydantic's ValidationError for an invalid scene."""
     scene = Scene.model_validate({**sc, "model": "waveguide"})
     t = time.perf_counter()
-    finite, growth, _, _ = energy_windows(scene, window_s)
-    ok, _, rise, glide_max = energy_windows(scene, window_s, glide=True)
-    return Report(finite and ok, growth, rise, glide_max, scene.duration,
+    finite_off, growth, _, _ = energy_windows(scene, window_s)
+    finite_on, _, rise, glide_max = energy_windows(scene, window_s, glide=True)
+    return Report(finite_off and finite_on, growth, rise, glide_max, scene.duration,
                   time.perf_counter() - t)

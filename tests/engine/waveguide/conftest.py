@@ -18,9 +18,11 @@ def render(events: list, duration: float, options=None, **extra) -> np.ndarray:
 
 
 def pitch_cents(audio: np.ndarray, target: float, start: float = 0.2, stop: float | None = None,
-                sr: int = SR) -> float:
+                sr: int = SR, rel_width: float = 0.08) -> float:
+    """The strongest peak within ``rel_width`` of ``target`` between start and stop (s), in cents
+    from ``target``."""
     seg = audio[int(start * sr):None if stop is None else int(stop * sr)]
-    return float(cents(spectrum_peak(seg, sr, target, 0.08), target))
+    return float(cents(spectrum_peak(seg, sr, target, rel_width), target))
 
 
 @pytest.fixture(scope="session")

@@ -59,6 +59,7 @@ WG_LONG_EVERY = 10
 WG_SHORT_S = (0.3, 2.0)
 WG_LONG_WINDOW_S = 0.2
 WG_STREAM = 1  # the waveguide's cases: a stream of their own, apart from the default model's
+OCTAVE = 2.0  # a glide's pitch ratio past which a rise with the glide on is attributed to it
 
 
 def make_case(seed: int, i: int, model: str = "fdtd") -> tuple[str, dict]:
@@ -98,7 +99,7 @@ def causes_waveguide(kind: str, sc: dict, rep: waveguide_stability.Report) -> st
                    if longer.growth <= waveguide_stability.GROWTH else
                    "growth: not attributed")
     if rep.rise > waveguide_stability.GROWTH:
-        out.append("rise: the glide went past an octave" if rep.glide_max > 2.0 else
+        out.append("rise: the glide went past an octave" if rep.glide_max > OCTAVE else
                    "rise: not attributed")
     return "; ".join(out)
 
@@ -155,7 +156,7 @@ def summarise_waveguide(results: list[dict], seed: int, wall: float, jobs: int) 
         semitone = 2.0 ** (1.0 / 12.0)
         lines += ["", f"The tension modulation's pitch ratio (its largest in each case): median "
                       f"{np.median(g):.4g}, largest {g.max():.4g}; {int((g > semitone).sum())} "
-                      f"cases glided by more than a semitone, {int((g > 2.0).sum())} by more "
+                      f"cases glided by more than a semitone, {int((g > OCTAVE).sum())} by more "
                       f"than an octave."]
     bad = [r for r in valid if r["error"] or not r["ok"]]
     lines += ["", f"{len(bad)} of {len(valid)} cases broke at least one check."]
@@ -273,7 +274,7 @@ def summarise(results: list[dict], seed: int, wall: float, jobs: int) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--minutes", type=float, default=3.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=2)

@@ -28,17 +28,16 @@ frets 1, 5 and 12; 1-12 with ``--full``), and the fretted six-string C major str
 ``fd`` with fretted pitch within 3 cents).  ``--intonation`` adds the waveguide's fretted pitch
 with ``intonation="physical"`` (``engine.waveguide.fingering``).
 
-Where each model is better (``--intonation`` run at 6e8fe11 on a shared two-core virtual machine,
+Where each model is better (as ``--intonation`` printed on a shared two-core virtual machine,
 AMD EPYC, nothing else running; the cost columns move with the machine's speed, which on such a
-machine varies by tens of per cent from minute to minute: two runs of the strum timed with one
-render of each model, minutes apart, printed 15.8x and 38.9x, hence the rounds):
+machine varies by tens of per cent from minute to minute, hence the strum's rounds):
 
 * cost: the waveguide.  Single notes 281-654x real time against the finite-difference model's
   15.8-88.4x at ``standard`` (median 512 against 18.5); the fretted C/G strum 175x against 5.9x
   real time, 26.2x cheaper (the median of seven rounds' ratios, which ranged 20.0-33.6x).
   ``python -m tools.instructions --waveguide`` counts the strum's instructions, which do not move
   with the machine: 41.9 million per second of audio against 1000.0 million at ``standard``,
-  23.9x fewer (at 0020dc1).  What is left of the waveguide's cost is the loop's own work per
+  23.9x fewer.  What is left of the waveguide's cost is the loop's own work per
   sample (the termination's Lagrange read, loss and allpass sections, the bridge, a pickup), the
   general steps while a pluck's junction leaks what it put on the string (64 ms a pluck), the
   checks of the collision points a fretted string's vibration keeps within reach for its first

@@ -61,8 +61,8 @@ DECAY_CALIBRATE_DB_S = 1.0
 DAMPING_RANGE = (1.0 / 256.0, 64.0)  # the finger's calibrated damping, times the preset's
 # a finger that presses with no force of its own presses with at least this multiple of the
 # seating force: the static force leaves the vibrating string no margin.  ``benchmarks/seating.py``
-# (standard, run at afcb369) found rendered strings resting on their fret from at most 1.27
-# (steel) and 1.24 (nylon) times it after a 4 N pluck, 1.14 and 1.12 after a 1 N pluck
+# (standard) prints rendered strings resting on their fret from at most 1.29 (steel) and 1.24
+# (nylon) times it after a 4 N pluck, 1.13 and 1.11 after a 1 N pluck (docs/accuracy.md)
 SEAT_MARGIN = 1.35
 
 

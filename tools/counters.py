@@ -1,11 +1,11 @@
 """CPU cycles and instructions of the calling thread, from Linux's hardware performance counters.
 
-Seconds of compute move with whatever machine a session gets: on the "same" 2-core machine the
-linear string's step of ``benchmarks.speed``'s component table printed 75 ns at 9d2c27b in one
-session and 168 ns at b8a8581, with the same code for that step, in a later one.  Instructions
-retired are a property of the compiled code and the scene (they change when the code does, not
-when the machine is busy), and cycles do not move with the clock's frequency; together with the
-time they say whether a change made the engine do less work or the machine got faster.
+Seconds of compute move with whatever machine a run gets: on the "same" 2-core virtual machine
+the linear string's step of ``benchmarks.speed``'s component table has printed both 75 ns and
+168 ns with the same code for that step.  Instructions retired are a property of the compiled code
+and the scene (they change when the code does, not when the machine is busy), and cycles do not
+move with the clock's frequency; together with the time they say whether a change made the engine
+do less work or the machine got faster.
 
     with Counters() as c:
         ...                      # the work to count

@@ -7,11 +7,11 @@ steps (``kernels._held_run``) and without (``RenderOptions(held_steps=False)``);
 the largest difference as a share of the peak, and the energy balance (sec. 6.1) of the render
 with held steps and diagnostics.  The two paths do the same arithmetic, in loops compiled
 without fastmath that call one compiled linear pass (``engine.config.JIT_STEP``), so every
-difference should be 0; before that (up to 6e8d8bc), LLVM contracted and re-associated each loop
-its own way, and on a string that rattles against frets and board a last-bit difference decided a
-contact one step earlier, from where the renders parted.  ``GUITAR_NUMBA_FASTMATH=0`` (with a
-numba cache of its own, so that kernels compiled with the flags are not loaded instead) compiles
-the pass without fastmath too:
+difference should be 0.  Loops each compiled with fastmath would let LLVM contract and
+re-associate each its own way, and on a string that rattles against frets and board a last-bit
+difference can decide a contact one step earlier, from where the renders part.
+``GUITAR_NUMBA_FASTMATH=0`` (with a numba cache of its own, so that kernels compiled with the flags
+are not loaded instead) compiles the pass without fastmath too:
 
     GUITAR_NUMBA_FASTMATH=0 NUMBA_CACHE_DIR=/tmp/nofm python -m tools.held_soak --cases 42,102
 """

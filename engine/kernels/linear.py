@@ -44,9 +44,9 @@ def interp(x: float, h: float, n: int):
 # vectorises its float sums: S and the Kirchhoff-Carrier dot products), that the quiet run, the
 # held run and the general path each call themselves (a helper around the call counted the
 # references of the arrays it passed in every step: ``config.JIT_HELPER``).  The three loops
-# therefore get the same sums to the last bit by construction; inlined into each loop (as they
-# were up to 6e8d8bc), they relied on LLVM vectorising every copy the same way, which held for the
-# quiet run and not for the held run.  The call costs each step a few ns (``docs/engine.md``).
+# therefore get the same sums to the last bit by construction; inlined into each loop, they would
+# rely on LLVM vectorising every copy the same way, which it does not guarantee.  The call costs
+# each step a few ns (``docs/engine.md``).
 # The kernels take the coefficients they use, not ``Coefs``: every field passed is an argument to
 # marshal in each call.
 @njit(**JIT)
@@ -59,8 +59,7 @@ def _pass_kc(n, b0, b1, b2, c0, c1, ih2, U0, U1, UF, Q, board, near, count):
     integers, which vectorise with the rest (a float min() does not).  They are taken unless
     ``count`` is False, which a string without fretboard and frets passes in every call
     (``_counted``): LLVM splits the loop in two versions on the flag, whose float sums it need
-    not vectorise alike, so the flag must not differ between the loops that step one string.  Up
-    to 520c8ee the quiet run passed another flag than the general path in the same step."""
+    not vectorise alike, so the flag must not differ between the loops that step one string."""
     qq = 0.0
     quf = 0.0
     qu1 = 0.0

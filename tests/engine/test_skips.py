@@ -117,9 +117,9 @@ def test_quiet_steps_are_most_steps_of_an_open_strum(force):
 @pytest.mark.parametrize("string", [1, 6])
 def test_without_fretboard_and_frets_every_step_after_the_pluck_is_quiet(string):
     """``benchmarks.speed``'s linear string (no Kirchhoff-Carrier, fretboard or frets): nothing can
-    touch the string, so every step after the pluck's force is quiet.  (At f0ec3c4 the nodes an
-    8 N pluck drove below where the board would be sent steps to the general path, and the
-    linear string the speed targets divide by took longer.)"""
+    touch the string, so every step after the pluck's force is quiet: the nodes an 8 N pluck
+    drives below where a board would be must not send steps to the general path, or the linear
+    string the speed targets divide by takes longer."""
     sc = scene([pluck(string, force=8.0)], duration=0.5)
     opts = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
     _, eng, _ = _render(sc, **opts)

@@ -36,7 +36,10 @@ discrete energy balance (n/a).  The conclusions say where each model is better a
 cheaper the waveguide is on the chord.
 
 It prints the tables, draws the Pareto fronts to docs/img/pareto.png and rewrites the generated
-section of docs/accuracy.md (between the ``pareto:begin`` / ``pareto:end`` markers).
+section of docs/accuracy.md (between the ``pareto:begin`` / ``pareto:end`` markers) with the table
+of all configurations, the targets and the conclusions; the per-string, per-scene and per-fret
+tables and the fronts are printed only (``make bench`` keeps them in benchmarks/out/pareto.txt).
+A run of chosen configurations (``--only``, ``--grids``) only prints.
 
 The gamma rule and the dispersion compensation are ``RenderOptions`` switches (``gamma_rule``:
 ``joint`` is the engine's, ``own`` the same rule on each column's own prediction, ``paper`` eq. (61)
@@ -619,11 +622,11 @@ def detail_tables(st: Study, rows: dict, configs: list[Config], ref_check: dict,
 
 
 def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise: float,
-           detail: bool = False, compact: bool = False) -> str:
-    """The markdown tables and the conclusions about standard (printed and written to docs).
+           detail: bool = False, brief: bool = False) -> str:
+    """The markdown tables and the conclusions about standard (printed; ``brief`` for docs).
     ``detail`` (a run of chosen configurations): every configuration's targets, fretted pitch and
-    decay on every string, and the first two compared error by error; ``compact``: of the tables
-    after the targets only each string's worst fretted pitch and decay, and the conclusions."""
+    decay on every string, and the first two compared error by error; ``brief``: only the table
+    of all configurations, standard's targets and the conclusions."""
     out = []
     n = len(st.strings)
     chord = "six strings" if n == 6 else f"{n} strings"
@@ -656,7 +659,7 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                        f"{r['p10']:.3f} / {r['p10_measured']:.3f}", f"{r['p20']:.3f}",
                        f"{r['fretted']:.2f}", f"{r['fretted_vs_fine']:.2f}",
                        f"{r['decay_vs_fine']:.1f}", f"{r['spectral']:.1f}", f"{r['energy']:.1e}"])
-    out += [] if not levels else [
+    out += [] if not levels or brief else [
             "### Quality levels (the scene's `quality`; `engine.options.QUALITY`)",
             md_table(["level", "Quality", "x per string (fingered)", f"ms/s {chord}",
                       "ms/s per string", "open f0 (c)", "partials 1-10 exact / measured (c)",
@@ -668,14 +671,7 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                          [[t, f"{v:.3g}", f"{lim:g}", "yes" if v <= lim else "NO"]
                           for t, v, lim in targets(rows[c.name])])]
 
-    if compact:
-        worsts = [[c.name, what, *[f"{worst(row):+.1f}" for row in rows[c.name][key]]]
-                  for c in configs for key, what in (("fretted_table", "pitch vs 12-TET (c)"),
-                                                      ("decay_table", f"decay vs {FINE} (dB/s)"))]
-        out += ["Fretted notes, frets 1-12: the worst of each string",
-                md_table(["configuration", "error", *[f"string {s}" for s in st.strings]], worsts)]
-        out += spectral_table(st, rows, configs, ref_check)
-    else:
+    if not brief:
         out += detail_tables(st, rows, configs, ref_check, detail)
 
     margin = max(FASTER, 2.0 * noise)
@@ -814,14 +810,14 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="a few configurations only")
     ap.add_argument("--only", nargs="+", metavar="NAME", choices=sorted(BY_NAME),
                     help="these configurations only (the first two compared error by error); "
-                         "writes the section pareto-PRESET-RATE of docs/accuracy.md")
+                         "prints only")
     ap.add_argument("--preset", default=PRESET, choices=sorted(PRESETS))
     ap.add_argument("--sample-rate", type=int, default=SR)
     ap.add_argument("--live-grid", action="store_true",
                     help="the configurations on the live grid (RenderOptions.live_grid)")
     ap.add_argument("--grids", action="store_true",
                     help="print the --only configurations' grids on every preset and rate (no "
-                         "rendering) and write the section pareto-grids")
+                         "rendering)")
     ap.add_argument("--no-docs", action="store_true", help="print only; leave docs/ alone")
     args = ap.parse_args()
     if not SAMPLE_RATE_MIN <= args.sample_rate <= SAMPLE_RATE_MAX:
@@ -837,11 +833,7 @@ def main() -> None:
     command = "python -m benchmarks.pareto " + " ".join(
         f'"{a}"' if " " in a else a for a in sys.argv[1:])
     if args.grids:
-        text = grids(configs)
-        print(text)
-        if not args.no_docs:
-            write_docs("Measured: the contact grid rules' grids", "pareto-grids",
-                       f"Printed by `{command.strip()}`.\n\n{text}")
+        print(grids(configs))
         return
     full = st == Study() and not args.only
     names = [c.name for c in configs]
@@ -880,24 +872,14 @@ def main() -> None:
     elapsed = time.perf_counter() - t0
     print(f"\n({t_acc:.0f} s of error measurements on {args.jobs} processes, "
           f"{elapsed - t_acc:.0f} s of timing, {elapsed:.0f} s in all)")
-    if args.no_docs:
-        return
-    if full:
+    if full and not args.no_docs:
         plot(rows, configs, IMG / "pareto.png")
+        brief = tables(st, rows, configs, ref_check, timing_noise(cost), brief=True)
         write_docs("Measured: run time against error", "pareto",
                    f"Printed by `{command.strip()}` ({len(configs)} configurations, "
                    f"costs: CPU time, best of {args.repeat} rounds; {elapsed:.0f} s on this "
-                   "machine).\n\n"
-                   "![Pareto fronts](img/pareto.png)\n\n" + body)
-    elif args.only:
-        marker = f"pareto-{st.preset}-{st.rate}" + ("-live" if st.live_grid else "")
-        short = tables(st, rows, configs, ref_check, timing_noise(cost), detail=True,
-                       compact=True).replace("\n### ", "\n#### ")  # under a run's own heading
-        short = "#" + short if short.startswith("### ") else short
-        write_docs(f"Measured: {st.label()}", marker,
-                   f"Printed by `{command.strip()}` ({st.label()}; costs: CPU time, best of "
-                   f"{args.repeat} rounds; {elapsed:.0f} s on this machine; the per-string "
-                   "tables are in its printed output).\n\n" + short)
+                   "machine; the per-string, per-scene and per-fret tables are in its printed "
+                   "output).\n\n![Pareto fronts](img/pareto.png)\n\n" + brief)
 
 
 if __name__ == "__main__":

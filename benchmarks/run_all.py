@@ -5,8 +5,8 @@
 
 Each script prints its own table; this runs them in turn and writes the output to
 benchmarks/out/<name>.txt as well as to the terminal.  ``pareto`` and ``soak`` also rewrite their
-sections of docs/accuracy.md and docs/img/pareto.png; the outputs named in ``DOCS`` are copied
-into docs/accuracy.md as printed.
+sections of docs/accuracy.md and docs/img/pareto.png; the first table of each output named in
+``DOCS`` is copied into docs/accuracy.md as printed (the rest stays in benchmarks/out/).
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ RUNS = [
     # last: it pins its process to one core
     ("scores", scores.main, []),
 ]
-# outputs copied verbatim into docs/accuracy.md (marker name -> section title)
+# outputs whose first table is copied verbatim into docs/accuracy.md (marker name -> section title)
 # (fret_modes and seating print full grids to benchmarks/out/; docs/accuracy.md keeps their worst
 # cases in a short table)
 DOCS = {
@@ -78,8 +78,9 @@ def main() -> None:
         (OUT / f"{name}.txt").write_text(text)
         if name in DOCS:
             command = " ".join(["python -m", fn.__module__, *argv])
-            pareto.write_docs(DOCS[name], name, f"Printed by `{command}`.\n\n"
-                              f"```text\n{text.rstrip()}\n```")
+            first = text.strip().split("\n\n")[0]
+            pareto.write_docs(DOCS[name], name, f"The first table printed by `{command}`.\n\n"
+                              f"```text\n{first}\n```")
         print(f"===== {name} ({time.perf_counter() - t:.0f} s)\n{text}", flush=True)
     print(f"===== all benchmarks: {time.perf_counter() - t0:.0f} s")
 

@@ -51,8 +51,8 @@ SHORT_NOTES = {
     "events": [{"type": "pluck", "time": 0.3 * i, "string": 1 + i % 6, "force": 2.0}
                for i in range(6)],
 }
-# Fingers striking the strings at the top of the allowed speed (issue #4: the unreachable-fret skip
-# changed the output here until string.fret_margin bounded the fingers too; docs/accuracy.md).
+# Fingers striking the strings at the top of the allowed speed: the unreachable-fret skip is exact
+# here only because string.fret_margin bounds the fingers too (docs/accuracy.md, "Defects found").
 FAST_TAPS = {"duration": 1.0, "quality": "draft", "events": [
     {"type": "tap", "time": 0.1 * (s - 1), "string": s, "fret": 5, "force": 10.0, "velocity": 5.0}
     for s in range(1, 7)]}

@@ -46,7 +46,7 @@ def interp(x: float, h: float, n: int):
 # references of the arrays it passed in every step: ``config.JIT_HELPER``).  The three loops
 # therefore get the same sums to the last bit by construction; inlined into each loop, they would
 # rely on LLVM vectorising every copy the same way, which it does not guarantee.  The call costs
-# each step a few ns (``docs/engine.md``).
+# each step a few ns.
 # The kernels take the coefficients they use, not ``Coefs``: every field passed is an argument to
 # marshal in each call.
 @njit(**JIT)

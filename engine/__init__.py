@@ -6,7 +6,8 @@
 
 Also: ``blocks`` (the same audio block by block, at the fixed gain), ``frame_count`` (its length,
 before rendering), ``estimate_cost`` (the work of a render, known from the scene alone),
-``tuned_tension`` (a preset string's tension) and ``warmup`` (load or compile every numba kernel
+``tuned_tension`` (a preset string's tension), ``truncate`` (a scene's JSON form cut at N
+seconds) and ``warmup`` (load or compile every numba kernel
 once per process); ``Session`` plays a guitar live, event by event, block by block
 (``engine.live``).
 
@@ -64,10 +65,11 @@ _LAZY = {
     "render": "rendering",
     "render_result": "rendering",
     "blocks": "rendering",
-    "scene_warnings": "playability",
+    "scene_warnings": "fd.playability",
     "estimate_cost": "cost",
     "expanded_event_count": "cost",
-    "tuned_tension": "string",
+    "tuned_tension": "fd.string",
+    "truncate": "performance",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
     # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)

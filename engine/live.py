@@ -62,8 +62,9 @@ from typing import Any
 
 import numpy as np
 
-from . import kernels, waveguide
-from .guitar import prepare
+from . import waveguide
+from .fd import kernels
+from .fd.instrument import prepare
 from .live_events import LiveError, LiveEvent, Release, parse_live_event
 from .options import RenderOptions
 from .output import FIXED_GAIN

@@ -2,8 +2,8 @@
 block.
 
 A track's strings are independent of every other track's (each track is its own instrument,
-``engine.guitar``).  Per block, each track's guitar renders its pickup velocity (through its body),
-then, in this order:
+``engine.fd.instrument``).  Per block, each track's guitar renders its pickup velocity (through its
+body), then, in this order:
 
 1. pan: a track with a ``pan`` is rendered mono and placed in the stereo field by the constant-power
    law (``output.pan_gains``); a track without one spreads its strings as a single guitar does
@@ -25,8 +25,8 @@ import numpy as np
 
 from . import waveguide
 from .effects import Chain
-from .guitar import Guitar
-from .guitar import prepare as prepare_guitar
+from .fd.instrument import Guitar
+from .fd.instrument import prepare as prepare_guitar
 from .options import RenderOptions
 from .output import pan_gains
 from .scene import Scene, frame_count
@@ -97,7 +97,7 @@ class Mix:
 
 
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
-    """A guitar for every track (``engine.guitar.prepare``, or ``engine.waveguide.prepare`` for a
+    """A guitar for every track (``engine.fd.instrument.prepare``, or ``engine.waveguide.prepare`` for a
     track whose model is "waveguide") with its pan, effects and gain."""
     frames = frame_count(scene)
     stereo = scene.output.channels == 2

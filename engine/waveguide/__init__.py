@@ -54,13 +54,13 @@ guitar is prepared with every fret's damping (``options_from``: ``RenderOptions(
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
 from ..output import Body, add_to_mix, default_pan, pan_gains
 from ..presets import Preset
 from ..scene import Scene
+from ..statics import seating_force_n
 from .controls import timeline
 from .fingering import INTONATION, finger_decays
 from .kernel import LOOKAHEAD
@@ -93,7 +93,7 @@ class WaveguideOptions:
 
 @dataclass
 class WaveguideInstrument:
-    """A scene's guitar prepared for the waveguide: the same face as ``engine.guitar.Guitar``
+    """A scene's guitar prepared for the waveguide: the same face as ``engine.fd.instrument.Guitar``
     (``blocks``, ``render_frames``, ``voices``, ``energy_error``, ``warnings``), so that the
     mixer (``engine.mix``) treats both models alike."""
 
@@ -110,7 +110,7 @@ class WaveguideInstrument:
 
     def blocks(self, block_frames: int | None = None):
         """Yield the pickup velocity (m/s) block by block at the scene's rate, each string panned
-        (stereo) and through the body as ``engine.guitar.Guitar`` does; with ``body`` None and one
+        (stereo) and through the body as ``engine.fd.instrument.Guitar`` does; with ``body`` None and one
         channel, the strings' plain sum."""
         bf = block_frames or self.options.block_frames
         while self.frame < self.frames:
@@ -137,24 +137,15 @@ class WaveguideInstrument:
         return list(self._warnings)
 
 
-@lru_cache(maxsize=4096)
-def _seating_force(preset: Preset, string: int, rate: float, fret: int) -> float:
-    from ..intonation import seating_force
-    from ..string import tune
-
-    spec = preset.strings[string - 1]
-    return seating_force(tune(spec, preset.string_length_m(string), rate), preset, fret)
-
-
 def _seating(preset: Preset, string: int, rate: float):
     """seated(fret, force): does a finger pressing ``force`` N rest the string on ``fret``?  The
-    pressed string's statics (``engine.intonation.seating_force``, on the finite-difference grid
-    of the scene's rate, so both models agree on which notes are dead; cached per process)."""
+    pressed string's statics (``engine.statics.seating_force_n``: both models agree on which
+    notes are dead)."""
 
     def seated(fret: int, force: float | None) -> bool:
         if force is None or fret < 1:
             return True  # a finger with no force of its own presses hard enough
-        return force >= _seating_force(preset, string, rate, fret)
+        return force >= seating_force_n(preset, string, rate, fret)
 
     return seated
 

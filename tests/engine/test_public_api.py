@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import engine
-from engine import guitar as guitar_module
-from engine.guitar import prepare
+from engine.fd import instrument as guitar_module
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck
@@ -65,11 +65,11 @@ _AFTER_WARMUP = r"""
 import json, sys
 import numpy as np
 from numba.core.dispatcher import Dispatcher
-import engine, engine.kernels, engine.output
+import engine, engine.fd.kernels, engine.output
 
 def signatures():
     out = {}
-    for mod in (engine.kernels, engine.output):
+    for mod in (engine.fd.kernels, engine.output):
         for name, obj in vars(mod).items():
             if isinstance(obj, Dispatcher):
                 out[mod.__name__ + "." + name] = sorted(str(s) for s in obj.signatures)
@@ -118,8 +118,8 @@ def test_warmup_leaves_nothing_to_compile():
     assert proc.returncode == 0, proc.stderr
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     before, after = got["before"], got["after"]
-    assert before["engine.kernels.step_block"], "warmup() did not run the time-step kernel"
-    assert before["engine.kernels.fir_decimate"], "warmup() did not run the decimator"
+    assert before["engine.fd.kernels.step_block"], "warmup() did not run the time-step kernel"
+    assert before["engine.output.fir_decimate"], "warmup() did not run the decimator"
     assert before["engine.output._modal"], "warmup() did not run the body filter"
     assert after == before
 

@@ -1,8 +1,8 @@
 """One string of a scene: its grid, coefficients, controls and the state carried across blocks.
 
-A ``Voice`` is what ``engine.guitar`` builds per string that needs simulating: the string tuned on
+A ``Voice`` is what ``engine.fd.instrument`` builds per string that needs simulating: the string tuned on
 the grid its quality asks for (``string_model``, ``oversample_for``), the kernel's inputs
-(``engine.string``, ``engine.controls``), the state ``kernels.step_block`` advances, and the
+(``engine.fd.string``, ``engine.fd.controls``), the state ``kernels.step_block`` advances, and the
 energy series of the discrete balance (paper sec. 6.1) when diagnostics are on.  It also owns the
 last skip of the render: a string whose motion has decayed below ``decay_velocity`` after its
 last event stops being computed, and one that has decayed so before its next event sleeps until
@@ -17,17 +17,16 @@ from functools import partial
 
 import numpy as np
 
+from ..instrument import DECAY_CHECK_FRAMES
+from ..options import Quality, RenderOptions
+from ..output import Decimator
+from ..performance import FINGER_EVENTS, max_tension_ratio
+from ..presets import Preset
+from ..scene import MAX_BEND_SEMITONES
 from . import kernels
-from .controls import FINGER_EVENTS, NEVER, StringControls, max_tension_ratio
-from .options import Quality, RenderOptions
-from .output import Decimator
-from .presets import Preset
-from .scene import MAX_BEND_SEMITONES
+from .controls import NEVER, StringControls
 from .string import StringModel, dispersion_cents, tension_ratio_for_cents, tune
 
-# The decay skip tests a string every this many output frames (on the global step grid, whatever
-# the block size): the samples a render gives do not depend on its blocks.
-DECAY_CHECK_FRAMES = 1024
 SLEEP_MIN_STEPS = 4096  # a string sleeps only through a longer stillness (not worth it below)
 
 

@@ -34,15 +34,18 @@ from functools import cache, partial
 
 import numpy as np
 
+from ..options import FRET_MODES, GAMMA_RULES, QUALITY, RenderOptions
+from ..output import Body, Decimator, add_to_mix, default_pan, pan_gains
+from ..performance import events_on
+from ..presets import Preset
+from ..scene import Scene, frame_count
 from . import kernels
-from .controls import events_on, stopped_frets, string_controls
+from .controls import stopped_frets, string_controls
 from .intonation import fret_calibrations, fret_shifts, press_force
-from .options import GAMMA_RULES, QUALITY, RenderOptions
-from .output import Body, Decimator, add_to_mix, default_pan, pan_gains
 from .playability import finger_warnings, pull_off_warnings
-from .presets import Preset
-from .scene import Scene, frame_count
 from .string import (
+    FRET_MODE_CODES,
+    FRET_NONE,
     FRET_RIGID,
     coefficients,
     fret_margin,
@@ -51,6 +54,10 @@ from .string import (
     tension_ratio_for_cents,
 )
 from .voice import Voice, string_model
+
+# ``engine.options.GAMMA_RULES`` by name
+GAMMA_CODES = {"joint": kernels.GAMMA_JOINT, "own": kernels.GAMMA_OWN, "paper": kernels.GAMMA_PAPER,
+              "none": kernels.GAMMA_NONE}
 
 
 @dataclass
@@ -106,6 +113,8 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
     q = opts.quality or QUALITY[scene.quality]
     if opts.gamma_rule not in GAMMA_RULES:
         raise ValueError(f"gamma_rule must be one of {sorted(GAMMA_RULES)}")
+    if q.fret_mode not in FRET_MODES:
+        raise ValueError(f"fret_mode must be one of {sorted(FRET_MODES)}")
     kc_tol = q.kc_tolerance if opts.kc_tolerance is None else opts.kc_tolerance
     if not kc_tol >= 0.0:
         raise ValueError("kc_tolerance must be >= 0")
@@ -126,12 +135,12 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
         if opts.skip_silent and not events:
             continue
         os_, model, rmax = string_model(preset, i, events, rate, q, opts)
-        fret_mode = q.fret_mode if opts.frets else 0
+        fret_mode = FRET_MODE_CODES[q.fret_mode] if opts.frets else FRET_NONE
         rigid_board = (fret_mode == FRET_RIGID and opts.fretboard
                        and (q.rigid_board if opts.rigid_board is None else opts.rigid_board))
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard,
                              rigid_board)
-        coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
+        coefs = coefs._replace(gamma_rule=GAMMA_CODES[opts.gamma_rule],
                                kc_s_skip=kc_skip_level(model, kc_tol))
         calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
         frets = range(1, preset.frets + 1) if opts.live_grid else stopped_frets(events)

@@ -185,6 +185,16 @@ class Decimator:
         self.history = buf[len(x):]
         return y
 
+    def skip(self, n: int) -> np.ndarray:
+        """``self(np.zeros(n))`` while the history holds only zeros (a silent string), without
+        the filter's arithmetic: as many zeros as that call gives."""
+        if self.factor == 1:
+            return np.zeros(n)
+        ahead = self.lead - self.pos
+        start = ahead if ahead >= 0 else ahead % self.factor
+        self.pos += n
+        return np.zeros(0 if start >= n else (n - 1 - start) // self.factor + 1)
+
 
 @njit(**JIT)
 def fir_decimate(buf, rtaps, start, factor, nnew):

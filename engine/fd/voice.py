@@ -83,7 +83,7 @@ class Voice:
     policy: kernels.Policy
     tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
     energy_series: bool = False  # keep the per-step series (else running figures only)
-    # events (on this string, sorted) -> (controls, geometry) on this grid (``guitar.prepare``):
+    # events (on this string, sorted) -> (controls, geometry) on this grid (``instrument.prepare``):
     # a live session recompiles them as events arrive
     rebuild: object = field(default=None, repr=False)
     step: int = 0
@@ -123,6 +123,17 @@ class Voice:
     @property
     def u1(self) -> np.ndarray:
         return self.state.u1
+
+    def frames(self, end: int) -> np.ndarray:
+        """The pickup velocity at the output rate up to output frame ``end``: the string run
+        until ``Decimator.lead`` steps past that frame's step, and decimated.  A stopped string
+        whose filter holds nothing gives zeros without running the filter."""
+        nsteps = end * self.oversample + self.decimator.lead - self.step
+        d = self.decimator
+        if self.stopped and (d.factor == 1 or not d.history.any()):
+            self.step += nsteps
+            return d.skip(nsteps)
+        return d(self.run(nsteps))
 
     def run(self, nsteps: int) -> np.ndarray:
         """Advance nsteps internal steps; return the pickup mix at the internal rate.

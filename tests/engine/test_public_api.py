@@ -206,3 +206,17 @@ def test_render_result_carries_the_warnings_without_diagnostics_and_survives_the
     failed = engine.render_result(light_tap)
     assert failed.warnings == [] and np.array_equal(failed.audio, result.audio)
     assert "warnings failed" in caplog.text
+
+
+def test_every_model_the_schema_names_has_an_instrument():
+    """``engine.models`` is the one place that maps a scene's ``model`` to an instrument: one for
+    each name the schema accepts, each with the face the mixer and the live session use."""
+    from engine import models
+    from engine.instrument import Instrument
+
+    assert tuple(models.PREPARE) == engine.MODELS
+    for model in engine.MODELS:
+        sc = engine.parse_scene({"duration": 0.01, "model": model, "events": [pluck(1)]})
+        inst = models.prepare(sc)
+        assert isinstance(inst, Instrument), model
+        assert sum(len(b) for b in inst.blocks(64)) == engine.frame_count(sc)

@@ -17,10 +17,9 @@ ENGINE = ROOT / "engine"
 # ``score`` and ``testing`` are one layer each
 ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "analysis", "losses",
          "performance", "options", "fd.grid", "cost", "score", "calibration_store", "output",
-         "instrument", "fd.kernels", "fd.string", "fd.controls", "fd.intonation", "statics",
-         "fd.voice", "fd.playability", "fd.instrument", "waveguide", "effects", "mix", "live",
-         "rendering", "precompile", "testing"]
-PACKAGES = ("waveguide", "score", "testing")
+         "instrument", "fd.kernels", "fd.string", "fd.controls", "fd.intonation", "fd.voice",
+         "fd.playability", "fd.instrument", "statics", "waveguide", "models", "effects", "mix",
+         "live", "rendering", "precompile", "testing"]
 
 
 def _layer(module: str) -> str:

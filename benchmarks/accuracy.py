@@ -21,7 +21,7 @@ import numpy as np
 
 import engine
 from engine.analysis import cents, partials, spectrum_peak
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.presets import PRESETS
 from engine.scene import Scene
 from engine.testing.measure import board_depth

@@ -6,7 +6,7 @@ store and with the calibrations on disk (``engine.calibration_store``).
 
     python -m benchmarks.calibration
 
-Each figure is the wall time of ``engine.guitar.prepare`` (``engine.waveguide.prepare`` for the
+Each figure is the wall time of ``engine.fd.instrument.prepare`` (``engine.waveguide.prepare`` for the
 waveguide) in a new Python process (the numba kernels already compiled and cached, as in a warm
 service).  A store that starts empty is filled by the first run, a single one; the warm runs read
 it, and their figure is the best of ``--repeat``.  A live worker prepares a guitar, rate and
@@ -30,7 +30,7 @@ CHILD = r"""
 import sys, time
 from engine import waveguide
 from engine.scene import Scene
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 preset, rate, quality, model = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 sc = Scene.model_validate({"duration": 0.1, "sample_rate": rate, "events": [],

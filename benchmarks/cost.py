@@ -13,7 +13,7 @@ import statistics
 import time
 
 import engine
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.scene import Scene
 
 

@@ -1,7 +1,7 @@
 """Why a coarse grid puts fretted notes out of tune and shortens them, and the calibration that
 takes both errors out.
 
-``engine.intonation`` models a held note as a linear system on the string's grid (the scheme's
+``engine.fd.intonation`` models a held note as a linear system on the string's grid (the scheme's
 stiffness and mass, the frets on both sides of the finger as constraints, the finger as a damped
 mass on its contact spring) and calibrates the stopped frets' interpolants with it.  This script
 checks the model and the calibration against rendered notes (``benchmarks.intonation``'s scene)
@@ -36,10 +36,10 @@ import numpy as np
 
 from benchmarks.intonation import FRETS, REFERENCE, SR, print_table, tables
 from engine import calibration_store, config
-from engine.intonation import fret_calibration, fret_calibrations, fret_shift, held_note
+from engine.fd.intonation import fret_calibration, fret_calibrations, fret_shift, held_note
+from engine.fd.voice import oversample_for
 from engine.options import QUALITY, Quality
 from engine.presets import PRESETS, Preset, get_preset
-from engine.voice import oversample_for
 
 
 def predicted(preset: Preset, quality: Quality) -> tuple[np.ndarray, np.ndarray]:
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> None:
           f"dB/s; worst |pitch error| calibrated {np.max(np.abs(after)):.2f} cents")
     print_table("4. the calibrated finger's damping (N s/m)", dampings, "N s/m")
     n = preset.n_strings * len(FRETS)
-    print(f"\ncalibrating the {n} frets (engine.intonation.fret_calibrations, one process, "
+    print(f"\ncalibrating the {n} frets (engine.fd.intonation.fret_calibrations, one process, "
           f"computed, the store on disk off): {calibration:.1f} s, "
           f"{calibration / n * 1e3:.0f} ms per fret")
     print(f"\n({time.perf_counter() - t0:.0f} s on this machine)")

@@ -30,7 +30,7 @@ import numpy as np
 
 import engine
 from engine.analysis import cents, decay_db_per_s, spectrum_peak
-from engine.intonation import REFERENCE_H_M
+from engine.fd.intonation import REFERENCE_H_M
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import PRESETS, get_preset
 from engine.scene import MAX_NUT_COMPENSATION_M
@@ -38,7 +38,7 @@ from engine.testing.scenes import SR, pluck, scene
 from engine.testing.scenes import fret as fret_at
 
 FRETS = tuple(range(1, 13))
-# the fine reference grid (engine.intonation calibrates against the same spacing), uncalibrated
+# the fine reference grid (engine.fd.intonation calibrates against the same spacing), uncalibrated
 REFERENCE = Quality(max_h_m=REFERENCE_H_M, max_oversample=16)
 
 

@@ -60,21 +60,20 @@ import numpy as np
 from scipy import signal
 
 import engine
-import engine.guitar
-import engine.kernels
-import engine.string
+import engine.fd.instrument
+import engine.fd.kernels
+import engine.fd.string
 import engine.waveguide
 from benchmarks.accuracy import ENERGY_SCENES
 from benchmarks.intonation import FRETS, worst
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
+from engine.fd.voice import string_model
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import PRESETS, get_preset
 from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN, Scene
-from engine.string import FRET_PENALTY
 from engine.testing import scenes as shared
 from engine.testing.scenes import fret, pluck, tap
-from engine.voice import string_model
 from engine.waveguide.collision import FRET_RESTITUTION
 from engine.waveguide.kernel import I_NT
 
@@ -96,7 +95,7 @@ class Config:
     knob: str
     quality: str | Quality = "standard"  # a QUALITY key (read at run time) or a Quality
     oversample: int | None = None  # force this factor on every string
-    fret_mode: int | None = None
+    fret_mode: str | None = None
     kirchhoff_carrier: bool = True
     gamma: str = "joint"
     compensate: bool = True
@@ -142,11 +141,11 @@ CONFIGS = [
     Config("x1, h = 1.25 h_min", "grid spacing", _forced(1, 1.25), oversample=1),
     Config("x2, h = 1.5 h_min", "grid spacing", _forced(2, 1.5), oversample=2),
     Config("x4, h = 2 h_min", "grid spacing", _forced(4, 2.0), oversample=4),
-    Config("standard, penalty frets", "contact formulation", fret_mode=FRET_PENALTY),
-    Config("standard, penalty frets + eq. 61", "contact formulation", fret_mode=FRET_PENALTY,
+    Config("standard, penalty frets", "contact formulation", fret_mode="penalty"),
+    Config("standard, penalty frets + eq. 61", "contact formulation", fret_mode="penalty",
            gamma="paper"),
     Config("x4, penalty frets", "contact formulation", _forced(4), oversample=4,
-           fret_mode=FRET_PENALTY),
+           fret_mode="penalty"),
     Config("standard, Hertzian fretboard", "contact formulation", rigid_board=False),
     Config("x4, Hertzian fretboard", "contact formulation", _forced(4), oversample=4,
            rigid_board=False),
@@ -254,7 +253,7 @@ class Study:
 
 
 def prepare_for(st: Study, cfg: Config, sc: dict, **kw):
-    """The scene's guitar on the configuration's model: ``engine.guitar.prepare``, or
+    """The scene's guitar on the configuration's model: ``engine.fd.instrument.prepare``, or
     ``engine.waveguide.prepare`` with the options the two models share
     (``engine.waveguide.options_from``)."""
     options = st.options(cfg, **kw)

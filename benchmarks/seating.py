@@ -1,6 +1,6 @@
 """How hard a finger must press to hold a fretted note: the static model against rendered notes.
 
-``engine.intonation.seating_force`` solves the statics of the pressed string (the finger pushing
+``engine.fd.intonation.seating_force`` solves the statics of the pressed string (the finger pushing
 down behind the fret, the string resting on the fret and, where it reaches it, on the fret behind):
 the force below which the string cannot rest on its fret.  A finger whose event gives no force
 presses with the preset's force or ``SEAT_MARGIN`` times that, whichever is more
@@ -26,12 +26,12 @@ from multiprocessing import Pool
 
 import numpy as np
 
-from engine.controls import events_on
-from engine.intonation import SEAT_MARGIN, press_force, seating_force
+from engine.fd.intonation import SEAT_MARGIN, press_force, seating_force
+from engine.fd.voice import string_model
 from engine.options import QUALITY, RenderOptions
+from engine.performance import events_on
 from engine.presets import get_preset
 from engine.testing.measure import holds, seating_scene
-from engine.voice import string_model
 
 SR = 44100
 PLUCKS_N = (1.0, 4.0)

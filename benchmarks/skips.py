@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from benchmarks.speed import chord_events, fretted_events, strum_events
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.output import FIXED_GAIN
 from engine.scene import Scene

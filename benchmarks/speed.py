@@ -33,10 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from engine.guitar import Guitar, prepare
+from engine.fd.instrument import Guitar, prepare
+from engine.fd.string import kc_skip_level
 from engine.options import QUALITY, RenderOptions
 from engine.scene import Scene
-from engine.string import kc_skip_level
 from tools.counters import Counters
 
 

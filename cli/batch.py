@@ -155,9 +155,7 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
             scene["diagnostics"] = True
         max_s = options.get("max_seconds")
         if max_s and scene.get("duration", 0) > max_s:
-            from cli.main import _cut
-
-            _cut(scene, max_s)
+            engine.truncate(scene, max_s)
         sc = engine.parse_scene(scene)
         t0 = time.perf_counter()
         result = engine.render_result(sc)

@@ -215,20 +215,6 @@ def _read_score(p: Path, args: argparse.Namespace) -> tuple[dict[str, Any], list
     return dict(result), list(getattr(result, "warnings", []))
 
 
-def _cut(scene: dict[str, Any], seconds: float) -> None:
-    """Keep the first ``seconds`` of a scene: a shorter duration, no event from then on."""
-    duration = scene.get("duration")
-    if not isinstance(duration, int | float) or duration <= seconds:
-        return
-    scene["duration"] = seconds
-    holders = [scene, *[t for t in scene.get("tracks") or [] if isinstance(t, dict)]]
-    for h in holders:
-        if isinstance(h.get("events"), list):
-            h["events"] = [e for e in h["events"] if not (
-                isinstance(e, dict) and isinstance(e.get("time"), int | float)
-                and e["time"] >= seconds)]
-
-
 def _set_preset(scene: dict[str, Any], preset: str) -> None:
     holders = scene["tracks"] if isinstance(scene.get("tracks"), list) else [scene]
     for h in holders:
@@ -273,7 +259,9 @@ def load_input(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
         if args.preset is not None:
             _set_preset(scene, args.preset)
         if args.max_seconds is not None:
-            _cut(scene, args.max_seconds)
+            from engine import truncate
+
+            truncate(scene, args.max_seconds)
         for flag, value in (("--tracks", args.tracks), ("--tempo-scale", args.tempo_scale)):
             if value is not None:
                 raise BadInput(f"{flag} applies to scores (Guitar Pro, MIDI), not to a scene "

@@ -1,45 +1,49 @@
-"""Physically modelled guitar synthesis: the DAFx24 string model (Bilbao, Russo, Webb & Ducceschi
-2024) with fretboard, frets, fingers and tension modulation, stepped by numba kernels.
+"""Physically modelled guitar synthesis by two models behind one instrument interface: the DAFx24
+finite-difference string (Bilbao, Russo, Webb & Ducceschi 2024) with fretboard, frets, fingers and
+tension modulation, stepped by numba kernels (``fd/``), and the digital waveguide of Evangelista &
+Eckerholm 2010 (``waveguide/``).
 
     >>> import engine
     >>> audio = engine.render({"duration": 1.0, "events": [{"type": "pluck", "time": 0, "string": 1}]})
 
 Also: ``blocks`` (the same audio block by block, at the fixed gain), ``frame_count`` (its length,
 before rendering), ``estimate_cost`` (the work of a render, known from the scene alone),
-``tuned_tension`` (a preset string's tension) and ``warmup`` (load or compile every numba kernel
-once per process); ``Session`` plays a guitar live, event by event, block by block
-(``engine.live``).
+``tuned_tension`` (a preset string's tension), ``truncate`` (a scene's JSON form cut at N seconds)
+and ``warmup`` (load or compile every numba kernel once per process); ``Session`` plays a guitar
+live, event by event, block by block (``engine.live``).
 
-Layers, each knowing only those below it (docs/architecture.md draws them):
+Layers, each knowing only those below it (docs/architecture.md draws them; tests/test_layers.py
+reads every module's imports, inside functions too):
 
+    config       numba flags, the cache folders, calling a compiled kernel
     presets      instruments in physical units                       (numpy)
     effect_specs the effects a track may use, in units                 (pydantic)
-    scene        the validated input: tracks, events, output, quality, limits (pydantic; knows
-                 presets, effect_specs)
+    scene        the validated input: tracks, events, output, quality, limits (pydantic)
     live_events  live play messages: a session's opening and its events without time (schema)
-    grid         the scheme's loss coefficients and stability bound       (plain arithmetic)
-    cost         what a scene will cost to render, before anything is built (knows scene, grid)
-    kernels      the numba time-step loop of one string
-    string       one string's grid, coefficients, tuning and geometry (knows kernels, presets)
-    controls     events -> one string's control arrays                 (knows scene, kernels)
-    calibration_store  fret calibrations kept on disk across processes  (knows config)
-    intonation   fret calibration and seating forces                   (knows string, controls)
-    options      quality levels and render switches
+    analysis     measurements of rendered audio (pitch, levels) for tests and benchmarks
+    losses       a string's loss coefficients from its two decay times (plain arithmetic)
+    performance  what the player does, the same for every model: strum, mute-all, finger
+                 position, the hands' contacts, bend and vibrato curves, a scene cut short
+    options      quality levels and render switches (plain data: names, no kernel constants)
+    fd.grid      the finite-difference stability bound (plain arithmetic)
+    cost         what a scene will cost to render, before anything is built
+    score/       scores in (Guitar Pro 3-5, MIDI) -> scenes, fingering, JAMS labels of any
+                 scene (knows only the schema, the presets and performance)
+    calibration_store  calibrations kept on disk across processes
     output       decimation, pickups, pan, body, output scale
-    voice        one string of a scene: state across blocks, energy bookkeeping
-    playability  warnings: what may not sound as the player means it
-    guitar       the voices of one instrument, block by block
-    waveguide/   the same instrument as digital waveguides (Evangelista & Eckerholm 2010; knows
-                 what guitar knows)
+    instrument   the interface both models implement, and what they share (the block loop,
+                 pickups and body, the frame count)
+    fd/          the finite-difference model: kernels/, string, controls, intonation, voice,
+                 playability, instrument (its modules in that order)
+    statics      the pressed string at rest for both models: seating force, a held note's decay
+    waveguide/   the digital-waveguide model (imports nothing of fd/)
+    models       the one map from a scene's ``model`` to its instrument
     effects      a track's effects chain (pedalboard), state kept across blocks
-    mix          a scene of tracks: a guitar per track, panned, through effects, mixed
+    mix          a scene of tracks: an instrument per track, panned, through effects, mixed
     live         an open-ended session: events pushed as played, blocks pulled (``Session``)
     rendering    the public functions: scene in, audio out
     precompile   compile or load every kernel once per process (``warmup``)
-
-Beside them, knowing only the scene's JSON form and the presets:
-
-    score/       scores in (Guitar Pro 3-5, MIDI) -> scenes, fingering, JAMS labels of any scene
+    testing/     naive references and shared measurements for tests and benchmarks
 
 The schema layer (``Scene``, ``parse_scene``, ``frame_count``, presets) is imported eagerly and
 loads no numerics, so a front end that only validates scenes never imports numba; the rest is
@@ -64,10 +68,11 @@ _LAZY = {
     "render": "rendering",
     "render_result": "rendering",
     "blocks": "rendering",
-    "scene_warnings": "playability",
+    "scene_warnings": "fd.playability",
     "estimate_cost": "cost",
     "expanded_event_count": "cost",
-    "tuned_tension": "string",
+    "tuned_tension": "fd.string",
+    "truncate": "performance",
     "warmup": "precompile",
     "WARMUP_SCENES": "precompile",
     # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)

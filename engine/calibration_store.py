@@ -1,7 +1,7 @@
 """Fret calibrations kept on disk, so that a machine calibrates a string's frets once, not every
 process once.
 
-``engine.intonation`` calibrates each stopped fret on its string's grid (the pitch, and the
+``engine.fd.intonation`` calibrates each stopped fret on its string's grid (the pitch, and the
 contact damping of the finger stopping it) with a few eigenvalue solves of the held note: tens of
 milliseconds a fret, seconds for every fret of a guitar (the grid of a live session).  The
 waveguide model asks the same held-note analysis, on the converged grid, for the finger's damping
@@ -29,8 +29,8 @@ from . import config
 
 # the modules whose code a calibration depends on (the held-note model, the grid and tuning,
 # where fingers and frets sit, the presets, the interpolant)
-_SOURCES = ("intonation.py", "string.py", "grid.py", "controls.py", "presets.py",
-            "kernels/linear.py")
+_SOURCES = ("fd/intonation.py", "fd/string.py", "fd/grid.py", "losses.py", "fd/controls.py",
+            "performance.py", "presets.py", "fd/kernels/linear.py")
 _LOCK = threading.Lock()
 _STATE: dict = {}
 

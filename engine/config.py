@@ -8,11 +8,15 @@
   Results stay deterministic for a given machine, so block and one-shot renders are bit-identical.
   The step loops are compiled without them (``JIT_STEP``).  ``GUITAR_NUMBA_FASTMATH=0`` compiles
   every kernel without them.
+
+``entry_point`` calls a compiled kernel without numba's dispatcher (both models' voices use it).
 """
 
 from __future__ import annotations
 
 import os
+
+import numpy as np
 
 FASTMATH = (frozenset({"reassoc", "contract", "nsz"})
             if os.environ.get("GUITAR_NUMBA_FASTMATH", "1") != "0" else frozenset())
@@ -75,3 +79,40 @@ CACHE_DIR = os.environ.get("GUITAR_CACHE_DIR") or os.path.join(
     os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
     "guitar-synth")
 CALIBRATION_CACHE = os.environ.get("GUITAR_CALIBRATION_CACHE", "1") != "0"
+
+
+# ---- calling a compiled kernel ----------------------------------------------------------------
+
+def _type_key(a):
+    """What numba's ``typeof`` reads of an argument of the kinds the kernels take, as a hashable
+    key: an array's dtype, dimensions, layout (C before F, as numba maps it), writability and
+    alignment; a tuple's class and items, recursively; a scalar's Python type."""
+    if isinstance(a, np.ndarray):
+        f = a.flags
+        layout = "C" if f.c_contiguous else "F" if f.f_contiguous else "A"
+        return (a.dtype.str, a.ndim, layout, f.writeable, f.aligned)
+    if isinstance(a, tuple):
+        return (type(a), *(_type_key(v) for v in a))
+    return type(a)
+
+
+_ENTRIES: dict = {}
+
+
+def entry_point(dispatcher, args):
+    """The compiled function behind a numba dispatcher for the types of ``args``, compiled or
+    loaded from the cache if need be.  Calling it skips the dispatcher's type resolution, which
+    for the NamedTuples of arrays ``step_block`` takes costs more than the unboxing itself.
+    Resolving the types once per string (numba's ``typeof`` of some sixty arrays) was itself a
+    visible share of a short render, so the result is kept per process, keyed by ``_type_key``,
+    which is much cheaper to compute.  Only for arguments of exactly these types (it unboxes by the
+    signature it was compiled for).  With ``NUMBA_DISABLE_JIT=1`` the kernels are Python, indexed
+    with numpy's bounds checks (``tests/engine/kernels/test_step.py`` renders that way)."""
+    if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: a plain Python function
+        return dispatcher
+    key = (dispatcher, _type_key(args))
+    fn = _ENTRIES.get(key)
+    if fn is None:
+        fn = dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
+        _ENTRIES[key] = fn
+    return fn

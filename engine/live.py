@@ -4,13 +4,16 @@
     >>> s.push({"type": "pluck", "string": 1})
     >>> block = s.block()  # 256 samples at the fixed gain, as ``engine.blocks`` yields them
 
+The session holds an instrument (``engine.instrument.Instrument``) of the model it is opened with
+(``engine.models``) and asks it, never which model it is, to render a block, to compile a string
+again from its events and for its delay.
+
 Events come without ``time`` (``engine.live_events``): an event pushed between blocks acts
-``offset`` frames into the next block, plus the session's ``delay``.  The delay is the decimation
-filter's look-ahead: a string's output frame m is centred on its internal step m f + (f - 1) / 2, and
-the linear-phase filter needs ``Decimator.lead`` steps past it, so when a block ends a string has
-already been simulated ``lead`` steps (``ceil(lead / f)`` frames) beyond it.  An event acting there
-would change steps already computed; acting ``delay`` frames later (the largest over the strings,
-13 frames at factors 2 and 3: 0.3 ms at 44.1 kHz) it changes nothing computed.
+``offset`` frames into the next block, plus the session's ``delay``
+(``Instrument.live_delay``): when a block ends, a string has already been computed some steps
+beyond it (the finite-difference model's decimation filter looks ``Decimator.lead`` steps ahead,
+13 frames at factors 2 and 3: 0.3 ms at 44.1 kHz).  An event acting there would change steps
+already computed; acting ``delay`` frames later it changes nothing computed.
 
 Grids.  A render chooses each string's grid from its events (a fingered string gets the finer
 contact grid; a bend raises the tension the grid must stay stable at).  A session cannot know its
@@ -22,7 +25,8 @@ real time for six strings.
 
 Exactness.  The kernel derives every control value from the absolute step number, so when an event
 arrives the string's control arrays are compiled again from all its events so far
-(``Voice.rebuild``), keeping its state (u, u1, contact and finger states, step counter).  An event
+(``Instrument.rebuild``, the functions ``prepare`` uses), keeping its state (u, u1, contact and
+finger states, step counter).  An event
 appended at the current step with the earlier ones unchanged gives the same samples as if it had
 been known in advance: a session's blocks equal ``engine.blocks`` of ``scene()`` rendered with
 ``RenderOptions(live_grid=True)`` (``tests/engine/test_live.py``).  What makes that so, and the
@@ -43,7 +47,7 @@ Events whose effect is over (plucks past, dampers and bends released and done, f
 dropped from a string's list as it grows, so a long session recompiles only what still acts.
 
 The waveguide model (``model="waveguide"``, ``engine.waveguide``) plays the same way: a string's
-timeline is compiled again from its events when one comes (``waveguide.rebuild``), keeping the
+timeline is compiled again from its events when one comes (``WaveguideVoice.rebuild``), keeping the
 rails, the filters' and junctions' states and the kernel's schedules, and the samples are those
 of the waveguide render of ``scene()`` with ``RenderOptions(live_grid=True)``, to the bit
 (``tests/engine/test_live.py``; with the decayed-string skip off, as above).  Its ``delay`` is
@@ -62,32 +66,15 @@ from typing import Any
 
 import numpy as np
 
-from . import kernels, waveguide
-from .guitar import prepare
+from .instrument import FINGERS
 from .live_events import LiveError, LiveEvent, Release, parse_live_event
+from .models import prepare
 from .options import RenderOptions
 from .output import FIXED_GAIN
-from .scene import (
-    MODELS,
-    Bend,
-    Fret,
-    Guitar,
-    Harmonic,
-    Mute,
-    Pluck,
-    PullOff,
-    Scene,
-    Slide,
-    Strum,
-    Tap,
-    Vibrato,
-)
+from .performance import per_string
+from .scene import MODELS, Bend, Fret, Guitar, Harmonic, Mute, Scene, Strum, Vibrato
 
-_FINGERS = (Fret, Tap, Slide)  # HammerOn is a Tap
 _PRUNE_AT = 64  # a string's event list is pruned when it grows past this many events
-# a waveguide junction's pulse (at most 50 ms), release (at most the pulse) and leak (8 time
-# constants at ``LEAK_HZ``, 64 ms) are over this long after it starts or lets go
-_OVER_S = 0.2
 
 
 class Session:
@@ -105,28 +92,24 @@ class Session:
                       model=model)
         self.options = replace(options or RenderOptions(), skip_silent=False, live_grid=True)
         self.model = model
-        self.waveguide = model == "waveguide"
-        if self.waveguide:
-            g = waveguide.prepare(scene, waveguide.options_from(self.options))
-        else:
-            g = prepare(scene, self.options)
+        self.instrument = prepare(scene, self.options)
+        self.instrument.at_rest()  # nothing to compute until an event comes
         self.guitar_spec = scene.guitar
-        self.preset = g.preset
+        self.preset = self.instrument.preset
         self.sample_rate = sample_rate
         self.block_frames = block_frames
         self.quality = quality
-        self.voices = g.voices
-        self.body = g.body
-        for v in self.voices:
-            v.stopped = True  # at rest: nothing to compute until an event comes
         # frames after the block boundary where an event acts (see the module's docstring)
-        self.delay = (waveguide.LIVE_DELAY if self.waveguide else
-                      max(-(-v.decimator.lead // v.oversample) for v in self.voices))
+        self.delay = self.instrument.live_delay
         self.frame = 0  # frames sent so far
         self._events: dict[int, list] = {v.index: [] for v in self.voices}
         self._pending: list[tuple[int, Any]] = []  # (frame it acts at, event with its time)
         self.record = record
         self.recorded: list = []  # every event as the scene has it (when recording)
+
+    @property
+    def voices(self) -> list:
+        return self.instrument.voices
 
     # ---- events -----------------------------------------------------------------------------
 
@@ -142,28 +125,21 @@ class Session:
     def _check_tension(self, e: Any, at: int) -> None:
         if not isinstance(e, Bend | Vibrato):
             return
-        step_rate = self.sample_rate
         for _at, pe in self._pending:
             if isinstance(pe, Bend | Vibrato) and pe.string == e.string:
                 raise LiveError("type", f"string {e.string} already has a {pe.type} in this block")
-        v = self._voice(e.string)
-        if self.waveguide:  # the pitch ratio's breakpoints, at the scene's rate
-            t_step, t_ratio, over = v.pb_step, v.pb_f, 1
-        else:
-            t_step, t_ratio, over = v.ctl.arrays.tb_step, v.ctl.arrays.tb_ratio, v.oversample
-        step = at * over
-        if t_step.size and (t_step[-1] > step or t_ratio[-1] != 1.0):
+        inst = self.instrument
+        v = inst.voice(e.string)
+        if not inst.tension_settled(v, at):
+            t_step, _, per_frame = inst.tension_breakpoints(v)
             held = next((x for x in reversed(self._events[e.string])
                          if isinstance(x, Bend | Vibrato)), None)
             what = (f"its bend is held (send a release of string {e.string}'s bend and let it "
                     "return)" if isinstance(held, Bend)
                     and held.release is None else
                     f"its {held.type if held else 'bend'} has not returned to pitch yet "
-                    f"(until {t_step[-1] / (over * step_rate):.3f} s)")
+                    f"(until {t_step[-1] / (per_frame * self.sample_rate):.3f} s)")
             raise LiveError("type", f"a {e.type} on string {e.string} must wait: {what}")
-
-    def _voice(self, string: int):
-        return next(v for v in self.voices if v.index == string)
 
     def _apply(self, at: int, e: Any) -> None:
         t = at / self.sample_rate
@@ -175,28 +151,15 @@ class Session:
         if rel is not None:
             update["release"] = t + rel
         e = e.model_copy(update=update)
-        n = self.preset.n_strings
-        if isinstance(e, Mute) and e.string is None:  # a mute per string, as controls.expand does
-            for s in range(1, n + 1):
-                each = e.model_copy(update={"string": s})
-                if self.record:
-                    self.recorded.append(each)
-                self._add(s, each)
-            return
-        if self.record:
-            self.recorded.append(e)
-        if isinstance(e, Strum):  # as controls.expand does it
-            strings = sorted(e.strings or range(1, n + 1), reverse=e.direction == "down")
-            dt = e.spread / max(len(strings) - 1, 1)
-            for i, s in enumerate(strings):
-                self._add(s, Pluck(time=t + i * dt, string=s, force=e.force, position=e.position,
-                                   style=e.style))
-        else:
-            self._add(e.string, e)
+        each = per_string(e, self.preset.n_strings)  # a strum's plucks, a mute per string
+        if self.record:  # a strum as itself, a string-less mute as one per string
+            self.recorded += [e] if isinstance(e, Strum) else each
+        for x in each:
+            self._add(x.string, x)
 
     def _release(self, at: int, r: Release) -> None:
         t = at / self.sample_rate
-        kinds = {"finger": _FINGERS, "bend": (Bend,), "mute": (Mute,), "harmonic": (Harmonic,)}
+        kinds = {"finger": FINGERS, "bend": (Bend,), "mute": (Mute,), "harmonic": (Harmonic,)}
         types = (tuple(x for k in kinds.values() for x in k) if r.what == "all"
                  else kinds[r.what])
         strings = [r.string] if r.string is not None else list(self._events)
@@ -223,128 +186,20 @@ class Session:
         self._compile(s)
 
     def _compile(self, s: int) -> None:
-        v = self._voice(s)
         events = self._events[s]
-        if self.waveguide:
-            if len(events) > _PRUNE_AT:
-                events = self._events[s] = self._prune_waveguide(v, events)
-            waveguide.rebuild(v, events)  # it runs again (a string at rest or decayed too)
-            return
-        old = len(v.ctl.arrays.fs_on)
-        keep = list(range(old))  # the old slot of each slot kept, in order
-        if len(events) > _PRUNE_AT:
-            events, keep = self._prune(v, events)
-            self._events[s] = events
-        ctl, geom = v.rebuild(events)
-        new = len(ctl.arrays.fs_on)
-        take = [k if k < old else -1 for k in keep] + [-1] * (new - len(keep))  # -1: a new slot
-        if take != list(range(new)):
-            v.state = _with_slots(v.state, take)
-        v.ctl, v.geom = ctl, geom
-        v.stopped = False
-
-    def _prune(self, v, events: list) -> tuple[list, list[int]]:
-        """Drop the events whose effect is over at the voice's current step: plucks whose pulse
-        has ended, fret-0 lifts past with no finger kept that they may have lifted, dampers
-        released, bends and vibratos when the tension is back at
-        its tuned value for good, fingers whose slot is gone (and pull-offs of their fret).  The
-        samples stay the same: the kernel skips all of these (a finished pluck adds nothing, a
-        released damper and a gone finger form no column, a tension of exactly 1 gives the
-        unbent stencil).  Returns the events kept and the old slot of each finger slot kept."""
-        step = v.step
-        rate = self.sample_rate * v.oversample
-        arr = v.ctl.arrays
-        tension_done = (arr.tb_step.size == 0
-                        or (arr.tb_step[-1] < step and arr.tb_ratio[-1] == 1.0))
-        keep_slots: list[int] = []
-        kept_frets: set[int] = set()
-        keep = [False] * len(events)
-        slot = 0
-        for i, e in enumerate(events):  # fingers first: their slots are the state's
-            if isinstance(e, _FINGERS) and not _is_lift(e):
-                if round(e.time * rate) >= step or v.state.f_state[slot] != kernels.GONE:
-                    keep[i] = True
-                    keep_slots.append(slot)
-                    kept_frets.add(e.to_fret if isinstance(e, Slide) else e.fret)
-                slot += 1
-        for i, e in enumerate(events):
-            if keep[i]:
-                continue
-            if _is_lift(e):
-                keep[i] = _lift_kept(e, events, keep, step, rate)
-            elif isinstance(e, _FINGERS):
-                continue
-            elif round(e.time * rate) >= step:
-                keep[i] = True
-            elif isinstance(e, Bend | Vibrato):
-                keep[i] = not tension_done
-            elif isinstance(e, Mute | Harmonic):
-                keep[i] = e.release is None or round(e.release * rate) >= step
-            elif isinstance(e, PullOff):
-                keep[i] = e.fret in kept_frets
-            else:  # a pluck: its pulse lasts at most 50 ms
-                keep[i] = round(e.time * rate) + round(0.05 * rate) + 1 >= step
-        return [e for e, k in zip(events, keep, strict=True) if k], keep_slots
-
-    def _prune_waveguide(self, v, events: list) -> list:
-        """Drop the events whose effect is over at the waveguide voice's current step (the
-        same samples: the kernel skips all of these): plucks (and pull-offs) whose junction has
-        let go and leaked away, fingers lifted as long ago (and fret-0 lifts past with no finger
-        kept that they may have lifted), dampers released as long ago, bends
-        and vibratos when the pitch is back at its tuned value for good.  ``_OVER_S`` bounds
-        each junction's pulse, release and leak (``engine.waveguide.pluck``)."""
-        step = v.step
-        rate = self.sample_rate
-        over = round(_OVER_S * rate)
-        tension_done = v.pb_step.size == 0 or (v.pb_step[-1] < step and v.pb_f[-1] == 1.0)
-        # one finger per finger event, in their order (a fret 0 lifts, it puts no finger)
-        fingers = iter(waveguide.timeline_of(v, events).fingers)
-        keep = [False] * len(events)
-        for i, e in enumerate(events):  # fingers first: a lift is kept with them
-            if isinstance(e, _FINGERS) and not _is_lift(e):
-                f = next(fingers)
-                keep[i] = round(e.time * rate) >= step or f.rel + over >= step
-        for i, e in enumerate(events):
-            on = round(e.time * rate)
-            if _is_lift(e):
-                keep[i] = _lift_kept(e, events, keep, step, rate)
-            elif isinstance(e, _FINGERS):
-                continue
-            elif on >= step:
-                keep[i] = True
-            elif isinstance(e, Bend | Vibrato):
-                keep[i] = not tension_done
-            elif isinstance(e, Mute | Harmonic):
-                keep[i] = e.release is None or round(e.release * rate) + over >= step
-            else:  # a pluck or a pull-off
-                keep[i] = on + 2 * over >= step
-        return [e for e, k in zip(events, keep, strict=True) if k]
+        self._events[s] = self.instrument.rebuild(self.instrument.voice(s), events,
+                                                  prune=len(events) > _PRUNE_AT)
 
     # ---- audio ------------------------------------------------------------------------------
 
     def block(self) -> np.ndarray:
         """The next ``block_frames`` samples (float64, mono, at the fixed gain)."""
-        m = self.block_frames
-        end = self.frame + m
-        due = [(at, e) for at, e in self._pending]
+        due = self._pending
         self._pending = []
         for at, e in due:
             self._apply(at, e)
-        mix = np.zeros(m)
-        for v in self.voices:
-            if self.waveguide:
-                mix += v.run(m)  # nothing computed while it is at rest or has decayed
-                continue
-            target = end * v.oversample + v.decimator.lead
-            nsteps = target - v.step
-            d = v.decimator
-            if v.stopped and (d.factor == 1 or not d.history.any()):
-                v.step += nsteps  # a silent string: nothing to compute, its output is zero
-                d.pos += nsteps
-                continue
-            mix += d(v.run(nsteps))
-        self.frame = end
-        out = self.body(mix) if self.body is not None else mix
+        out = self.instrument.render_frames(self.block_frames)
+        self.frame = self.instrument.frame
         return out * FIXED_GAIN
 
     def active_strings(self) -> list[int]:
@@ -365,31 +220,3 @@ class Session:
             "events": [e.model_dump(exclude_none=True) for e in self.recorded],
         }
 
-
-def _is_lift(e: Any) -> bool:
-    """A ``fret`` 0: it lifts the fingers down on its string and puts none."""
-    return isinstance(e, Fret) and e.fret == 0
-
-
-def _lift_kept(e: Any, events: list, keep: list[bool], step: int, rate: float) -> bool:
-    """Whether pruning keeps the lift ``e``: while it is still to come, or some finger kept
-    (``keep``, decided first) was put down before it, which it may have lifted (without it, that
-    finger would be held again when the string is compiled)."""
-    return round(e.time * rate) >= step or any(
-        k and isinstance(x, _FINGERS) and not _is_lift(x) and x.time <= e.time
-        for x, k in zip(events, keep, strict=True))
-
-
-def _with_slots(st: kernels.State, take: list[int]) -> kernels.State:
-    """The state with its finger-slot arrays re-indexed: new slot j takes old slot take[j]
-    (-1: a new slot, idle)."""
-    idx = np.array(take, np.int64)
-    new = idx < 0
-
-    def pick(a: np.ndarray) -> np.ndarray:
-        out = a[np.where(new, 0, idx)] if a.size else np.zeros(len(idx), a.dtype)
-        out[new] = 0
-        return out.astype(a.dtype)
-
-    return st._replace(f_state=pick(st.f_state), f_w=pick(st.f_w), f_w1=pick(st.f_w1),
-                       f_psi=pick(st.f_psi), f_bprev=pick(st.f_bprev))

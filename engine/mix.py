@@ -1,9 +1,9 @@
-"""A scene of tracks: one ``Guitar`` per track, each through its effects and fader, mixed block by
+"""A scene of tracks: one instrument per track, each through its effects and fader, mixed block by
 block.
 
 A track's strings are independent of every other track's (each track is its own instrument,
-``engine.guitar``).  Per block, each track's guitar renders its pickup velocity (through its body),
-then, in this order:
+``engine.instrument``, of the model the track names: ``engine.models``).  Per block, each track's
+instrument renders its pickup velocity (through its body), then, in this order:
 
 1. pan: a track with a ``pan`` is rendered mono and placed in the stereo field by the constant-power
    law (``output.pan_gains``); a track without one spreads its strings as a single guitar does
@@ -13,7 +13,7 @@ then, in this order:
 3. its ``gain_db`` (a fader after the effects);
 
 and the tracks are summed.  A scene with top-level ``guitar``/``events`` is the one-track case and
-renders exactly (bit for bit) as the guitar alone.  Nothing here grows with the scene's duration:
+renders exactly (bit for bit) as its instrument alone.  Nothing here grows with the scene's duration:
 each block is computed from the voices' states and the effects' states and handed on.
 """
 
@@ -23,10 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import waveguide
+from . import models
 from .effects import Chain
-from .guitar import Guitar
-from .guitar import prepare as prepare_guitar
+from .instrument import Instrument
 from .options import RenderOptions
 from .output import pan_gains
 from .scene import Scene, frame_count
@@ -34,16 +33,16 @@ from .scene import Scene, frame_count
 
 @dataclass
 class Track:
-    """One track prepared: its guitar, stereo place, effects and linear gain."""
+    """One track prepared: its instrument, stereo place, effects and linear gain."""
 
-    guitar: Guitar
+    instrument: Instrument
     label: str  # for warnings; "" for a single guitar
     pan: tuple[float, float] | None  # constant-power gains when the whole track is placed
     chain: Chain | None
     gain: float
 
     def render_frames(self, m: int) -> np.ndarray:
-        y = self.guitar.render_frames(m)
+        y = self.instrument.render_frames(m)
         if self.pan is not None:
             y = np.stack((self.pan[0] * y, self.pan[1] * y), axis=1)
         if self.chain is not None:
@@ -64,7 +63,7 @@ class Mix:
 
     def blocks(self, block_frames: int | None = None):
         """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block."""
-        bf = block_frames or self.tracks[0].guitar.options.block_frames
+        bf = block_frames or self.tracks[0].instrument.options.block_frames
         while self.frame < self.frames:
             m = min(bf, self.frames - self.frame)
             yield self.render_frames(m)
@@ -79,7 +78,7 @@ class Mix:
 
     @property
     def voices(self):
-        return [v for t in self.tracks for v in t.guitar.voices]
+        return [v for t in self.tracks for v in t.instrument.voices]
 
     def oversample(self) -> dict[int, int]:
         """String number -> internal oversampling factor (the largest over the tracks)."""
@@ -89,16 +88,17 @@ class Mix:
         return out
 
     def energy_error(self) -> float:
-        return max((t.guitar.energy_error() for t in self.tracks), default=0.0)
+        return max((t.instrument.energy_error() for t in self.tracks), default=0.0)
 
     def warnings(self) -> list[str]:
-        """Every track's ``Guitar.warnings``, each named by its track when there are several."""
-        return [f"{t.label}: {w}" if t.label else w for t in self.tracks for w in t.guitar.warnings()]
+        """Every track's instrument's warnings, each named by its track when there are several."""
+        return [f"{t.label}: {w}" if t.label else w
+                for t in self.tracks for w in t.instrument.warnings()]
 
 
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
-    """A guitar for every track (``engine.guitar.prepare``, or ``engine.waveguide.prepare`` for a
-    track whose model is "waveguide") with its pan, effects and gain."""
+    """An instrument for every track (``models.prepare``: of the model the track names) with its
+    pan, effects and gain."""
     frames = frame_count(scene)
     stereo = scene.output.channels == 2
     tracks = []
@@ -107,12 +107,9 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
         if placed:  # rendered mono, then placed as a whole
             single = single.model_copy(
                 update={"output": single.output.model_copy(update={"channels": 1})})
-        if single.model == "waveguide":  # Evangelista & Eckerholm's digital waveguide
-            guitar = waveguide.prepare(single, waveguide.options_from(options))
-        else:
-            guitar = prepare_guitar(single, options)
+        instrument = models.prepare(single, options)
         chain = Chain(track.effects, scene.sample_rate) if track.effects else None
-        tracks.append(Track(guitar, scene.track_label(i),
+        tracks.append(Track(instrument, scene.track_label(i),
                             pan_gains(track.pan) if placed else None, chain,
                             10.0 ** (track.gain_db / 20.0)))
     return Mix(scene, tracks, frames)

@@ -1,13 +1,18 @@
 """How carefully to render: the quality levels a scene picks by name, and the engine-level switches
-that tests and benchmarks turn (``RenderOptions``).  Plain data: nothing here computes."""
+that tests and benchmarks turn (``RenderOptions``).  Plain data: nothing here computes, and the
+choices of a formulation are names, which ``engine.fd`` maps to its kernels' constants (so the
+cost estimate reads ``QUALITY`` in a process that never loads the kernels)."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
 
-from .kernels import GAMMA_JOINT, GAMMA_NONE, GAMMA_OWN, GAMMA_PAPER
-from .string import FRET_RIGID
+# how the frets act: not at all, as one-sided rigid constraints (the stiffness -> infinity limit),
+# or as the paper's penalty contacts (``engine.fd.string.FRET_MODE_CODES``)
+FRET_MODES = ("none", "rigid", "penalty")
+# the gradient correction of the paper's sec. 4.7 (``engine.fd.kernels.sav``: its ``GAMMA_*``)
+GAMMA_RULES = ("joint", "own", "paper", "none")
 
 
 @dataclass(frozen=True)
@@ -17,13 +22,13 @@ class Quality:
     max_h_m: float  # strings are oversampled until their grid spacing is at most this
     max_dispersion_cents: float = math.inf  # ... and partials 1-10 are this close to f_n
     max_oversample: int = 8
-    fret_mode: int = FRET_RIGID
+    fret_mode: str = "rigid"  # one of ``FRET_MODES``
     grid_scale: float = 1.0
     # quiet steps leave Kirchhoff-Carrier out while its tension rise is below this share of T0:
     # the pitch it would add is then below about 866 x this many cents (``string.kc_skip_level``)
     kc_tolerance: float = 0.0
     # the interpolants of the frets a scene's fingers stop are calibrated on the string's grid
-    # (``engine.intonation``): the held note gets the fine grid's pitch.  On at draft and standard,
+    # (``engine.fd.intonation``): the held note gets the fine grid's pitch.  On at draft and standard,
     # where it takes most of the grid's error out of the fretted pitch; off at high, where it cost
     # more spectral accuracy (tap, fret buzz) than it bought (docs/accuracy.md, "Quality levels")
     calibrate_frets: bool = False
@@ -84,5 +89,3 @@ class RenderOptions:
     # fret calibrated.  An offline render with this option gives a session's samples
     live_grid: bool = False
 
-
-GAMMA_RULES = {"joint": GAMMA_JOINT, "own": GAMMA_OWN, "paper": GAMMA_PAPER, "none": GAMMA_NONE}

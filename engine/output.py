@@ -21,7 +21,6 @@ import numpy as np
 from numba import njit
 from scipy import signal
 
-from . import kernels
 from .config import JIT
 
 # Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.  A 2 N
@@ -151,7 +150,7 @@ def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = Fals
 class Decimator:
     """Linear-phase FIR low-pass (scipy's firwin, Kaiser window) + downsampling by an integer
     factor, with the input history kept across blocks.  Each output sample is one dot product in a
-    fixed order (``kernels.fir_decimate``), so any block size gives bit-identical samples.
+    fixed order (``fir_decimate``), so any block size gives bit-identical samples.
 
     The filter's delay is removed exactly, so strings at different factors line up in time: the
     kernel's output at step n is the velocity (u^(n+1) - u^n) / k, i.e. at time (n + 1/2) k, so
@@ -181,7 +180,33 @@ class Decimator:
         buf = np.concatenate((self.history, x))
         ahead = self.lead - self.pos
         start = ahead if ahead >= 0 else ahead % self.factor
-        y = kernels.fir_decimate(buf, self.taps, start, self.factor, len(x))
+        y = fir_decimate(buf, self.taps, start, self.factor, len(x))
         self.pos += len(x)
         self.history = buf[len(x):]
         return y
+
+    def skip(self, n: int) -> np.ndarray:
+        """``self(np.zeros(n))`` while the history holds only zeros (a silent string), without
+        the filter's arithmetic: as many zeros as that call gives."""
+        if self.factor == 1:
+            return np.zeros(n)
+        ahead = self.lead - self.pos
+        start = ahead if ahead >= 0 else ahead % self.factor
+        self.pos += n
+        return np.zeros(0 if start >= n else (n - 1 - start) // self.factor + 1)
+
+
+@njit(**JIT)
+def fir_decimate(buf, rtaps, start, factor, nnew):
+    """y[m] = sum_i rtaps[i] buf[j + i] for the new inputs j = start, start + factor, ... (buf
+    holds len(rtaps) - 1 samples of history before the nnew new ones; rtaps is time-reversed)."""
+    nt = rtaps.shape[0]
+    count = 0 if start >= nnew else (nnew - 1 - start) // factor + 1
+    out = np.empty(count)
+    for m in range(count):
+        j = start + m * factor
+        acc = 0.0
+        for i in range(nt):
+            acc += rtaps[i] * buf[j + i]
+        out[m] = acc
+    return out

@@ -3,7 +3,7 @@
 Each preset is a set of physical strings (the parameters of eq. (3) of the DAFx24 paper, Bilbao,
 Russo, Webb & Ducceschi 2024) plus the geometry the collision terms of eqs. (7)-(10) need.  Tensions
 are *not* stored: every string is tuned by solving the numerical scheme's own dispersion relation for
-the tension that puts its fundamental at the nominal pitch (see ``engine.string``), so grid error and
+the tension that puts its fundamental at the nominal pitch (see ``engine.fd.string``), so grid error and
 bending stiffness do not detune the open strings.
 
 Sources and reasoning
@@ -320,7 +320,7 @@ def get_preset(name: str) -> Preset:
 
 def tension_n(spec: StringSpec, length_m: float) -> float:
     """A string's tension at its pitch, stiff-string estimate: 4 L^2 rho A f0^2 - pi^2 E I / L^2
-    (``engine.string.tune`` solves the scheme's own relation; it differs by the grid's error)."""
+    (``engine.fd.string.tune`` solves the scheme's own relation; it differs by the grid's error)."""
     return spec.pitch_tension_n(length_m) - spec.stiffness_tension_n(length_m)
 
 

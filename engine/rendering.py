@@ -1,7 +1,7 @@
 """The engine's front door: a scene in, audio out.
 
 ``render`` validates the scene (``engine.scene``), prepares its tracks (``engine.mix.prepare``: a
-guitar per track, ``engine.guitar.prepare``: a voice per string that needs simulating) and writes
+guitar per track, ``engine.fd.instrument.prepare``: a voice per string that needs simulating) and writes
 the mix's blocks into the output array; ``blocks`` yields them as they are computed, at the fixed
 gain a stream needs, and holds nothing but the current block (a song of any length streams in
 bounded memory).  Every front end (Python, the HTTP
@@ -33,7 +33,7 @@ class RenderResult:
     sample_rate: int
     seconds: float  # wall time of the simulation
     oversample: dict[int, int]  # string -> internal oversampling factor (largest over tracks)
-    warnings: list[str] = field(default_factory=list)  # ``engine.playability.scene_warnings``
+    warnings: list[str] = field(default_factory=list)  # ``engine.fd.playability.scene_warnings``
 
 
 def render(scene: Scene | dict, diagnostics: bool | None = None,

@@ -70,7 +70,7 @@ PluckStyle = Literal["finger", "pick", "slap", "pop"]
 class Pluck(_Event):
     """A raised-sine force pulse f_e(t) of eq. (5) at ``position`` (paper sec. 2.1).
 
-    ``style`` changes the pulse (``engine.controls.PLUCK_STYLES``): ``finger`` as given; ``pick``
+    ``style`` changes the pulse (``engine.performance.PLUCK_STYLES``): ``finger`` as given; ``pick``
     a 0.3 ms pulse (a plectrum releases the string faster); ``slap`` a 0.5 ms pulse towards the
     fretboard; ``pop`` a 2 ms pull away from it (the string snaps back onto the frets).
     """
@@ -93,7 +93,7 @@ class Pluck(_Event):
 class Fret(_Event):
     """A finger pressed behind fret ``fret`` with ``force`` towards the fretboard (sec. 2.5).
 
-    A force below the string's seating force at that fret (``engine.intonation.seating_force``;
+    A force below the string's seating force at that fret (``engine.fd.intonation.seating_force``;
     ``benchmarks/seating.py`` prints 1.08-2.51 N at frets 1, 2, 3, 5 and 12 of the steel preset
     and up to 3.66 N at fret 20) leaves the finger pushing the string down without seating it on the
     fret: a dead or buzzing note.
@@ -277,7 +277,7 @@ class Strum(_Model):
 class Damp(_Model):
     """The player stops the string: the fretting finger relaxes onto it (or, on an open string, a
     hand touches it) and the note dies, until the string's next event.  Modelled as the relaxed
-    hand's fingertips resting on the string (``engine.controls.DAMP_*``: point dampers from where
+    hand's fingertips resting on the string (``engine.performance.DAMP_*``: point dampers from where
     the finger was, or from over fret 5 on an open string), any fretting finger lifted;
     docs/engine.md gives the decay times (13-70 ms to -60 dB on the steel preset)."""
 
@@ -504,7 +504,7 @@ class Scene(_Model):
 
     def track_scenes(self) -> list[Scene]:
         """One single-instrument scene per track (the same duration, rate, output, quality and
-        diagnostics; no ``output.pan``), which ``engine.guitar.prepare`` renders.  A scene without
+        diagnostics; no ``output.pan``), which ``engine.fd.instrument.prepare`` renders.  A scene without
         ``tracks`` is its own only one."""
         if self.tracks is None:
             return [self]

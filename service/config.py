@@ -74,7 +74,8 @@ class Settings(BaseSettings):
     score_import_time_limit_s: float = Field(
         10.0, gt=0.0, description="wall time a worker may spend importing one score file")
     max_expanded_events: int = Field(
-        3000, ge=1, description="events once strums and string-less mutes count once per string")
+        3000, ge=1,
+        description="events once strums and string-less mutes and damps count once per string")
     min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 

@@ -84,7 +84,7 @@ class Limits(BaseModel):
     score_formats: list[str] = Field(description="file suffixes POST /score/scene and "
                                                  "/render/score accept")
     max_expanded_events: int = Field(description="events once strums and string-less mutes "
-                                                 "count once per string")
+                                                 "and damps count once per string")
     min_sample_rate: int
     max_sample_rate: int
     time_limit_base_s: float

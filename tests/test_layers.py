@@ -11,58 +11,91 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# low to high, as engine/__init__.py lists them; a module may import only those before it
-ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "grid", "cost", "kernels",
-         "string", "controls", "calibration_store", "intonation", "options", "output", "voice",
-         "playability", "guitar", "waveguide", "effects", "mix", "live", "rendering",
-         "precompile"]
+ENGINE = ROOT / "engine"
+# low to high, as engine/__init__.py lists them; a module may import only those before it.  A
+# module of ``fd`` is a layer of its own (``fd.kernels`` one for the package); ``waveguide``,
+# ``score`` and ``testing`` are one layer each
+ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "analysis", "losses",
+         "performance", "options", "fd.grid", "cost", "score", "calibration_store", "output",
+         "instrument", "fd.kernels", "fd.string", "fd.controls", "fd.intonation", "fd.voice",
+         "fd.playability", "fd.instrument", "statics", "waveguide", "models", "effects", "mix",
+         "live", "rendering", "precompile", "testing"]
+
+
+def _layer(module: str) -> str:
+    """The layer of an engine module, by its dotted name below ``engine``."""
+    parts = module.split(".")
+    if parts[0] == "fd" and len(parts) > 1:
+        return ".".join(parts[:2])
+    return parts[0]
+
+
+def _module(path: Path) -> str:
+    """A file's dotted name below ``engine`` (a package by its own name)."""
+    parts = list(path.relative_to(ENGINE).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _is_module(dotted: str) -> bool:
+    base = ENGINE.joinpath(*dotted.split("."))
+    return base.with_suffix(".py").is_file() or (base / "__init__.py").is_file()
 
 
 def _engine_imports(path: Path) -> set[str]:
-    """The engine modules a file imports (relative ones only inside the engine), by their name
-    below ``engine``."""
+    """The engine modules a file imports anywhere in it (inside functions too; relative imports
+    only inside the engine), by their dotted names below ``engine``."""
     tree = ast.parse(path.read_text())
-    sub = path.parent.name if path.parent.parent.name == "engine" else None  # kernels, score ...
-    in_engine = "engine" in path.relative_to(ROOT).parts[:1]
+    in_engine = path.is_relative_to(ENGINE)
+    here = _module(path).split(".") if in_engine else []
+    package = here if in_engine and path.stem == "__init__" else here[:-1]
     out = set()
     for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom):
-            if node.level == 0 and node.module and node.module.startswith("engine."):
-                out.add(node.module.split(".")[1])
-            elif not in_engine:
+        if isinstance(node, ast.Import):
+            out.update(a.name[len("engine."):] for a in node.names if a.name.startswith("engine."))
+            continue
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level == 0:
+            if not (node.module == "engine" or (node.module or "").startswith("engine.")):
                 continue
-            elif node.level == 1 and sub:
-                out.add(sub)  # a module of the same subpackage
-            elif node.level == 1 and node.module:
-                out.add(node.module.split(".")[0])
-            elif node.level == 1:
-                out.update(a.name for a in node.names)
-            elif node.level == 2 and node.module:
-                out.add(node.module.split(".")[0])
-            elif node.level == 2:
-                out.update(a.name for a in node.names)
-        elif isinstance(node, ast.Import):
-            out.update(a.name.split(".")[1] for a in node.names if a.name.startswith("engine."))
+            base = node.module.split(".")[1:]
+        elif not in_engine:
+            continue
+        else:
+            base = package[:len(package) - node.level + 1] + (node.module or "").split(".")
+            base = [b for b in base if b]
+        for a in node.names:  # ``from . import kernels``: a module; ``from .x import y``: x
+            sub = ".".join([*base, a.name])
+            out.add(sub if _is_module(sub) else ".".join(base))
+    out.discard("")
     return out
 
 
+def _engine_files():
+    for path in sorted(ENGINE.rglob("*.py")):
+        if path.parent == ENGINE and path.stem == "__init__":
+            continue  # the public names, imported on first use
+        if path == ENGINE / "fd" / "__init__.py":
+            continue  # a docstring
+        yield path
+
+
 def test_every_engine_module_imports_only_modules_below_it():
-    listed = {p.stem for p in (ROOT / "engine").glob("*.py")} - {"__init__", "analysis"}
-    assert listed | {"kernels", "waveguide"} == set(ORDER), "a module is missing from the list"
+    layers = {_layer(_module(p)) for p in _engine_files()}
+    assert layers == set(ORDER), f"missing from ORDER: {layers - set(ORDER)}, " \
+        f"gone: {set(ORDER) - layers}"
     bad = []
-    for path in [*(ROOT / "engine").glob("*.py"), *(ROOT / "engine" / "kernels").glob("*.py")]:
-        name = "kernels" if path.parent.name == "kernels" else path.stem
-        if name in ("__init__", "analysis"):
-            continue
-        for dep in _engine_imports(path) - {name}:
+    for path in _engine_files():
+        name = _layer(_module(path))
+        for dep in {_layer(d) for d in _engine_imports(path)} - {name}:
             if dep not in ORDER or ORDER.index(dep) > ORDER.index(name):
                 bad.append(f"{path.relative_to(ROOT)} imports {dep}")
     assert not bad, bad
 
 
 def test_kernels_know_nothing_above_them():
-    for path in (ROOT / "engine" / "kernels").glob("*.py"):
-        assert _engine_imports(path) <= {"kernels", "config"}, path
+    for path in (ENGINE / "fd" / "kernels").glob("*.py"):
+        assert {_layer(d) for d in _engine_imports(path)} <= {"fd.kernels", "config"}, path
 
 
 def test_validating_a_scene_loads_no_numerics():
@@ -70,7 +103,7 @@ def test_validating_a_scene_loads_no_numerics():
             "{'type': 'pluck', 'time': 0, 'string': 1}]}); "
             "engine.estimate_cost({'duration': 1.0, 'events': ["
             "{'type': 'fret', 'time': 0, 'string': 1, 'fret': 3}]}); "
-            "print(sorted(m for m in ('numba', 'scipy', 'engine.kernels') if m in sys.modules))")
+            "print(sorted(m for m in ('numba', 'scipy', 'engine.fd.kernels') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "[]", out.stdout
@@ -87,11 +120,12 @@ def test_the_service_reaches_the_engine_through_its_public_names():
 
 
 def test_the_rooms_beside_the_layers_know_only_what_they_need():
-    """The waveguide model sits beside the finite-difference guitar (``mix`` picks one per
-    track): it may use what the guitar uses, nothing above.  The score importers know only the
-    scene's schema and the presets."""
-    below_mix = set(ORDER[:ORDER.index("waveguide")])
-    for path in (ROOT / "engine" / "waveguide").glob("*.py"):
-        assert _engine_imports(path) - {"waveguide"} <= below_mix, path
-    for path in (ROOT / "engine" / "score").glob("*.py"):
-        assert _engine_imports(path) - {"score"} <= {"scene", "presets"}, path
+    """The two models are siblings: the waveguide imports nothing of ``fd`` (what both need is
+    below them both).  The score importers know only the scene's schema, the presets and the
+    player's gestures."""
+    for path in (ENGINE / "waveguide").glob("*.py"):
+        reach = {d for d in _engine_imports(path) if d == "fd" or d.startswith("fd.")}
+        assert not reach, f"{path.relative_to(ROOT)} imports {reach}"
+    for path in (ENGINE / "score").glob("*.py"):
+        deps = {_layer(d) for d in _engine_imports(path)} - {"score"}
+        assert deps <= {"scene", "presets", "performance"}, path

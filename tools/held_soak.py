@@ -26,7 +26,7 @@ from pydantic import ValidationError
 
 from benchmarks.soak import make_case
 from engine.config import FASTMATH
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.measure import held_steps

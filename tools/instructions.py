@@ -37,7 +37,7 @@ import tempfile
 from pathlib import Path
 
 from benchmarks.speed import LINEAR, chord_events, fretted_events, pluck_events, strum_events
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 
@@ -50,7 +50,7 @@ CPU_FEATURES = ("+64bit,+avx,+avx2,+bmi,+bmi2,+cmov,+cx16,+f16c,+fma,+lzcnt,+mmx
 # The child: prepare and warm every configuration, then render each with a dump marker after it.
 CHILD = r"""
 import json, os, sys
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 configs = json.loads(sys.argv[1])

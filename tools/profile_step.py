@@ -53,7 +53,7 @@ from engine.options import RenderOptions
 from engine.scene import Scene
 
 ROOT = Path(__file__).resolve().parent.parent
-KERNELS = ROOT / "engine" / "kernels"  # the package: one module per part of the step
+KERNELS = ROOT / "engine" / "fd" / "kernels"  # the package: one module per part of the step
 # the step loops that step_block runs, and the linear pass they all call (not inlined); each has
 # its own rows in the table
 RUNS = ("_advance", "_quiet_run", "_held_run", "_pass_kc", "_pass")
@@ -62,8 +62,8 @@ RUNS = ("_advance", "_quiet_run", "_held_run", "_pass_kc", "_pass")
 CHILD = r"""
 import json, sys
 from tools.profile_step import RUNS, scene_and_options
-from engine import kernels
-from engine.guitar import prepare
+from engine.fd import kernels
+from engine.fd.instrument import prepare
 string, fret, kc, ready = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1", sys.argv[4]
 scene, options = scene_and_options(string, fret, kc, 2.0)
 eng = prepare(scene, options)
@@ -100,8 +100,8 @@ while True:
 SIZES = r"""
 import collections, json, sys
 from tools.profile_step import scene_and_options
-from engine.kernels import runs, step, system
-from engine.guitar import prepare
+from engine.fd.kernels import runs, step, system
+from engine.fd.instrument import prepare
 string, fret, kc = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
 sizes = collections.Counter()
 def counted(A, r, n):
@@ -131,7 +131,7 @@ def _one_file_engine(tmp: str) -> Path:
     """A copy of the engine in ``tmp`` whose ``kernels`` is one module, ``kernels.py``: the
     package's modules (``data`` first: the others use its constants and classes at import)
     concatenated, each without its docstring and imports, under the imports they make of other
-    packages (``..config`` becoming ``.config``).  Returns the folder to put first on PYTHONPATH."""
+    packages (``...config`` becoming ``..config``).  Returns the folder to put first on PYTHONPATH."""
     src = Path(tmp) / "src"
     shutil.copytree(ROOT / "engine", src / "engine", ignore=shutil.ignore_patterns(
         "__pycache__", "kernels"))
@@ -139,23 +139,27 @@ def _one_file_engine(tmp: str) -> Path:
     bodies = []
     modules = sorted(KERNELS.glob("*.py"), key=lambda p: (p.stem != "data", p.stem))
     for path in modules:
-        if path.stem == "__init__":
-            continue
         text = path.read_text()
+        if path.stem == "__init__":  # only what it imports from outside the package
+            for node in ast.parse(text).body:
+                if isinstance(node, ast.ImportFrom) and node.level == 3:
+                    names = ", ".join(a.name for a in node.names)
+                    imports[f"from ..{node.module} import {names}"] = None
+            continue
         lines = text.splitlines(keepends=True)
         drop = set()
         for node in ast.parse(text).body:
             if isinstance(node, ast.Import | ast.ImportFrom):
-                if isinstance(node, ast.ImportFrom) and node.level == 2:  # from ..config
+                if isinstance(node, ast.ImportFrom) and node.level == 3:  # from ...config
                     names = ", ".join(a.name for a in node.names)
-                    imports[f"from .{node.module} import {names}"] = None
+                    imports[f"from ..{node.module} import {names}"] = None
                 elif not (isinstance(node, ast.ImportFrom) and node.level == 1):  # not a sibling
                     imports[ast.get_source_segment(text, node)] = None
             elif not (isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)):
                 continue  # (the module's docstring is dropped too)
             drop.update(range(node.lineno - 1, node.end_lineno))
         bodies.append("".join(x for i, x in enumerate(lines) if i not in drop).strip("\n"))
-    (src / "engine" / "kernels.py").write_text("\n".join(imports) + "\n\n\n"
+    (src / "engine" / "fd" / "kernels.py").write_text("\n".join(imports) + "\n\n\n"
                                                + "\n\n\n".join(bodies) + "\n")
     return src
 
@@ -274,7 +278,7 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
             for a, loc in zip(chunk, out, strict=True):
                 m = re.search(r"kernels\.py:(\d+)", loc)
                 lines[a] = int(m.group(1)) if m else None
-        helpers = _helpers(Path(tmp) / "src" / "engine" / "kernels.py")
+        helpers = _helpers(Path(tmp) / "src" / "engine" / "fd" / "kernels.py")
     sizes = json.loads(subprocess.run(
         [sys.executable, "-c", SIZES, str(string), str(fret), "1" if kc else "0"],
         env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(ROOT)},

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 
+from ..performance import truncate
 from ..scene import MAX_DURATION_S, MAX_TRACKS
 from .common import MAX_SCORE_BYTES, ScoreError
 from .labels import scene_labels, scene_notes
@@ -152,8 +153,6 @@ def score_to_scene(source, **options) -> ScoreScene:
     names = [t["name"] for t in scene["tracks"]]
     notes = [p.report(names) for p in planned]
     if max_s is not None:
-        from .common import truncate
-
         scene = truncate(scene, float(max_s))
         notes = [n for n in notes if n["time"] < max_s]
     out = ScoreScene(scene)

@@ -215,26 +215,3 @@ def strum_event(time: float, strings: list[int], direction: str, spread: float, 
                 position: float, style: str) -> dict:
     return {"type": "strum", "time": _r(time), "strings": sorted(strings), "direction": direction,
             "spread": _r(spread), "force": _r(force), "position": _r(position), "style": style}
-
-
-def strum_times(time: float, strings: list[int], direction: str, spread: float) -> dict[int, float]:
-    """When a strum plucks each of its strings (the engine's rule: low to high for ``down``, the
-    spread divided evenly)."""
-    order = sorted(strings, reverse=direction == "down")
-    dt = spread / max(len(order) - 1, 1)
-    return {s: time + i * dt for i, s in enumerate(order)}
-
-
-def truncate(scene: dict, seconds: float) -> dict:
-    """The scene cut at ``seconds``: later events dropped, releases clamped."""
-    for tr in scene["tracks"]:
-        kept = []
-        for e in tr["events"]:
-            if e["time"] >= seconds:
-                continue
-            if "release" in e and e["release"] >= seconds:
-                del e["release"]
-            kept.append(e)
-        tr["events"] = kept
-    scene["duration"] = min(scene["duration"], seconds)
-    return scene

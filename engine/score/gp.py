@@ -37,6 +37,7 @@ import math
 from dataclasses import dataclass
 
 from .. import presets as _presets
+from ..performance import strum_times
 from . import common as C
 from .common import Planned, ScoreError
 
@@ -551,7 +552,8 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         spread = min(spread, 0.5 * (t1 - t0), 0.5)
                         direction = "down" if stroke == "down" else "up"
                         force = sum(n.force for n in plucked) / len(plucked)
-                        times = C.strum_times(t0, strings, direction, spread)
+                        times = dict(strum_times(t0, strings, direction, spread,
+                                                 len(tr.tuning)))
                         for n in plucked:
                             n.attack = "strum"
                             n.time = times[n.string]

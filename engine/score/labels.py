@@ -40,6 +40,7 @@ import math
 from dataclasses import replace
 
 from .. import presets as _presets
+from ..performance import strum_times
 from .common import note_midi
 
 HARMONIC_TOLERANCE = 0.02  # |k r - j| for the touch at r of the speaking length
@@ -94,11 +95,8 @@ def _expand(events: list[dict], n_strings: int, duration: float) -> dict[int, li
     for i, e in enumerate(events):
         kind = e.get("type")
         if kind == "strum":
-            strings = sorted(e.get("strings") or range(1, n_strings + 1),
-                             reverse=e.get("direction", "down") == "down")
-            dt = e.get("spread", 0.03) / max(len(strings) - 1, 1)
-            for k, s in enumerate(strings):
-                t = e["time"] + k * dt
+            for s, t in strum_times(e["time"], e.get("strings"), e.get("direction", "down"),
+                                    e.get("spread", 0.03), n_strings):
                 if t < duration and s in per:
                     per[s].append({"type": "pluck", "time": t, "string": s, "_seq": i,
                                    "_strum": e.get("direction", "down")})

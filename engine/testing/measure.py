@@ -22,7 +22,7 @@ import numpy as np
 import engine
 from engine import QUALITY, RenderOptions, Scene
 from engine.analysis import cents, spectrum_peak
-from engine.guitar import prepare  # the prepared strings: their state is what these measure
+from engine.fd.instrument import prepare  # the prepared strings: their state is what these measure
 from engine.testing.scenes import SR, scene, tap
 from engine.testing.scenes import fret as fret_at
 from engine.testing.scenes import pluck as pluck_at

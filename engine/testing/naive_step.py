@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from engine.kernels import EPS, GAMMA_JOINT, GAMMA_NONE, GAMMA_PAPER
+from engine.fd.kernels import EPS, GAMMA_JOINT, GAMMA_NONE, GAMMA_PAPER
 from engine.testing.scenes import fret, pluck, scene, tap
 
 IDLE, ACTIVE, GONE = 0, 1, 2
@@ -453,8 +453,9 @@ def compare_steps(scene: dict, seconds: float, options=None, start: float = 0.0)
     of steps in which the two differ in a discrete decision (a finger's state, the rigid frets'
     active set), the steps compared and how many steps had each kind of column.  The kernel's
     state goes on to the next step, so differences do not accumulate."""
-    from engine import RenderOptions, Scene, kernels
-    from engine.guitar import prepare
+    from engine import RenderOptions, Scene
+    from engine.fd import kernels
+    from engine.fd.instrument import prepare
 
     sc = Scene.model_validate(scene)
     g = prepare(sc, options or RenderOptions())

@@ -28,8 +28,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from engine import kernels
-from engine.guitar import prepare
+from engine.fd import kernels
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 

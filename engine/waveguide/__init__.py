@@ -54,13 +54,13 @@ guitar is prepared with every fret's damping (``options_from``: ``RenderOptions(
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
-from ..output import Body, add_to_mix, default_pan, pan_gains
+from ..instrument import FINGERS, Instrument, is_lift, lift_kept, output_of
 from ..presets import Preset
-from ..scene import Scene
+from ..scene import Bend, Harmonic, Mute, Scene, Vibrato
+from ..statics import seating_force_n
 from .controls import timeline
 from .fingering import INTONATION, finger_decays
 from .kernel import LOOKAHEAD
@@ -92,38 +92,14 @@ class WaveguideOptions:
 
 
 @dataclass
-class WaveguideInstrument:
-    """A scene's guitar prepared for the waveguide: the same face as ``engine.guitar.Guitar``
-    (``blocks``, ``render_frames``, ``voices``, ``energy_error``, ``warnings``), so that the
-    mixer (``engine.mix``) treats both models alike."""
+class WaveguideInstrument(Instrument):
+    """A scene's guitar prepared for the waveguide (``engine.instrument.Instrument``): a
+    ``WaveguideVoice`` per string that needs simulating, at the scene's rate."""
 
-    scene: Scene
-    preset: Preset
-    voices: list[WaveguideVoice]
-    frames: int
-    options: WaveguideOptions
-    channels: int = 1
-    pans: dict = field(default_factory=dict)
-    body: Body | None = None
-    frame: int = 0
     _warnings: list[str] = field(default_factory=list)
 
-    def blocks(self, block_frames: int | None = None):
-        """Yield the pickup velocity (m/s) block by block at the scene's rate, each string panned
-        (stereo) and through the body as ``engine.guitar.Guitar`` does; with ``body`` None and one
-        channel, the strings' plain sum."""
-        bf = block_frames or self.options.block_frames
-        while self.frame < self.frames:
-            m = min(bf, self.frames - self.frame)
-            yield self.render_frames(m)
-
-    def render_frames(self, m: int) -> np.ndarray:
-        mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
-        for v in self.voices:
-            y = v.run(m)
-            add_to_mix(mix, y, self.pans[v.index])
-        self.frame += m
-        return self.body(mix) if self.body is not None else mix
+    def voice_frames(self, voice: WaveguideVoice, end: int) -> np.ndarray:
+        return voice.run(end - self.frame)  # nothing computed while at rest or decayed
 
     def energy_error(self) -> float:
         """0.0: the waveguide has no discrete energy balance to report.  Its terminations hold
@@ -136,25 +112,33 @@ class WaveguideInstrument:
     def warnings(self) -> list[str]:
         return list(self._warnings)
 
+    # ---- live play (``engine.live``) ----------------------------------------------------------
 
-@lru_cache(maxsize=4096)
-def _seating_force(preset: Preset, string: int, rate: float, fret: int) -> float:
-    from ..intonation import seating_force
-    from ..string import tune
+    @property
+    def live_delay(self) -> int:
+        return LIVE_DELAY
 
-    spec = preset.strings[string - 1]
-    return seating_force(tune(spec, preset.string_length_m(string), rate), preset, fret)
+    def tension_breakpoints(self, voice: WaveguideVoice) -> tuple[np.ndarray, np.ndarray, int]:
+        return voice.pb_step, voice.pb_f, 1  # the pitch ratio's, at the scene's rate
+
+    def rebuild(self, voice: WaveguideVoice, events: list, prune: bool) -> list:
+        """Compile the string's timeline again (``WaveguideVoice.rebuild``); it runs again (a
+        string at rest or decayed too)."""
+        if prune:
+            events = _prune(voice, events)
+        rebuild(voice, events)
+        return events
 
 
 def _seating(preset: Preset, string: int, rate: float):
     """seated(fret, force): does a finger pressing ``force`` N rest the string on ``fret``?  The
-    pressed string's statics (``engine.intonation.seating_force``, on the finite-difference grid
-    of the scene's rate, so both models agree on which notes are dead; cached per process)."""
+    pressed string's statics (``engine.statics.seating_force_n``: both models agree on which
+    notes are dead)."""
 
     def seated(fret: int, force: float | None) -> bool:
         if force is None or fret < 1:
             return True  # a finger with no force of its own presses hard enough
-        return force >= _seating_force(preset, string, rate, fret)
+        return force >= seating_force_n(preset, string, rate, fret)
 
     return seated
 
@@ -166,13 +150,8 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
         raise ValueError(f"intonation must be one of {INTONATION}")
     preset = scene.preset()
     rate = float(scene.sample_rate)
-    out = scene.output
-    if out.pickups:
-        pickups = [p.position for p in out.pickups]
-        gains = np.array([p.gain for p in out.pickups], float)
-    else:
-        pickups = [out.pickup_position or preset.pickup_position]
-        gains = np.ones(1)
+    out = output_of(scene, preset)
+    pickups, gains = out.pickups, out.gains
     voices = []
     warnings: list[tuple[float, str]] = []
     for i in range(1, preset.n_strings + 1):
@@ -192,12 +171,8 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
                                      opts.dispersion, opts.collisions, opts.glide,
                                      opts.finger_damping, opts.skip_decayed,
                                      opts.decay_velocity))
-    frames = int(round(scene.duration * scene.sample_rate))
-    pan = out.pan or default_pan(preset.n_strings)
-    body_name = out.body or preset.body
-    body = Body(body_name, rate, out.channels) if body_name != "none" else None
-    inst = WaveguideInstrument(scene, preset, voices, frames, opts, out.channels,
-                               {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
+    inst = WaveguideInstrument(scene, preset, voices, opts, out.frames, out.channels, out.pans,
+                               out.body)
     inst._warnings = [w for _, w in sorted(warnings)]
     return inst
 
@@ -236,4 +211,40 @@ def render(scene: Scene, options: WaveguideOptions | None = None) -> np.ndarray:
     return np.concatenate(parts) if parts else np.zeros(0)
 
 
+# a junction's pulse (at most 50 ms), release (at most the pulse) and leak (8 time constants at
+# ``pluck.LEAK_HZ``, 64 ms) are over this long after it starts or lets go
+_OVER_S = 0.2
 
+
+def _prune(v: WaveguideVoice, events: list) -> list:
+    """Drop the events whose effect is over at the voice's current step (the same samples: the
+    kernel skips all of these): plucks (and pull-offs) whose junction has let go and leaked away,
+    fingers lifted as long ago (and fret-0 lifts past with no finger kept that they may have
+    lifted), dampers released as long ago, bends and vibratos when the pitch is back at its tuned
+    value for good.  ``_OVER_S`` bounds each junction's pulse, release and leak."""
+    step = v.step
+    rate = v.rate
+    over = round(_OVER_S * rate)
+    tension_done = v.pb_step.size == 0 or (v.pb_step[-1] < step and v.pb_f[-1] == 1.0)
+    # one finger per finger event, in their order (a fret 0 lifts, it puts no finger)
+    fingers = iter(timeline_of(v, events).fingers)
+    keep = [False] * len(events)
+    for i, e in enumerate(events):  # fingers first: a lift is kept with them
+        if isinstance(e, FINGERS) and not is_lift(e):
+            f = next(fingers)
+            keep[i] = round(e.time * rate) >= step or f.rel + over >= step
+    for i, e in enumerate(events):
+        on = round(e.time * rate)
+        if is_lift(e):
+            keep[i] = lift_kept(e, events, keep, step, rate)
+        elif isinstance(e, FINGERS):
+            continue
+        elif on >= step:
+            keep[i] = True
+        elif isinstance(e, Bend | Vibrato):
+            keep[i] = not tension_done
+        elif isinstance(e, Mute | Harmonic):
+            keep[i] = e.release is None or round(e.release * rate) + over >= step
+        else:  # a pluck or a pull-off
+            keep[i] = on + 2 * over >= step
+    return [e for e, k in zip(events, keep, strict=True) if k]

@@ -4,9 +4,9 @@ junctions that act on it.
 Every event type of the scene maps to the model:
 
 * ``pluck`` (every ``style``) and ``strum`` (split into plucks as the finite-difference model
-  does, ``engine.controls.expand``): a plucking junction (``pluck``) carrying the pulse F0(t).
+  does, ``engine.performance.expand``): a plucking junction (``pluck``) carrying the pulse F0(t).
 * ``fret``, ``tap``, ``hammer_on``, ``slide``: fingers.  A finger that presses at least the
-  string's seating force (``engine.intonation.seating_force``, the pressed string's statics; a
+  string's seating force (``engine.statics.seating_force_n``, the pressed string's statics; a
   finger with no force of its own presses hard enough) stops the string on its fret: the
   termination moves to the crown (``fingering``); the stopping fret is the seated finger's nearest
   the bridge.  ``fret``/``tap``/``slide`` lift the finger already on the string, ``hammer_on``
@@ -27,7 +27,7 @@ Every event type of the scene maps to the model:
 * ``bend``, ``vibrato``: the pitch ratio, piecewise linear in time (a bend rises to 2^(s/12)
   over ``duration``, holds until ``release``, returns over ``duration``; a vibrato is sampled 32
   times a cycle), applied to the loop's period (``string``).
-* ``damp``: the finite-difference model's dampers (``engine.controls.DAMP_*``: any finger lifts,
+* ``damp``: the finite-difference model's dampers (``engine.performance.DAMP_*``: any finger lifts,
   and the relaxed hand's fingertips rest on the string from where the fretting finger was
   towards the bridge) as harmonics junctions, until the string's next event.
 
@@ -41,11 +41,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..controls import (
+from ..performance import (
     DAMP_DAMPING,
     DAMP_FINGERS,
     DAMP_OPEN_FRET,
     DAMP_SPACING_M,
+    HARMONIC_DAMPING,
+    PALM_DAMPING,
+    PALM_WIDTH_M,
     PLUCK_STYLES,
     bend_points,
     expand,
@@ -54,9 +57,6 @@ from ..controls import (
 )
 from ..presets import Preset, StringSpec
 
-HARMONIC_DAMPING = 2.0  # x sqrt(T mu), as engine.controls
-PALM_DAMPING = 0.8
-PALM_WIDTH_M = 0.02
 # a finger resting on the string without stopping it: its pad's damping, spread over the pad.  The
 # finger's mass sits behind the soft pad and barely moves with the string at audio frequencies;
 # a rigid mass (or a damper far above the string's impedance) would reflect the waves and leave a
@@ -270,7 +270,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
 
 def _damp(tl: Timeline, e, on: int, events: list, preset: Preset, spec: StringSpec,
           length: float, impedance: float, step) -> None:
-    """A ``damp``, as the finite-difference model has it (``engine.controls.DAMP_*``): every
+    """A ``damp``, as the finite-difference model has it (``engine.performance.DAMP_*``): every
     finger on the string lifts (relaxes), and the relaxed hand's fingertips rest on it from where
     the fretting finger was (fret ``DAMP_OPEN_FRET``'s place on an open string) towards the
     bridge, ``DAMP_FINGERS`` dampers of R = ``DAMP_DAMPING`` sqrt(T mu) ``DAMP_SPACING_M`` apart,

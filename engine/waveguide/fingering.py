@@ -23,7 +23,7 @@ on its mass and contact spring a few millimetres behind the crown) takes energy 
 note through the string's bending over the crown.  That coupling is the finite-difference
 model's physics, which the waveguide's point termination does not have, so g_f is fitted to it:
 the finite-difference model's own linear analysis of the held note
-(``engine.intonation.held_note`` on its converged grid, ``engine.intonation.reference_model``)
+(``engine.fd.intonation.held_note`` on its converged grid, ``engine.fd.intonation.reference_model``)
 gives the held mode's decay by the finger, D dB/s (``finger_decay_db_s``), and
 
     g_f = 10^(D / (20 f1)),                                                      (``finger_reflection``)
@@ -44,7 +44,7 @@ held later waits for it.
 reference.  The light fingering junction of (40)
 without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
 what it models well, a finger that touches without stopping: a dead note (a ``fret`` pressing
-less than the string's seating force, ``engine.intonation.seating_force``), the harmonic touch and
+less than the string's seating force, ``engine.fd.intonation.seating_force``), the harmonic touch and
 the palm (``pluck``, ``controls``).
 
 Pitch of a stopped string.  The termination's delay is tuned so the stopped loop sounds f_q
@@ -80,37 +80,28 @@ from __future__ import annotations
 import math
 from functools import lru_cache
 
-from threadpoolctl import threadpool_limits
-
 from .. import calibration_store
-from ..controls import finger_x_m
+from ..performance import finger_x_m
 from ..presets import Preset
+from ..statics import held_note_decay_db_s
 from .string import Physical
 
 FRET_REFLECTION = 1.0  # the crown's own reflection
 INTONATION = ("ideal", "physical")
 # the code ``finger_decay_db_s`` adds to the fret calibrations' (``calibration_store._SOURCES``)
-SOURCES = ("waveguide/fingering.py",)
+SOURCES = ("waveguide/fingering.py", "statics.py")
 
 
 @lru_cache(maxsize=4096)
 def finger_decay_db_s(preset: Preset, string: int, rate: float, fret: int) -> float:
     """dB/s (<= 0) of the held note at ``fret`` by the finger's contact damping: the
-    finite-difference model's held-note analysis on its converged grid (``engine.intonation``);
+    finite-difference model's held-note analysis on its converged grid (``engine.statics``);
     0 where it finds no mode near the note.  Cached per process, and on disk per machine
     (``engine.calibration_store``: the value read back is the one computed, to the bit)."""
     rate = float(rate)
 
     def compute() -> tuple[float]:
-        from ..intonation import held_note, reference_model
-        from ..string import tune
-
-        spec = preset.strings[string - 1]
-        model = reference_model(tune(spec, preset.string_length_m(string), rate))
-        # BLAS on one thread, as the fret calibrations (``intonation._each_fret``): the value
-        # does not depend on the machine's thread count, nor on who computed it first
-        with threadpool_limits(limits=1, user_api="blas"):
-            d = held_note(model, preset, fret, spec.frequency_hz * 2 ** (fret / 12)).decay_db_s
+        d = held_note_decay_db_s(preset, string, rate, fret)
         return (min(d, 0.0) if math.isfinite(d) else 0.0,)
 
     return calibration_store.recall("finger_decay_db_s", (preset, string, rate, fret), compute,

@@ -78,7 +78,7 @@ waves that pass it during the pulse.)
 
 Force shapes and phases.  F0(t) is the scene's pluck pulse, the finite-difference model's f_e(t):
 F0 = F sin^2(pi t / (2 Delta)) for 0 <= t <= Delta, then released at once (the detach phase);
-``style`` sets Delta and the sign (``engine.controls.PLUCK_STYLES``: pick 0.3 ms, finger 1 ms,
+``style`` sets Delta and the sign (``engine.performance.PLUCK_STYLES``: pick 0.3 ms, finger 1 ms,
 slap 0.5 ms towards the fretboard, pop 2 ms away from it).  M(t), K(t) and R(t) follow the same
 envelope (the contact builds up with the force) and then let go over the pulse's length (an
 abrupt end would drop the junction's perturbation h at once: a displacement step, i.e. a click;

@@ -30,7 +30,7 @@ stopped string, ``fingering``), at grid index n_t:
   termination moves one grid step along the string and D changes by 2, which leaves the loop's
   length, and the samples the Lagrange taps read, where they were (``kernel``).
 * Loss: a one-pole low-pass H_loss(z) = g (1 + a) / (1 + a z^-1), -1 < a <= 0, fitted per loop
-  length so that the loop decays as the finite-difference string does (``engine.string``: the mode
+  length so that the loop decays as the finite-difference string does (``engine.fd.string``: the mode
   at frequency f decays at sigma(f) = sigma0 + sigma1 xi(f), xi the squared wavenumber, from the
   preset's two T60 values): |H_loss(f)| = exp(-sigma(f) P / fs) at the fundamental and at 2 kHz.
   |H_loss| <= g <= 1 at every frequency (passive).
@@ -54,8 +54,8 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from ..losses import LN1000, loss_coefficients
 from ..presets import Preset, StringSpec
-from ..string import LN1000, loss_coefficients
 
 MAX_SECTIONS = 4  # dispersion allpass sections at most
 D_LOW, D_HIGH = 1.0, 3.0  # the fractional delay's range (samples)

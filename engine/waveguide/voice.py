@@ -26,9 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kernels import entry_point
+from ..config import entry_point
+from ..instrument import DECAY_CHECK_FRAMES
 from ..presets import Preset
-from ..voice import DECAY_CHECK_FRAMES
 from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
@@ -81,7 +81,7 @@ class WaveguideVoice:
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
-    _run: object = field(default=None, repr=False)  # engine.kernels.entry_point of run_block
+    _run: object = field(default=None, repr=False)  # engine.config.entry_point of run_block
     ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
     _ramped: bool = False  # the last kernel call was a step of such a move
     # the kernel's arrays, in groups (``_group``)

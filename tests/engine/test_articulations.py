@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing import articulations as art

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import engine
-from engine import calibration_store, config, intonation
-from engine.guitar import prepare
+from engine import calibration_store, config
+from engine.fd import intonation
+from engine.fd.instrument import prepare
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck, scene
 from engine.waveguide import fingering

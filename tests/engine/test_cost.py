@@ -5,20 +5,12 @@ from __future__ import annotations
 import pytest
 
 import engine
-from engine.controls import events_on
-from engine.cost import FINGER_EVENTS, MIN_NODES, QUALITY_GRID, expanded_event_count
+from engine.cost import expanded_event_count
+from engine.fd.voice import string_model
 from engine.options import QUALITY, RenderOptions
+from engine.performance import events_on
 from engine.presets import PRESETS
 from engine.scene import Scene
-from engine.string import MIN_NODES as STRING_MIN_NODES
-from engine.voice import string_model
-
-
-def test_the_estimate_uses_the_engines_constants():
-    assert QUALITY_GRID == {name: (q.max_h_m, q.max_oversample) for name, q in QUALITY.items()}
-    assert MIN_NODES == STRING_MIN_NODES
-    from engine.controls import FINGER_EVENTS as ENGINE_FINGER_EVENTS
-    assert FINGER_EVENTS == ENGINE_FINGER_EVENTS
 
 
 def _scene(preset, quality, rate, kind):
@@ -73,6 +65,7 @@ def test_the_estimate_is_linear_in_duration_and_counts_only_strings_with_events(
     ([{"type": "strum", "time": 0}], 6),
     ([{"type": "strum", "time": 0, "strings": [1, 3]}], 2),
     ([{"type": "mute", "time": 0}], 6),
+    ([{"type": "damp", "time": 0}], 6),  # a damp without a string damps every string
     ([{"type": "mute", "time": 0, "string": 2}, {"type": "pluck", "time": 0, "string": 2}], 2),
     ([{"type": "strum", "time": 0}] * 10 + [{"type": "mute", "time": 0}] * 3, 78),
 ])

@@ -1,4 +1,4 @@
-"""The ``damp`` event: the relaxed fretting hand stops the string (engine/controls.py: DAMP_*)."""
+"""The ``damp`` event: the relaxed fretting hand stops the string (engine/fd/controls.py: DAMP_*)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.scene import Scene
 
 SR = 44100
@@ -66,7 +66,7 @@ def test_energy_balance_holds_through_a_damp(string, fret):
 
 
 def test_a_damped_string_stops_being_computed():
-    """The decayed-string skip (engine/voice.py) stops a damped string soon after the damp; the
+    """The decayed-string skip (engine/fd/voice.py) stops a damped string soon after the damp; the
     same note left ringing is computed to the end."""
     stopped_at = {}
     for damped in (True, False):

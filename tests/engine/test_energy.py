@@ -4,10 +4,9 @@ import numpy as np
 import pytest
 
 import engine
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.scene import Scene
-from engine.string import FRET_PENALTY
 from engine.testing.scenes import fret, pluck, scene, tap
 from engine.testing.stability import LIMITS, check
 
@@ -50,7 +49,7 @@ def test_a_slam_onto_the_fretboard_balances(rigid_board):
 
 
 def test_penalty_frets_of_the_paper_also_balance():
-    q = Quality(max_h_m=QUALITY["standard"].max_h_m, fret_mode=FRET_PENALTY)
+    q = Quality(max_h_m=QUALITY["standard"].max_h_m, fret_mode="penalty")
     sc = scene([fret(3, 5), pluck(3, time=0.05, force=8.0)], duration=0.4, diagnostics=True)
     r = engine.render(sc, options=RenderOptions(quality=q))
     assert 0.0 < r.energy_error <= TOL

@@ -9,7 +9,7 @@ the stability soak's random scenes both ways).
 import numpy as np
 import pytest
 
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.measure import held_steps

@@ -8,8 +8,9 @@ import pytest
 from pydantic import ValidationError
 
 import engine
-from engine.controls import MAX_FINGERS, NEVER, events_on, string_controls
-from engine.guitar import prepare
+from engine.fd.controls import NEVER, string_controls
+from engine.fd.instrument import prepare
+from engine.performance import MAX_FINGERS, events_on
 from engine.scene import MAX_RELEASE_S, Scene
 
 

@@ -1,4 +1,4 @@
-"""Calibrated fret interpolants (engine/intonation.py): the held-note model against rendered
+"""Calibrated fret interpolants (engine/fd/intonation.py): the held-note model against rendered
 notes, and fretted notes in tune on a coarse grid."""
 
 import math
@@ -10,8 +10,8 @@ import pytest
 
 import engine
 from engine.analysis import cents, decay_db_per_s, spectrum_peak
-from engine.controls import events_on, finger_x_m, stopped_frets, string_controls
-from engine.intonation import (
+from engine.fd.controls import stopped_frets, string_controls
+from engine.fd.intonation import (
     DECAY_TOLERANCE_DB_S,
     REFERENCE_H_M,
     SEAT_MARGIN,
@@ -23,12 +23,13 @@ from engine.intonation import (
     reference_model,
     seating_force,
 )
+from engine.fd.string import geometry, tune
+from engine.fd.voice import string_model
 from engine.options import QUALITY, Quality, RenderOptions
+from engine.performance import events_on, finger_x_m
 from engine.scene import Fret, Scene
-from engine.string import geometry, tune
 from engine.testing.measure import holds, resting_share
 from engine.testing.scenes import SR, fret, pluck, scene
-from engine.voice import string_model
 
 
 def _string(preset, s, rate=SR):
@@ -173,8 +174,8 @@ def test_the_stopped_frets_are_calibrated_and_their_fingers_move_with_them(steel
 def test_the_shifts_are_the_same_in_every_process(steel):
     """ARPACK starts from a random vector unless given one: the audio would differ in its last bits
     between the service's workers."""
-    code = ("from engine.intonation import fret_shift; from engine.presets import get_preset; "
-            "from engine.string import tune; p = get_preset('steel-acoustic'); "
+    code = ("from engine.fd.intonation import fret_shift; from engine.presets import get_preset; "
+            "from engine.fd.string import tune; p = get_preset('steel-acoustic'); "
             "print(repr(fret_shift(tune(p.strings[0], p.string_length_m(1), 44100), p, 5)))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == repr(fret_shift(_string(steel, 1), steel, 5))

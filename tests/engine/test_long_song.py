@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import engine
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.output import FIXED_GAIN
 from engine.scene import Scene

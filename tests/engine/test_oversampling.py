@@ -1,6 +1,6 @@
 """Strings at different internal rates line up in time: the decimator's delay is removed exactly.
 
-Fingered strings are oversampled for contact resolution and open ones are not (engine.guitar), so
+Fingered strings are oversampled for contact resolution and open ones are not (engine.fd.instrument), so
 a delay left in the decimation filter (24 f + 1 taps: 12 output samples) shifted them against each
 other within one scene.
 """

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import engine
-from engine import guitar as guitar_module
-from engine.guitar import prepare
+from engine.fd import instrument as guitar_module
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck
@@ -65,11 +65,11 @@ _AFTER_WARMUP = r"""
 import json, sys
 import numpy as np
 from numba.core.dispatcher import Dispatcher
-import engine, engine.kernels, engine.output
+import engine, engine.fd.kernels, engine.output
 
 def signatures():
     out = {}
-    for mod in (engine.kernels, engine.output):
+    for mod in (engine.fd.kernels, engine.output):
         for name, obj in vars(mod).items():
             if isinstance(obj, Dispatcher):
                 out[mod.__name__ + "." + name] = sorted(str(s) for s in obj.signatures)
@@ -118,8 +118,8 @@ def test_warmup_leaves_nothing_to_compile():
     assert proc.returncode == 0, proc.stderr
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     before, after = got["before"], got["after"]
-    assert before["engine.kernels.step_block"], "warmup() did not run the time-step kernel"
-    assert before["engine.kernels.fir_decimate"], "warmup() did not run the decimator"
+    assert before["engine.fd.kernels.step_block"], "warmup() did not run the time-step kernel"
+    assert before["engine.output.fir_decimate"], "warmup() did not run the decimator"
     assert before["engine.output._modal"], "warmup() did not run the body filter"
     assert after == before
 
@@ -206,3 +206,17 @@ def test_render_result_carries_the_warnings_without_diagnostics_and_survives_the
     failed = engine.render_result(light_tap)
     assert failed.warnings == [] and np.array_equal(failed.audio, result.audio)
     assert "warnings failed" in caplog.text
+
+
+def test_every_model_the_schema_names_has_an_instrument():
+    """``engine.models`` is the one place that maps a scene's ``model`` to an instrument: one for
+    each name the schema accepts, each with the face the mixer and the live session use."""
+    from engine import models
+    from engine.instrument import Instrument
+
+    assert tuple(models.PREPARE) == engine.MODELS
+    for model in engine.MODELS:
+        sc = engine.parse_scene({"duration": 0.01, "model": model, "events": [pluck(1)]})
+        inst = models.prepare(sc)
+        assert isinstance(inst, Instrument), model
+        assert sum(len(b) for b in inst.blocks(64)) == engine.frame_count(sc)

@@ -93,7 +93,7 @@ def test_a_string_just_inside_the_stiffness_limit_renders_a_full_vibrato():
 
 def test_a_pitch_too_high_to_pin_the_10th_partial_is_rendered_in_tune():
     """An open C6 at 22.05 kHz: partial 10 (10.5 kHz) is above 0.4 x the rate, so the dispersion
-    compensation pins a lower one (engine.string.pinned_partial); the string renders, in tune."""
+    compensation pins a lower one (engine.fd.string.pinned_partial); the string renders, in tune."""
     from engine.analysis import cents, spectrum_peak
 
     sc = {"duration": 0.5, "sample_rate": 22050, "quality": "draft", "output": {"body": "none"},

@@ -5,7 +5,7 @@ import time
 import numpy as np
 import pytest
 
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.measure import held_steps, kc_skip_pitch_shift, quiet_share

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from pydantic import ValidationError
 
 import engine
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import MAX_FINGER_FORCE_N, MAX_PLUCK_FORCE_N, MAX_TAP_VELOCITY_M_S, Scene
 from engine.testing.measure import board_depth

@@ -7,10 +7,10 @@ import pytest
 
 import engine
 from engine.analysis import cents, partials, spectrum_peak
-from engine.guitar import prepare
+from engine.fd.instrument import prepare
+from engine.fd.string import h_min, tune
 from engine.presets import PRESETS
 from engine.scene import Scene
-from engine.string import h_min, tune
 from engine.testing.scenes import SR, pluck, scene
 
 CASES = [(p, s) for p in sorted(PRESETS) for s in range(1, PRESETS[p].n_strings + 1)]

@@ -22,7 +22,7 @@ def test_the_line_table_build_has_every_kernel_in_one_module(tmp_path):
     from tools.profile_step import ROOT, _helpers, _one_file_engine
 
     src = _one_file_engine(str(tmp_path))
-    probe = ("import json, engine.kernels as k; "
+    probe = ("import json, engine.fd.kernels as k; "
              "print(json.dumps([k.__file__, sorted(n for n in vars(k) if not n.startswith('__'))]))")
     names = {}
     for path in (f"{src}{os.pathsep}{ROOT}", str(ROOT)):
@@ -32,8 +32,8 @@ def test_the_line_table_build_has_every_kernel_in_one_module(tmp_path):
         names[file.endswith("kernels.py")] = set(defined)
     one, package = names[True], names[False]
     submodules = {"data", "linear", "excitation", "collisions", "finger", "sav", "system",
-                  "energy", "runs", "step", "decimate"}
+                  "energy", "runs", "step"}
     assert package - submodules <= one
-    helpers = [name for _, name in _helpers(src / "engine" / "kernels.py")]
-    assert {"_held_run", "_pass_kc", "_solve", "step_block", "fir_decimate"} <= set(helpers)
+    helpers = [name for _, name in _helpers(src / "engine" / "fd" / "kernels.py")]
+    assert {"_held_run", "_pass_kc", "_solve", "step_block"} <= set(helpers)
     assert len(helpers) == len(set(helpers))

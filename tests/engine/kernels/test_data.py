@@ -1,10 +1,10 @@
-"""engine.kernels.data: the kept entry point is the one numba would pick, for the types it tells
+"""engine.fd.kernels.data: the kept entry point is the one numba would pick, for the types it tells
 apart."""
 
 import numpy as np
 
-from engine import kernels
-from engine.guitar import prepare
+from engine.fd import kernels
+from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck, scene

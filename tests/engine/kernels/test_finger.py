@@ -1,4 +1,4 @@
-"""engine.kernels.finger: the finger's SAV gradient is that of sqrt(2 V), its free update is
+"""engine.fd.kernels.finger: the finger's SAV gradient is that of sqrt(2 V), its free update is
 Newton's law, and a slide glides linearly."""
 
 import math
@@ -7,7 +7,7 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
-from engine.kernels import EPS, _beta, _eta, _finger_x, _w_free
+from engine.fd.kernels import EPS, _beta, _eta, _finger_x, _w_free
 
 
 class _Finger(NamedTuple):

@@ -26,7 +26,7 @@ def test_step_matches_the_naive_reference(name):
 
 
 def test_penalty_frets_match_the_naive_reference():
-    q = replace(QUALITY["standard"], fret_mode=2, calibrate_frets=False)
+    q = replace(QUALITY["standard"], fret_mode="penalty", calibrate_frets=False)
     r = compare_steps(scene([fret(3, 5), pluck(3, time=0.002, force=4.0)], 0.006), 0.006,
                       RenderOptions(quality=q))
     assert r["kinds"].get("sav", 0) > 100, r["kinds"]
@@ -50,7 +50,7 @@ def test_a_landed_fingers_calibrated_damping_matches_the_naive_reference():
     calibrated for that fret (``intonation.finger_damping``, several times the preset's there)
     from 10 ms on, inside the stretch compared."""
     from engine import Scene
-    from engine.guitar import prepare
+    from engine.fd.instrument import prepare
     from engine.testing.scenes import SR
 
     sc = scene([fret(4, 10), pluck(4, time=0.008, force=4.0)], 0.014)

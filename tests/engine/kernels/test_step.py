@@ -1,4 +1,4 @@
-"""engine.kernels.step: the compiled step stays inside its arrays (checked by running it as Python)
+"""engine.fd.kernels.step: the compiled step stays inside its arrays (checked by running it as Python)
 and frees every array it allocates."""
 
 import json

@@ -1,9 +1,9 @@
-"""engine.kernels.system: the small solve against numpy's, which systems take the arrowhead solve,
+"""engine.fd.kernels.system: the small solve against numpy's, which systems take the arrowhead solve,
 and singular systems reported."""
 
 import numpy as np
 
-from engine import kernels
+from engine.fd import kernels
 
 
 def _system(n, rng, zero_lead=False):

@@ -1,6 +1,6 @@
 """The finger's damping of a held note on the waveguide (``engine.waveguide.fingering``): the fingering
 termination loses per period what the finite-difference model's finger takes from the held mode
-(its own linear analysis, ``engine.intonation.held_note`` on the converged grid)."""
+(its own linear analysis, ``engine.fd.intonation.held_note`` on the converged grid)."""
 
 from __future__ import annotations
 

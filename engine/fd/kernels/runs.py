@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..config import JIT, JIT_STEP
+from ...config import JIT, JIT_STEP
 from .collisions import _add_rigid, _contact, _fret_hit, _rigid_row
 from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy

@@ -12,7 +12,7 @@ import math
 
 from numba import njit
 
-from ..config import JIT_HELPER
+from ...config import JIT_HELPER
 from .data import EPS
 
 

@@ -21,11 +21,14 @@ from functools import partial
 import numpy as np
 from scipy import optimize
 
-from .grid import LN1000, h_min, loss_coefficients  # noqa: F401  (defined there, used here)
+from ..losses import loss_coefficients
+from ..presets import Preset, StringSpec, get_preset
+from .grid import MIN_NODES, h_min
 from .kernels import Coefs, Geo, interp
-from .presets import Preset, StringSpec, get_preset
 
 FRET_NONE, FRET_RIGID, FRET_PENALTY = 0, 1, 2
+# ``engine.options.FRET_MODES`` by name
+FRET_MODE_CODES = {"none": FRET_NONE, "rigid": FRET_RIGID, "penalty": FRET_PENALTY}
 
 
 def scheme_frequency(mode: int, n: int, length: float, k: float, tension: float, rho_a: float,
@@ -129,7 +132,6 @@ def pinned_partial(model: StringModel, sample_rate: float) -> int:
     return 1
 
 
-MIN_NODES = 4
 
 
 class _Untunable(ArithmeticError):
@@ -346,7 +348,7 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  Without
     ``fretboard`` the board is out of reach everywhere, so that no node counts as below it (the
     kernel forms no board column then, and quiet steps do not stop for it).  ``fret_shifts``
-    (fret -> metres, ``engine.intonation.fret_shifts``) moves those frets' interpolants along the
+    (fret -> metres, ``engine.fd.intonation.fret_shifts``) moves those frets' interpolants along the
     string; their heights stay those at x_q.  With ``rigid_board`` (rigid frets only) the
     fretboard is one rigid constraint per node over it, after the frets (``Geo``), within reach
     where a node of u^n is below the board plus ``margin`` (``Geo.bnear``)."""

@@ -1,8 +1,8 @@
 """One string of a scene: its grid, coefficients, controls and the state carried across blocks.
 
-A ``Voice`` is what ``engine.guitar`` builds per string that needs simulating: the string tuned on
+A ``Voice`` is what ``engine.fd.instrument`` builds per string that needs simulating: the string tuned on
 the grid its quality asks for (``string_model``, ``oversample_for``), the kernel's inputs
-(``engine.string``, ``engine.controls``), the state ``kernels.step_block`` advances, and the
+(``engine.fd.string``, ``engine.fd.controls``), the state ``kernels.step_block`` advances, and the
 energy series of the discrete balance (paper sec. 6.1) when diagnostics are on.  It also owns the
 last skip of the render: a string whose motion has decayed below ``decay_velocity`` after its
 last event stops being computed, and one that has decayed so before its next event sleeps until
@@ -17,17 +17,16 @@ from functools import partial
 
 import numpy as np
 
+from ..instrument import DECAY_CHECK_FRAMES
+from ..options import Quality, RenderOptions
+from ..output import Decimator
+from ..performance import FINGER_EVENTS, max_tension_ratio
+from ..presets import Preset
+from ..scene import MAX_BEND_SEMITONES
 from . import kernels
-from .controls import FINGER_EVENTS, NEVER, StringControls, max_tension_ratio
-from .options import Quality, RenderOptions
-from .output import Decimator
-from .presets import Preset
-from .scene import MAX_BEND_SEMITONES
+from .controls import NEVER, StringControls
 from .string import StringModel, dispersion_cents, tension_ratio_for_cents, tune
 
-# The decay skip tests a string every this many output frames (on the global step grid, whatever
-# the block size): the samples a render gives do not depend on its blocks.
-DECAY_CHECK_FRAMES = 1024
 SLEEP_MIN_STEPS = 4096  # a string sleeps only through a longer stillness (not worth it below)
 
 
@@ -84,7 +83,7 @@ class Voice:
     policy: kernels.Policy
     tension_ratio: float = 1.0  # the highest the scene's bends reach, over the tuned tension
     energy_series: bool = False  # keep the per-step series (else running figures only)
-    # events (on this string, sorted) -> (controls, geometry) on this grid (``guitar.prepare``):
+    # events (on this string, sorted) -> (controls, geometry) on this grid (``instrument.prepare``):
     # a live session recompiles them as events arrive
     rebuild: object = field(default=None, repr=False)
     step: int = 0
@@ -124,6 +123,17 @@ class Voice:
     @property
     def u1(self) -> np.ndarray:
         return self.state.u1
+
+    def frames(self, end: int) -> np.ndarray:
+        """The pickup velocity at the output rate up to output frame ``end``: the string run
+        until ``Decimator.lead`` steps past that frame's step, and decimated.  A stopped string
+        whose filter holds nothing gives zeros without running the filter."""
+        nsteps = end * self.oversample + self.decimator.lead - self.step
+        d = self.decimator
+        if self.stopped and (d.factor == 1 or not d.history.any()):
+            self.step += nsteps
+            return d.skip(nsteps)
+        return d(self.run(nsteps))
 
     def run(self, nsteps: int) -> np.ndarray:
         """Advance nsteps internal steps; return the pickup mix at the internal rate.

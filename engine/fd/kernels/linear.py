@@ -3,7 +3,7 @@ the Kirchhoff-Carrier column q = D u^n and its dot products, eqs. (37) and (52);
 bend's tension; the interpolant j of eqs. (15)-(16) through which point forces act and points are
 read (1^T j = 1); the pickups' read-out of the string's velocity.
 
-Arrays ``U`` hold the N - 1 interior nodes with two ghost cells each side (see ``engine.kernels``);
+Arrays ``U`` hold the N - 1 interior nodes with two ghost cells each side (see ``engine.fd.kernels``);
 loops run over non-negative offsets (U[j] ... U[j + 4]) so that LLVM vectorises them.
 """
 
@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_HELPER
+from ...config import JIT, JIT_HELPER
 
 
 @njit(**JIT_HELPER)

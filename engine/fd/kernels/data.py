@@ -1,8 +1,8 @@
 """What the kernels of one string share: the column kinds and finger states they switch on, the
-per-string constants of the scheme (``Coefs``, built by ``engine.string``), the geometry of its
-contacts (``Geo``), the controls its events become (``Controls``, ``engine.controls``), the state
+per-string constants of the scheme (``Coefs``, built by ``engine.fd.string``), the geometry of its
+contacts (``Geo``), the controls its events become (``Controls``, ``engine.fd.controls``), the state
 carried from block to block (``State``) and the general step's scratch (``Work``): type-stable
-NamedTuples of floats and arrays.  ``entry_point`` looks the compiled step up once per process.
+NamedTuples of floats and arrays.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ GAMMA_JOINT, GAMMA_OWN, GAMMA_PAPER, GAMMA_NONE = 0, 1, 2, 3
 
 
 class Coefs(NamedTuple):
-    """Per-string constants of the scheme (all SI); built by ``engine.string``."""
+    """Per-string constants of the scheme (all SI); built by ``engine.fd.string``."""
 
     n: int  # N, number of grid intervals
     k: float  # time step, s
@@ -64,7 +64,7 @@ class Coefs(NamedTuple):
 
 
 class Geo(NamedTuple):
-    """Static geometry on the grid: fretboard, frets, pickups (built by ``engine.string``).
+    """Static geometry on the grid: fretboard, frets, pickups (built by ``engine.fd.string``).
 
     The rigid constraints are the frets, then (a rigid fretboard) one per node over the board:
     the fret arrays hold both, the first ``nfret`` entries the frets, each further one a node p
@@ -98,7 +98,7 @@ class Policy(NamedTuple):
 
 
 class Controls(NamedTuple):
-    """What the player does, as step-indexed arrays (built by ``engine.controls``)."""
+    """What the player does, as step-indexed arrays (built by ``engine.fd.controls``)."""
 
     pl_start: np.ndarray  # plucks: first step, length in steps, signed peak force, interpolant
     pl_len: np.ndarray
@@ -115,7 +115,7 @@ class Controls(NamedTuple):
     fs_force: np.ndarray
     fs_v0: np.ndarray
     fs_gap: np.ndarray
-    # contact damping R (N s/m) of a finger held from step fs_rs on (``engine.intonation``
+    # contact damping R (N s/m) of a finger held from step fs_rs on (``engine.fd.intonation``
     # calibrates it per fret); before that step, while it lands, ``Coefs.fg_r``
     fs_r: np.ndarray
     fs_rs: np.ndarray
@@ -189,38 +189,3 @@ class Work(NamedTuple):
     fcol: np.ndarray  # the finger's column (-1: none)
     rd: np.ndarray  # ``_ray_blocked``'s direction and system
     ra: np.ndarray
-
-
-def _type_key(a):
-    """What numba's ``typeof`` reads of an argument of the kinds the kernels take, as a hashable
-    key: an array's dtype, dimensions, layout (C before F, as numba maps it), writability and
-    alignment; a tuple's class and items, recursively; a scalar's Python type."""
-    if isinstance(a, np.ndarray):
-        f = a.flags
-        layout = "C" if f.c_contiguous else "F" if f.f_contiguous else "A"
-        return (a.dtype.str, a.ndim, layout, f.writeable, f.aligned)
-    if isinstance(a, tuple):
-        return (type(a), *(_type_key(v) for v in a))
-    return type(a)
-
-
-_ENTRIES: dict = {}
-
-
-def entry_point(dispatcher, args):
-    """The compiled function behind a numba dispatcher for the types of ``args``, compiled or
-    loaded from the cache if need be.  Calling it skips the dispatcher's type resolution, which
-    for the NamedTuples of arrays ``step_block`` takes costs more than the unboxing itself.
-    Resolving the types once per string (numba's ``typeof`` of some sixty arrays) was itself a
-    visible share of a short render, so the result is kept per process, keyed by ``_type_key``,
-    which is much cheaper to compute.  Only for arguments of exactly these types (it unboxes by the
-    signature it was compiled for).  With ``NUMBA_DISABLE_JIT=1`` the kernels are Python, indexed
-    with numpy's bounds checks (``tests/engine/kernels/test_step.py`` renders that way)."""
-    if not hasattr(dispatcher, "compile"):  # NUMBA_DISABLE_JIT=1: a plain Python function
-        return dispatcher
-    key = (dispatcher, _type_key(args))
-    fn = _ENTRIES.get(key)
-    if fn is None:
-        fn = dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
-        _ENTRIES[key] = fn
-    return fn

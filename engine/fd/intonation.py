@@ -6,7 +6,7 @@ finger's interpolants (eq. (15)) fall between the nodes changes the held string'
 is linear, and this module computes it.  The held note is modelled as
 
 * the scheme's stiffness and mass on the grid, h (T D^T D + E I (D^T D)^2) and rho A h per node
-  (the tuned T and E I of ``engine.string.tune``), fixed and simply supported at both ends;
+  (the tuned T and E I of ``engine.fd.string.tune``), fixed and simply supported at both ends;
 * the frets on both sides of the finger as equality constraints j_q^T u = 0 on their interpolants
   (a pressed string rests on both; docs/engine.md);
 * the finger (eqs. (9)-(10)) as its mass on its contact spring, linearised at its pressing force
@@ -45,10 +45,10 @@ from scipy import sparse
 from scipy.sparse import linalg as sparse_linalg
 from threadpoolctl import threadpool_limits
 
-from . import calibration_store
-from .controls import finger_x_m
+from .. import calibration_store
+from ..performance import finger_x_m
+from ..presets import Preset
 from .kernels import interp
-from .presets import Preset
 from .string import StringModel, tune
 
 REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are matched to

@@ -34,15 +34,19 @@ from functools import cache, partial
 
 import numpy as np
 
+from ..instrument import FINGERS, Instrument, is_lift, lift_kept, output_of
+from ..options import FRET_MODES, GAMMA_RULES, QUALITY, RenderOptions
+from ..output import Decimator
+from ..performance import events_on
+from ..presets import Preset
+from ..scene import Bend, Harmonic, Mute, PullOff, Scene, Slide, Vibrato
 from . import kernels
-from .controls import events_on, stopped_frets, string_controls
+from .controls import stopped_frets, string_controls
 from .intonation import fret_calibrations, fret_shifts, press_force
-from .options import GAMMA_RULES, QUALITY, RenderOptions
-from .output import Body, Decimator, add_to_mix, default_pan, pan_gains
 from .playability import finger_warnings, pull_off_warnings
-from .presets import Preset
-from .scene import Scene, frame_count
 from .string import (
+    FRET_MODE_CODES,
+    FRET_NONE,
     FRET_RIGID,
     coefficients,
     fret_margin,
@@ -52,38 +56,19 @@ from .string import (
 )
 from .voice import Voice, string_model
 
+# ``engine.options.GAMMA_RULES`` by name
+GAMMA_CODES = {"joint": kernels.GAMMA_JOINT, "own": kernels.GAMMA_OWN, "paper": kernels.GAMMA_PAPER,
+              "none": kernels.GAMMA_NONE}
+
 
 @dataclass
-class Guitar:
-    """A scene's guitar prepared for rendering: a voice for each string that needs simulating,
-    the pickups' pan and the body (``engine.scene.Guitar`` is its description in the scene)."""
+class Guitar(Instrument):
+    """A scene's guitar prepared for rendering (``engine.instrument.Instrument``): a ``Voice``
+    for each string that needs simulating, the pickups' pan and the body (``engine.scene.Guitar``
+    is its description in the scene)."""
 
-    scene: Scene
-    preset: Preset
-    voices: list[Voice]
-    options: RenderOptions
-    frames: int
-    channels: int
-    pans: dict[int, tuple[float, float]]
-    body: Body | None
-    frame: int = 0
-
-    def blocks(self, block_frames: int | None = None):
-        """Yield the mix (pickup velocity, m/s, at the output rate; shape (m,) for mono and
-        (m, 2) for stereo) block by block, through the body response if there is one."""
-        bf = block_frames or self.options.block_frames
-        while self.frame < self.frames:
-            m = min(bf, self.frames - self.frame)
-            yield self.render_frames(m)
-
-    def render_frames(self, m: int) -> np.ndarray:
-        mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
-        for v in self.voices:
-            target = (self.frame + m) * v.oversample + v.decimator.lead
-            y = v.decimator(v.run(target - v.step))
-            add_to_mix(mix, y, self.pans[v.index])
-        self.frame += m
-        return self.body(mix) if self.body is not None else mix
+    def voice_frames(self, voice: Voice, end: int) -> np.ndarray:
+        return voice.frames(end)
 
     def energy_error(self) -> float:
         return max((v.energy_error() for v in self.voices), default=0.0)
@@ -99,6 +84,38 @@ class Guitar:
             out += pull_off_warnings(v.index, events)
         return [text for _, _, text in sorted(out)]
 
+    # ---- live play (``engine.live``) ----------------------------------------------------------
+
+    @property
+    def live_delay(self) -> int:
+        """A string's output frame m is centred on its internal step m f + (f - 1) / 2, and the
+        decimation filter needs ``Decimator.lead`` steps past it, so when a block ends a string
+        has been simulated ``lead`` steps (``ceil(lead / f)`` frames) beyond it: the largest over
+        the strings (13 frames at factors 2 and 3: 0.3 ms at 44.1 kHz)."""
+        return max((-(-v.decimator.lead // v.oversample) for v in self.voices), default=0)
+
+    def tension_breakpoints(self, voice: Voice) -> tuple[np.ndarray, np.ndarray, int]:
+        a = voice.ctl.arrays
+        return a.tb_step, a.tb_ratio, voice.oversample
+
+    def rebuild(self, voice: Voice, events: list, prune: bool) -> list:
+        """Compile the string's controls and geometry again (``Voice.rebuild``, the function
+        ``prepare`` uses), keeping its state; its fingers' slots in the state follow them when
+        pruning drops some."""
+        v = voice
+        old = len(v.ctl.arrays.fs_on)
+        keep = list(range(old))  # the old slot of each slot kept, in order
+        if prune:
+            events, keep = _prune(v, events, self.scene.sample_rate * v.oversample)
+        ctl, geom = v.rebuild(events)
+        new = len(ctl.arrays.fs_on)
+        take = [k if k < old else -1 for k in keep] + [-1] * (new - len(keep))  # -1: a new slot
+        if take != list(range(new)):
+            v.state = _with_slots(v.state, take)
+        v.ctl, v.geom = ctl, geom
+        v.stopped = False
+        return events
+
 
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
     """Tune and grid every string, compile the controls, allocate state."""
@@ -106,18 +123,15 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
     q = opts.quality or QUALITY[scene.quality]
     if opts.gamma_rule not in GAMMA_RULES:
         raise ValueError(f"gamma_rule must be one of {sorted(GAMMA_RULES)}")
+    if q.fret_mode not in FRET_MODES:
+        raise ValueError(f"fret_mode must be one of {sorted(FRET_MODES)}")
     kc_tol = q.kc_tolerance if opts.kc_tolerance is None else opts.kc_tolerance
     if not kc_tol >= 0.0:
         raise ValueError("kc_tolerance must be >= 0")
     preset = scene.preset()
     rate = float(scene.sample_rate)
-    out = scene.output
-    if out.pickups:
-        pickups = [p.position for p in out.pickups]
-        gains = np.array([p.gain for p in out.pickups])
-    else:
-        pickups = [out.pickup_position or preset.pickup_position]
-        gains = np.ones(1)
+    out = output_of(scene, preset)
+    pickups, gains = out.pickups, out.gains
     nstr = preset.n_strings
     policy = kernels.Policy(quiet=opts.skip_contacts, held=opts.skip_contacts and opts.held_steps)
     voices = []
@@ -126,12 +140,12 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
         if opts.skip_silent and not events:
             continue
         os_, model, rmax = string_model(preset, i, events, rate, q, opts)
-        fret_mode = q.fret_mode if opts.frets else 0
+        fret_mode = FRET_MODE_CODES[q.fret_mode] if opts.frets else FRET_NONE
         rigid_board = (fret_mode == FRET_RIGID and opts.fretboard
                        and (q.rigid_board if opts.rigid_board is None else opts.rigid_board))
         coefs = coefficients(model, preset, fret_mode, opts.kirchhoff_carrier, opts.fretboard,
                              rigid_board)
-        coefs = coefs._replace(gamma_rule=GAMMA_RULES[opts.gamma_rule],
+        coefs = coefs._replace(gamma_rule=GAMMA_CODES[opts.gamma_rule],
                                kc_s_skip=kc_skip_level(model, kc_tol))
         calibrate = q.calibrate_frets if opts.calibrate_frets is None else opts.calibrate_frets
         frets = range(1, preset.frets + 1) if opts.live_grid else stopped_frets(events)
@@ -151,12 +165,7 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, policy,
                             rmax, opts.energy_series, rebuild=build))
-    frames = frame_count(scene)
-    pan = out.pan or default_pan(nstr)
-    body_name = out.body or preset.body
-    body = Body(body_name, rate, out.channels) if body_name != "none" else None
-    return Guitar(scene, preset, voices, opts, frames, out.channels,
-                  {i + 1: pan_gains(p) for i, p in enumerate(pan)}, body)
+    return Guitar(scene, preset, voices, opts, out.frames, out.channels, out.pans, out.body)
 
 
 def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, damping, press,
@@ -172,3 +181,61 @@ def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, d
     geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
                     fretboard=opts.fretboard, fret_shifts=shifts, rigid_board=rigid_board)
     return ctl, geom
+
+
+def _prune(v: Voice, events: list, rate: float) -> tuple[list, list[int]]:
+    """Drop the events whose effect is over at the voice's current step (``rate``: its steps per
+    second): plucks whose pulse has ended, fret-0 lifts past with no finger kept that they may
+    have lifted, dampers released, bends and vibratos when the tension is back at its tuned value
+    for good, fingers whose slot is gone (and pull-offs of their fret).  The samples stay the
+    same: the kernel skips all of these (a finished pluck adds nothing, a released damper and a
+    gone finger form no column, a tension of exactly 1 gives the unbent stencil).  Returns the
+    events kept and the old slot of each finger slot kept."""
+    step = v.step
+    arr = v.ctl.arrays
+    tension_done = (arr.tb_step.size == 0
+                    or (arr.tb_step[-1] < step and arr.tb_ratio[-1] == 1.0))
+    keep_slots: list[int] = []
+    kept_frets: set[int] = set()
+    keep = [False] * len(events)
+    slot = 0
+    for i, e in enumerate(events):  # fingers first: their slots are the state's
+        if isinstance(e, FINGERS) and not is_lift(e):
+            if round(e.time * rate) >= step or v.state.f_state[slot] != kernels.GONE:
+                keep[i] = True
+                keep_slots.append(slot)
+                kept_frets.add(e.to_fret if isinstance(e, Slide) else e.fret)
+            slot += 1
+    for i, e in enumerate(events):
+        if keep[i]:
+            continue
+        if is_lift(e):
+            keep[i] = lift_kept(e, events, keep, step, rate)
+        elif isinstance(e, FINGERS):
+            continue
+        elif round(e.time * rate) >= step:
+            keep[i] = True
+        elif isinstance(e, Bend | Vibrato):
+            keep[i] = not tension_done
+        elif isinstance(e, Mute | Harmonic):
+            keep[i] = e.release is None or round(e.release * rate) >= step
+        elif isinstance(e, PullOff):
+            keep[i] = e.fret in kept_frets
+        else:  # a pluck: its pulse lasts at most 50 ms
+            keep[i] = round(e.time * rate) + round(0.05 * rate) + 1 >= step
+    return [e for e, k in zip(events, keep, strict=True) if k], keep_slots
+
+
+def _with_slots(st: kernels.State, take: list[int]) -> kernels.State:
+    """The state with its finger-slot arrays re-indexed: new slot j takes old slot take[j]
+    (-1: a new slot, idle)."""
+    idx = np.array(take, np.int64)
+    new = idx < 0
+
+    def pick(a: np.ndarray) -> np.ndarray:
+        out = a[np.where(new, 0, idx)] if a.size else np.zeros(len(idx), a.dtype)
+        out[new] = 0
+        return out.astype(a.dtype)
+
+    return st._replace(f_state=pick(st.f_state), f_w=pick(st.f_w), f_w1=pick(st.f_w1),
+                       f_psi=pick(st.f_psi), f_bprev=pick(st.f_bprev))

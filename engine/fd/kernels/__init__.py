@@ -33,7 +33,7 @@ over non-negative offsets (U[j], U[j+1] ... U[j+4]) so that LLVM vectorises them
 
 The modules, low to high (each opens with the equations it implements):
 
-* ``data``        constants, ``Coefs``, ``Geo``, ``Controls``, ``State``, ``Work``; ``entry_point``
+* ``data``        constants, ``Coefs``, ``Geo``, ``Controls``, ``State``, ``Work``
 * ``linear``      the string's linear update and Kirchhoff-Carrier column, a); the interpolant; pickups
 * ``excitation``  the pluck force, b)
 * ``collisions``  fretboard and frets (penalty and rigid), c) and d)
@@ -43,12 +43,12 @@ The modules, low to high (each opens with the equations it implements):
 * ``energy``      H, Q and P of eqs. (42)-(46)
 * ``runs``        quiet and held steps
 * ``step``        ``step_block``: the time-step loop and its general path
-* ``decimate``    the oversampled string's decimator
 
-Everything they define is importable from ``engine.kernels``, where the rest of the engine,
+Everything they define is importable from ``engine.fd.kernels``, where the rest of the engine,
 the tests and the benchmarks look it up.
 """
 
+from ...config import _ENTRIES, _type_key, entry_point  # noqa: F401
 from .collisions import (  # noqa: F401
     _add_rigid,
     _contact,
@@ -59,7 +59,6 @@ from .collisions import (  # noqa: F401
     _sav_frets,
 )
 from .data import (  # noqa: F401
-    _ENTRIES,
     ACTIVE,
     BOARD,
     DAMPER,
@@ -82,10 +81,7 @@ from .data import (  # noqa: F401
     Policy,
     State,
     Work,
-    _type_key,
-    entry_point,
 )
-from .decimate import fir_decimate  # noqa: F401
 from .energy import _energy, _step_energy  # noqa: F401
 from .excitation import _pluck_force, _pluck_forces  # noqa: F401
 from .finger import _beta, _eta, _finger_row, _finger_x, _w_free  # noqa: F401

@@ -11,7 +11,7 @@ import math
 
 from numba import njit
 
-from ..config import JIT_HELPER
+from ...config import JIT_HELPER
 from .data import BOARD, FINGER, FRETPEN, GAMMA_JOINT, GAMMA_NONE, GAMMA_PAPER
 from .finger import _finger_row
 

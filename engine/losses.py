@@ -1,7 +1,8 @@
-"""The scheme's loss coefficients and stability bound: plain arithmetic on a string's physical
-parameters, with no numerics library, so that the schema layer's cost estimate (``engine.cost``)
-can size a string's grid in a process that never loads the kernels.  ``engine.string`` builds the
-grids with them."""
+"""A string's losses: the coefficients sigma_0, sigma_1 of the damping model
+sigma_0 + sigma_1 beta^2 (beta the wavenumber) fitted to the preset's two decay times, T60 at the
+fundamental and at 2 kHz.  Both models read them (the finite-difference scheme's loss terms, the
+waveguide's loop filter) and so does the cost estimate; plain arithmetic, no numerics library.
+"""
 
 from __future__ import annotations
 
@@ -31,9 +32,3 @@ def loss_coefficients(spec: StringSpec, tension: float) -> tuple[float, float]:
     sigma1 = max(sigma1, 0.0)
     sigma0 = max(LN1000 / t1 - sigma1 * x1, 0.0)
     return sigma0, sigma1
-
-
-def h_min(k: float, tension: float, rho_a: float, ei: float, sigma1: float) -> float:
-    """The stability bound of eq. (47)."""
-    a = tension * k / rho_a + 4.0 * sigma1
-    return math.sqrt(0.5 * k * (a + math.sqrt(a * a + 16.0 * ei / rho_a)))

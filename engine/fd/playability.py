@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import math
 
-from .controls import FINGER_EVENTS, MAX_FINGERS, events_on, frets_pressed
+from ..options import QUALITY, RenderOptions
+from ..performance import FINGER_EVENTS, MAX_FINGERS, events_on
+from ..presets import Preset
+from ..scene import Fret, HammerOn, PullOff, Scene, Slide, Tap
+from .controls import frets_pressed
 from .intonation import SEAT_MARGIN, seating_force
-from .options import QUALITY, RenderOptions
-from .presets import Preset
-from .scene import Fret, HammerOn, PullOff, Scene, Slide, Tap
 from .string import StringModel
 from .voice import string_model
 
@@ -47,7 +48,7 @@ def finger_warnings(preset: Preset, string: int, events: list, model: StringMode
 def pull_off_warnings(string: int, events: list) -> list[tuple[float, int, str]]:
     """(time, string, message) of each ``pull_off`` in ``events`` (one string's, in time order)
     that finds no finger on its fret: it lifts nothing and plucks nothing, so it is silent.  The
-    fingers are followed as ``engine.controls.string_controls`` places and lifts them (a fret, tap
+    fingers are followed as ``engine.fd.controls.string_controls`` places and lifts them (a fret, tap
     or slide replaces the finger on the string, a hammer-on adds one up to ``MAX_FINGERS``, a
     release or a pull-off lifts one)."""
     fingers: list[list[float]] = []  # [fret, on, release]

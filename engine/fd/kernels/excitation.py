@@ -8,7 +8,7 @@ import math
 
 from numba import njit
 
-from ..config import JIT_HELPER
+from ...config import JIT_HELPER
 from .linear import _q_index
 
 

@@ -1,6 +1,6 @@
 """The time-step loop of one string, ``step_block``: the general path of the step described in
-``engine.kernels`` (assemble the active columns, solve for their multipliers, update, book the
-energy), with the quiet and held runs of ``engine.kernels.runs`` taken wherever they apply.
+``engine.fd.kernels`` (assemble the active columns, solve for their multipliers, update, book the
+energy), with the quiet and held runs of ``engine.fd.kernels.runs`` taken wherever they apply.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_STEP
+from ...config import JIT, JIT_STEP
 from .collisions import _add_rigid, _fret_hit, _remove_col, _sav_board, _sav_frets
 from .data import (
     ACTIVE,

@@ -1,4 +1,6 @@
-"""Events -> per-string control arrays the kernel reads (``kernels.Controls``).
+"""Events -> per-string control arrays the kernel reads (``kernels.Controls``).  The gestures
+themselves (where a finger sits, the strum, the hands' contacts, bend and vibrato curves) are
+``engine.performance``'s, the same for both models.
 
 Times become step indices at the string's internal rate once, before the loop; the kernel derives
 every control value from the global step number, so rendering in blocks of any size gives the same
@@ -38,14 +40,26 @@ How each event acts on the physics
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import Controls, interp
-from .presets import Preset, StringSpec
-from .scene import (
+from ..performance import (
+    DAMP_DAMPING,
+    DAMP_FINGERS,
+    DAMP_OPEN_FRET,
+    DAMP_SPACING_M,
+    HARMONIC_DAMPING,
+    MAX_FINGERS,
+    PALM_DAMPING,
+    PALM_WIDTH_M,
+    PLUCK_STYLES,
+    bend_points,
+    finger_x_m,
+    vibrato_points,
+)
+from ..presets import Preset
+from ..scene import (
     Bend,
     Damp,
     Fret,
@@ -54,86 +68,18 @@ from .scene import (
     Mute,
     Pluck,
     PullOff,
-    Scene,
     Slide,
-    Strum,
     Tap,
     Vibrato,
 )
+from .kernels import Controls, interp
 
-# events that put a finger on the string (a harmonic touches it without pressing)
-FINGER_EVENTS = ("fret", "tap", "hammer_on", "slide")
-FINGER_BEHIND = 0.3  # of the spacing between fret q-1 and fret q
 TAP_GAP_S = 1e-3  # a tap starts this long (at its velocity) above the string
 # a finger has landed this long after it is put down: from then on it has the damping calibrated
-# for its fret (``engine.intonation.finger_damping``), while it lands the preset's, which sets how
+# for its fret (``engine.fd.intonation.finger_damping``), while it lands the preset's, which sets how
 # a tap strikes the string and how deep it drives it (``test_stress.py``'s hard taps)
 FINGER_SETTLE_S = 10e-3
 NEVER = np.iinfo(np.int64).max // 4
-MAX_FINGERS = 4  # fingers of the fretting hand on one string at once (hammer-ons add them)
-PALM_WIDTH_M = 0.02
-HARMONIC_DAMPING = 2.0  # x sqrt(T rho A)
-PALM_DAMPING = 0.8  # x sqrt(T rho A) at amount 1
-VIBRATO_POINTS_PER_CYCLE = 32
-# A damp lays the relaxed fretting hand's four fingertips on the string, about a fret apart, from
-# where the fretting finger was towards the bridge: four point dampers, each of R = 1 x sqrt(T rho
-# A).  One touch absorbs at most half the energy of a wave passing it (at R = 2 sqrt(T rho A));
-# four in a row take most of it in one pass.  ``tests/engine/test_damp.py`` prints the time to
-# -60 dB of every string of the steel preset, open and fretted (docs/engine.md quotes them).
-DAMP_DAMPING = 1.0  # x sqrt(T rho A) per finger
-DAMP_FINGERS = 4
-DAMP_SPACING_M = 0.035
-DAMP_OPEN_FRET = 5  # where the fretting hand touches an open string
-
-# style -> (pulse length s, direction): a pick releases faster than a fingertip; a slap drives
-# the string into the frets, a pop pulls it away so that it snaps back onto them.
-PLUCK_STYLES = {
-    "finger": (1e-3, 1.0),
-    "pick": (3e-4, 1.0),
-    "slap": (5e-4, -1.0),
-    "pop": (2e-3, 1.0),
-}
-
-
-def finger_x_m(preset: Preset, fret: int, spec: StringSpec | None = None) -> float:
-    """Metres from the nut of a finger stopping ``fret`` (just behind it) on string ``spec``
-    (``Preset.fret_x_m``: its nut compensation; None: an uncompensated nut)."""
-    xq = preset.fret_x_m(fret, spec)
-    return float(xq - FINGER_BEHIND * (xq - preset.fret_x_m(fret - 1, spec)))
-
-
-def expand(scene: Scene, n_strings: int) -> list:
-    """The scene's events with strums split into plucks and string-less mutes per string."""
-    out = []
-    for e in scene.events:
-        if isinstance(e, Strum):
-            strings = sorted(e.strings or range(1, n_strings + 1), reverse=e.direction == "down")
-            dt = e.spread / max(len(strings) - 1, 1)
-            for i, s in enumerate(strings):
-                t = e.time + i * dt
-                if t < scene.duration:
-                    out.append(Pluck(time=t, string=s, force=e.force, position=e.position,
-                                     style=e.style))
-        elif isinstance(e, Mute | Damp) and e.string is None:
-            out += [e.model_copy(update={"string": s}) for s in range(1, n_strings + 1)]
-        else:
-            out.append(e)
-    return out
-
-
-def events_on(scene: Scene, n_strings: int, string: int) -> list:
-    return sorted((e for e in expand(scene, n_strings) if e.string == string),
-                  key=lambda e: e.time)
-
-
-def max_tension_ratio(events: list, ratio_for_cents) -> float:
-    r = 1.0
-    for e in events:
-        if isinstance(e, Bend):
-            r = max(r, ratio_for_cents(100.0 * e.semitones))
-        elif isinstance(e, Vibrato):
-            r = max(r, ratio_for_cents(e.depth_cents))
-    return r
 
 
 @dataclass(frozen=True)
@@ -177,31 +123,6 @@ def frets_pressed(e) -> range:
     return range(e.fret, e.fret + 1)
 
 
-def bend_points(e: Bend, on: int, step, ratio: float) -> tuple[list[tuple[int, float]], int]:
-    """A bend's breakpoints (step, ratio), linear between them: up to ``ratio`` over its duration
-    from step ``on``, held, and back over the same time from its release; and the step it ends
-    on.  ``step(t)`` maps seconds to steps; the models differ in what the ratio scales (the
-    tension here, the pitch in the waveguide)."""
-    up = max(step(e.duration), 1)
-    points = [(on, 1.0), (on + up, ratio)]
-    end = on + up
-    if e.release is not None:
-        rel = max(step(e.release), on + up)
-        points += [(rel, ratio), (rel + up, 1.0)]
-        end = rel + up
-    return points, end
-
-
-def vibrato_points(e: Vibrato, step, ratio_for_cents) -> tuple[list[tuple[int, float]], int]:
-    """A vibrato's breakpoints (step, ``ratio_for_cents`` of its sine's cents at that time),
-    ``VIBRATO_POINTS_PER_CYCLE`` per cycle, and the step it ends on."""
-    npts = max(int(math.ceil(e.rate_hz * e.duration * VIBRATO_POINTS_PER_CYCLE)), 2)
-    points = [(step(e.time + t),
-               ratio_for_cents(e.depth_cents * math.sin(2.0 * math.pi * e.rate_hz * t)))
-              for t in np.linspace(0.0, e.duration, npts + 1)]
-    return points, step(e.time + e.duration)
-
-
 def string_controls(events: list, preset: Preset, string: int, h: float, n: int, rate: float,
                     impedance: float, ratio_for_cents,
                     fret_shifts: dict[int, float] | None = None,
@@ -210,11 +131,11 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
     """Compile ``events`` (already on ``string``, sorted) for a grid of spacing h at ``rate`` Hz.
 
     ``impedance`` is sqrt(T rho A); ``ratio_for_cents(c)`` the tension ratio that raises the pitch
-    by c cents.  ``fret_shifts`` (fret -> metres, ``engine.intonation``) moves a finger stopping
+    by c cents.  ``fret_shifts`` (fret -> metres, ``engine.fd.intonation``) moves a finger stopping
     a calibrated fret along with that fret's interpolant.  ``press_force(fret)`` is the force of a
-    finger whose event gives none (``engine.intonation.press_force``; default: the preset's); a
+    finger whose event gives none (``engine.fd.intonation.press_force``; default: the preset's); a
     slide presses with the largest over the frets it crosses.  ``finger_damping`` (fret -> N s/m,
-    ``engine.intonation``) is the contact damping of a finger stopping a calibrated fret (a slide:
+    ``engine.fd.intonation``) is the contact damping of a finger stopping a calibrated fret (a slide:
     the fret it ends on) once it has landed (``FINGER_SETTLE_S`` after it is put down); while it
     lands, and elsewhere, the preset's.
     """

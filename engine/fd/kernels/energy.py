@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from numba import njit
 
-from ..config import JIT, JIT_HELPER
+from ...config import JIT, JIT_HELPER
 from .data import ACTIVE
 from .excitation import _pluck_force
 

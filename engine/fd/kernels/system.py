@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT, JIT_HELPER
+from ...config import JIT, JIT_HELPER
 from .data import KC, RIGID
 from .linear import _q_index
 

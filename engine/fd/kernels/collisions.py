@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..config import JIT_HELPER, JIT_STEP
+from ...config import JIT_HELPER, JIT_STEP
 from .data import EPS, RIGID
 from .linear import _q_index
 from .sav import _apply_gamma

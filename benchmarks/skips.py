@@ -26,12 +26,12 @@ import time
 
 import numpy as np
 
-from benchmarks.speed import chord_events, fretted_events, strum_events
 from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.output import FIXED_GAIN
 from engine.scene import Scene
 from engine.testing.measure import held_share, kc_skip_pitch_shift, quiet_share
+from engine.testing.scenes import chord_events, fretted_events, strum_events
 
 
 def render(scene: dict, **opts) -> tuple[np.ndarray, float]:

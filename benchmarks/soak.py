@@ -16,9 +16,10 @@ they disappear, to the geometry if the strings start below the
 fret tips (``action_12th_m`` below ``action_nut_m``), otherwise left unexplained.  An engine
 exception on a valid scene is a finding too, grouped by message.
 
-One case in ``LONG_EVERY`` is a 60-second scene with up to 4 events (draft); the rest last
-0.02-0.2 s with up to 16 events (qualities ``QUALITIES``).  The summary is printed and written
-to docs/accuracy.md between the ``soak:begin`` / ``soak:end`` markers.
+The cases (``engine.testing.random_scenes.soak_case``): one in ``LONG_EVERY`` is a 60-second
+scene with up to 4 events (draft); the rest last 0.02-0.2 s with up to 16 events (qualities
+``QUALITIES``).  The summary is printed and written to docs/accuracy.md between the
+``soak:begin`` / ``soak:end`` markers.
 
 With ``--model waveguide`` every case is rendered on the waveguide model and judged by its own
 check (``engine.testing.waveguide_stability``: finite output, and the rails' windowed energy after
@@ -49,34 +50,12 @@ from pydantic import ValidationError
 from benchmarks.pareto import write_docs
 from engine.options import RenderOptions
 from engine.testing import waveguide_stability
-from engine.testing.random_scenes import NumpyDraw, random_scene
+from engine.testing.random_scenes import WG_SHORT_S
+from engine.testing.random_scenes import soak_case as make_case
 from engine.testing.stability import LIMITS, Report, check, violations
 
-LONG_EVERY = 100
-LONG_S = 60.0
-QUALITIES = ("draft",) * 14 + ("standard",) * 5 + ("high",)
-WG_LONG_EVERY = 10
-WG_SHORT_S = (0.3, 2.0)
 WG_LONG_WINDOW_S = 0.2
-WG_STREAM = 1  # the waveguide's cases: a stream of their own, apart from the default model's
 OCTAVE = 2.0  # a glide's pitch ratio past which a rise with the glide on is attributed to it
-
-
-def make_case(seed: int, i: int, model: str = "fdtd") -> tuple[str, dict]:
-    if model == "waveguide":
-        d = NumpyDraw(np.random.default_rng([seed, i, WG_STREAM]))
-        if i % WG_LONG_EVERY == WG_LONG_EVERY - 1:
-            sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4)
-            return "60 s", {**sc, "model": "waveguide"}
-        sc = random_scene(d, max_duration=WG_SHORT_S[1], min_duration=WG_SHORT_S[0],
-                          max_events=12)
-        return "short", {**sc, "model": "waveguide"}
-    d = NumpyDraw(np.random.default_rng([seed, i]))
-    if i % LONG_EVERY == LONG_EVERY - 1:
-        sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4,
-                          qualities=("draft",))
-        return "60 s", sc
-    return "short", random_scene(d, max_duration=0.2, max_events=16, qualities=QUALITIES)
 
 
 def check_waveguide(kind: str, sc: dict, stretch: float = 1.0) -> waveguide_stability.Report:

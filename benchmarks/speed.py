@@ -28,50 +28,19 @@ code or the scene does.
 from __future__ import annotations
 
 import argparse
-import time
-from dataclasses import dataclass
 
-import numpy as np
-
-from engine.fd.instrument import Guitar, prepare
+from engine.fd.instrument import prepare
 from engine.fd.string import kc_skip_level
 from engine.options import QUALITY, RenderOptions
 from engine.scene import Scene
-from tools.counters import Counters
-
-
-@dataclass
-class Timing:
-    """The best of several renders: CPU seconds, and the fewest cycles and instructions (None
-    without hardware counters)."""
-
-    seconds: float
-    cycles: float | None
-    instructions: float | None
-    engine: Guitar | None
-
-
-def _fewest(a: float | None, b: int | None) -> float | None:
-    if b is None:
-        return None
-    return float(b) if a is None else min(a, float(b))
-
-
-def best_time(scene: dict, options: RenderOptions, repeat: int) -> Timing:
-    """Best CPU time of the simulation (scene preparation excluded) over ``repeat`` runs: thread
-    time rather than wall time, so that other processes on the machine change it less."""
-    sc = Scene.model_validate(scene)
-    best = Timing(np.inf, None, None, None)
-    for _ in range(repeat):
-        eng = prepare(sc, options)
-        with Counters() as ctr:
-            t = time.thread_time()
-            for _block in eng.blocks():
-                pass
-            t = time.thread_time() - t
-        best = Timing(min(best.seconds, t), _fewest(best.cycles, ctr.cycles),
-                      _fewest(best.instructions, ctr.instructions), eng)
-    return best
+from engine.testing.scenes import (
+    LINEAR,
+    chord_events,
+    fretted_events,
+    pluck_events,
+    strum_events,
+)
+from tools.timing import Timing, best_time
 
 
 def _per(value: float | None, steps: float, width: int) -> str:
@@ -80,32 +49,6 @@ def _per(value: float | None, steps: float, width: int) -> str:
 
 def _ratio(a: float | None, b: float | None, width: int) -> str:
     return f"{a / b:{width}.2f}" if a is not None and b is not None else f"{'-':>{width}s}"
-
-
-# the per-string table's linear string: no Kirchhoff-Carrier, fretboard or frets
-LINEAR = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
-
-
-def pluck_events(string: int, force: float) -> list[dict]:
-    """The per-string table's open-string pluck at time 0 (8 N against the fretted note, 2 N for
-    the open string's full model)."""
-    return [{"type": "pluck", "time": 0.0, "string": string, "force": force}]
-
-
-def strum_events(force: float = 2.0) -> list[dict]:
-    """The open six-string strum: plucks 20 ms apart, low string first."""
-    return [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force} for i in range(6)]
-
-
-CHORD_FRETS = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}  # C major
-
-
-def chord_events() -> list[dict]:
-    """A fretted C major chord (strings 4, 3 and 1 open), strummed like ``strum_events``."""
-    chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
-             for s, q in CHORD_FRETS.items() if q > 0]
-    return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
-                    for i in range(6)]
 
 
 # A fretted single line (a C major scale up and down, strings 3 to 1, never an open string), one
@@ -123,12 +66,6 @@ def melody_events(note_s: float = 0.25) -> list[dict]:
                 {"type": "pluck", "time": t + 0.01, "string": s, "force": 2.0},
                 {"type": "damp", "time": t + note_s - 0.02, "string": s}]
     return out
-
-
-def fretted_events(string: int) -> list[dict]:
-    """The fretted full model of the per-string table: a finger at fret 5, an 8 N pluck."""
-    return [{"type": "fret", "time": 0.0, "string": string, "fret": 5},
-            {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
 
 
 def linear_time(string: int, oversample: int | None, quality: str, seconds: float,

@@ -80,12 +80,12 @@ import engine
 from benchmarks.pareto import spectral_error_db
 from engine.analysis import cents, decay_db_per_s, spectrum_peak
 from engine.options import QUALITY, RenderOptions
-from engine.testing.scenes import SR, fret, pluck, scene
+from engine.testing.scenes import CG_CHORD, SR, fret, pluck, scene, strum_scene
 from engine.waveguide import WaveguideOptions, prepare
 from engine.waveguide import render as wg_render
 
 STEEL = engine.get_preset("steel-acoustic")
-CHORD = {6: 3, 5: 3, 4: 2, 3: 0, 2: 1, 1: 0}  # C/G
+CHORD = CG_CHORD
 
 
 REPEAT = 3  # timed runs of each render; the least CPU time counts (the machine's load only adds)
@@ -166,13 +166,6 @@ def glide_rows() -> list[tuple[str, list[float], list[float]]]:
                                         f)) for t0, t1 in GLIDE_WINDOWS])
             rows.append((f"string {s} {style} {force:g} N", *out))
     return rows
-
-
-def strum_scene() -> dict:
-    """The fretted C/G strum: the fingers down at 0, a 2 N strum at 50 ms, 4 s."""
-    evs = [fret(s, q) for s, q in CHORD.items() if q > 0]
-    evs.append({"type": "strum", "time": 0.05, "force": 2.0, "spread": 0.03})
-    return scene(evs, 4.0)
 
 
 STRUM_ROUNDS = 7  # the strum's rounds: each times both models, one after the other

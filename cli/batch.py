@@ -37,19 +37,14 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
-SCENE_SUFFIXES = (".json",)
-SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".mid", ".midi")
+from cli.common import EXIT_BAD_INPUT, SCENE_SUFFIXES, SCORE_SUFFIXES, BadInput, OneLineParser
+
 SPEC_SUFFIXES = (".yaml", ".yml")
-EXIT_BAD_INPUT = 2
 MANIFEST_INTERVAL_S = 5.0
 COLUMNS = ("id", "input", "seed", "input_hash", "audio", "labels", "audio_seconds",
            "render_seconds", "energy_error", "status", "error", "warnings")
-
-
-class BadInput(Exception):
-    """A problem with the command line, a spec or the output folder: one line, exit 2."""
 
 
 @dataclass
@@ -148,7 +143,7 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
         if options.get("quality"):
             scene["quality"] = options["quality"]
         if options.get("model"):
-            from cli.main import set_model
+            from cli.common import set_model
 
             set_model(scene, options["model"])
         if options.get("diagnostics"):
@@ -360,13 +355,8 @@ def connect(scheduler: str | None, workers: int | None):
 # ---- the command ---------------------------------------------------------------------------------
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
-
-
 def build_parser(prog: str = "guitar-synth batch") -> argparse.ArgumentParser:
-    p = _Parser(prog=prog, description=__doc__.split("\n\n")[0])
+    p = OneLineParser(prog=prog, description=__doc__.split("\n\n")[0])
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="scene .json, Guitar Pro, MIDI, dataset spec (.yaml) files or folders")
     p.add_argument("-o", "--output", required=True, metavar="OUT_DIR",

@@ -24,26 +24,21 @@ import time
 from pathlib import Path
 from typing import Any, NoReturn
 
-SCENE_SUFFIXES = (".json",)
-SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".mid", ".midi")
+from cli.common import (
+    EXIT_BAD_INPUT,
+    SCENE_SUFFIXES,
+    SCORE_SUFFIXES,
+    BadInput,
+    OneLineParser,
+    set_model,
+)
+
 AUDIO_FORMATS = {".wav": "wav", ".flac": "flac", ".ogg": "ogg"}
 MAX_WARNINGS_SHOWN = 10
-EXIT_BAD_INPUT = 2
 EXIT_INTERNAL = 1
 
 
-class BadInput(Exception):
-    """A problem with what the user gave; its message is the one line printed."""
-
-
 # ---- argument parsing ----------------------------------------------------------------------
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (the usage is one ``--help`` away)."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _positive_float(text: str) -> float:
@@ -89,11 +84,11 @@ def _add_render_options(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="guitar-synth", description=__doc__.split("\n\n")[0],
-                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = OneLineParser(prog="guitar-synth", description=__doc__.split("\n\n")[0],
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--debug", action="store_true",
                         help="show the traceback of an unexpected failure")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     sub.required = True
 
     r = sub.add_parser("render", help="render a scene or a score to an audio file",
@@ -221,14 +216,6 @@ def _set_preset(scene: dict[str, Any], preset: str) -> None:
         if isinstance(h, dict):
             guitar = h.get("guitar") if isinstance(h.get("guitar"), dict) else {}
             h["guitar"] = {**guitar, "preset": preset}
-
-
-def set_model(scene: dict[str, Any], model: str) -> None:
-    """Every track on ``model``: a track's own model would otherwise win over the scene's."""
-    scene["model"] = model
-    for track in scene["tracks"] if isinstance(scene.get("tracks"), list) else []:
-        if isinstance(track, dict):
-            track.pop("model", None)
 
 
 def _overrides(scene: dict[str, Any], args: argparse.Namespace) -> None:

@@ -27,7 +27,7 @@ from fastapi.responses import JSONResponse, Response
 
 import engine
 
-from .pool import ClientGone, PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
+from .exceptions import ClientGone, PoolBusy, PoolClosed, RenderFailed, RenderTimeout, WorkerDied
 
 log = logging.getLogger("service.errors")
 

@@ -16,7 +16,7 @@ from typing import Any
 from starlette.exceptions import HTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from .pool import StreamAborted
+from .exceptions import StreamAborted
 
 access_log = logging.getLogger("service.access")
 

@@ -36,6 +36,15 @@ from typing import Any
 
 from . import worker as worker_module
 from .config import Settings
+from .exceptions import (
+    PoolBusy,
+    PoolClosed,
+    PoolError,
+    RenderFailed,
+    RenderTimeout,
+    StreamAborted,
+    WorkerDied,
+)
 from .processes import PipedProcess, stop_all
 
 log = logging.getLogger("service.pool")
@@ -45,35 +54,6 @@ _CANCEL_GRACE_S = 5.0  # a cancelled stream's worker that has not stopped by the
 _RESPAWN_BACKOFF_MAX_S = 30.0
 _START_GRACE_S = 60.0  # a new worker process may take this long to send its first heartbeat
 _STALE_BEATS = 3.0  # a ready worker silent for this many heartbeat periods is not counted ready
-
-
-class PoolError(Exception):
-    """A render could not be served; subclasses map to HTTP statuses in ``service.errors``."""
-
-
-class PoolBusy(PoolError):
-    pass
-
-
-class PoolClosed(PoolError):
-    pass
-
-
-class RenderTimeout(PoolError):
-    pass
-
-
-class WorkerDied(PoolError):
-    pass
-
-
-class RenderFailed(PoolError):
-    """The engine refused or failed the scene; ``kind`` is non_finite, invalid or internal."""
-
-    def __init__(self, kind: str, message: str):
-        super().__init__(message)
-        self.kind = kind
-        self.message = message
 
 
 @dataclass
@@ -494,14 +474,6 @@ class WorkerPool:
             raise
         # it holds no admission slot: closing it only stops the render
         return RenderStream(self, job, first, time_limit_s, release=lambda: None)
-
-
-class ClientGone(Exception):
-    """The client disconnected while its render waited or ran: nobody to answer."""
-
-
-class StreamAborted(Exception):
-    """A stream failed after its header was sent: the connection must be closed short."""
 
 
 class RenderStream:

@@ -24,7 +24,7 @@ from starlette.requests import ClientDisconnect
 import engine
 
 from .config import Settings
-from .pool import ClientGone
+from .exceptions import ClientGone
 
 
 class _NonFinite:

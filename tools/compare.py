@@ -27,14 +27,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.speed import chord_events, fretted_events, strum_events
+from engine.testing.scenes import chord_events, fretted_events, strum_events
 
 ROOT = Path(__file__).resolve().parent.parent
 
 # The child: time every scene with the engine of the worktree it runs in, print JSON.
 CHILD = r"""
 import json, sys
-from benchmarks.speed import best_time
+try:
+    from tools.timing import best_time
+except ImportError:  # a revision from before tools.timing
+    from benchmarks.speed import best_time
 from engine import RenderOptions
 seconds, repeat = float(sys.argv[1]), int(sys.argv[2])
 scenes = json.loads(sys.argv[3])

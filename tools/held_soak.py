@@ -24,12 +24,12 @@ import time
 import numpy as np
 from pydantic import ValidationError
 
-from benchmarks.soak import make_case
 from engine.config import FASTMATH
 from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
 from engine.testing.measure import held_steps
+from engine.testing.random_scenes import soak_case as make_case
 
 
 def compare(seed: int, i: int) -> tuple[float, int, int, float] | None:

@@ -36,10 +36,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.speed import LINEAR, chord_events, fretted_events, pluck_events, strum_events
 from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 from engine.scene import Scene
+from engine.testing.scenes import (
+    LINEAR,
+    chord_events,
+    fretted_events,
+    pluck_events,
+    strum_events,
+    strum_scene,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 CACHE = ROOT / ".numba_cache_pinned"
@@ -105,8 +112,6 @@ def waveguide_configurations(quality: str) -> list[dict]:
     """``benchmarks.waveguide``'s fretted C/G strum (4 s, no body), on the finite-difference
     model at ``quality`` and on the waveguide, each with its default options (the decay skip on),
     as that benchmark renders them."""
-    from benchmarks.waveguide import strum_scene
-
     sc = {k: v for k, v in strum_scene().items() if k != "duration"}
     return [{"name": f"finite difference ({quality})", "scene": {**sc, "quality": quality},
              "options": {}, "seconds": 4.0},

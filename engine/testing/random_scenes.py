@@ -197,3 +197,32 @@ def scenes(**kw):
     from hypothesis import strategies as st
 
     return st.composite(lambda draw: random_scene(HypothesisDraw(draw), **kw))()
+
+
+# ---- the stability soak's cases ---------------------------------------------------------------
+
+LONG_EVERY = 100
+LONG_S = 60.0
+QUALITIES = ("draft",) * 14 + ("standard",) * 5 + ("high",)
+WG_LONG_EVERY = 10
+WG_SHORT_S = (0.3, 2.0)
+WG_STREAM = 1  # the waveguide's cases: a stream of their own, apart from the default model's
+
+
+def soak_case(seed: int, i: int, model: str = "fdtd") -> tuple[str, dict]:
+    """Case ``i`` of ``benchmarks.soak`` (and ``tools.held_soak``), drawn from seed (seed, i): its
+    kind ('short' or '60 s') and scene; the waveguide's cases come from a stream of their own."""
+    if model == "waveguide":
+        d = NumpyDraw(np.random.default_rng([seed, i, WG_STREAM]))
+        if i % WG_LONG_EVERY == WG_LONG_EVERY - 1:
+            sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4)
+            return "60 s", {**sc, "model": "waveguide"}
+        sc = random_scene(d, max_duration=WG_SHORT_S[1], min_duration=WG_SHORT_S[0],
+                          max_events=12)
+        return "short", {**sc, "model": "waveguide"}
+    d = NumpyDraw(np.random.default_rng([seed, i]))
+    if i % LONG_EVERY == LONG_EVERY - 1:
+        sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4,
+                          qualities=("draft",))
+        return "60 s", sc
+    return "short", random_scene(d, max_duration=0.2, max_events=16, qualities=QUALITIES)

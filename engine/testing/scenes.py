@@ -61,3 +61,48 @@ def song(seconds: float, quality: str = "draft", note_every_s: float = 4.0) -> d
                              {"type": "reverb", "room_size": 0.6}]},
                 {"name": "Bass", "guitar": {"preset": "bass"}, "events": bass, "pan": 0.2,
                  "gain_db": -3.0}]}
+
+
+# ---- the speed tables' scenes (``benchmarks.speed``, ``tools.compare``, ``tools.instructions``) --
+
+# the per-string table's linear string: no Kirchhoff-Carrier, fretboard or frets
+LINEAR = {"kirchhoff_carrier": False, "fretboard": False, "frets": False, "skip_decayed": False}
+
+
+def pluck_events(string: int, force: float) -> list[dict]:
+    """The per-string table's open-string pluck at time 0 (8 N against the fretted note, 2 N for
+    the open string's full model)."""
+    return [{"type": "pluck", "time": 0.0, "string": string, "force": force}]
+
+
+def strum_events(force: float = 2.0) -> list[dict]:
+    """The open six-string strum: plucks 20 ms apart, low string first."""
+    return [{"type": "pluck", "time": 0.02 * i, "string": 6 - i, "force": force} for i in range(6)]
+
+
+CHORD_FRETS = {6: 3, 5: 2, 4: 0, 3: 0, 2: 1, 1: 0}  # C major
+
+
+def chord_events() -> list[dict]:
+    """A fretted C major chord (strings 4, 3 and 1 open), strummed like ``strum_events``."""
+    chord = [{"type": "fret", "time": 0.0, "string": s, "fret": q}
+             for s, q in CHORD_FRETS.items() if q > 0]
+    return chord + [{"type": "pluck", "time": 0.05 + 0.02 * i, "string": 6 - i, "force": 2.0}
+                    for i in range(6)]
+
+
+def fretted_events(string: int) -> list[dict]:
+    """The fretted full model of the per-string table: a finger at fret 5, an 8 N pluck."""
+    return [{"type": "fret", "time": 0.0, "string": string, "fret": 5},
+            {"type": "pluck", "time": 0.05, "string": string, "force": 8.0}]
+
+
+CG_CHORD = {6: 3, 5: 3, 4: 2, 3: 0, 2: 1, 1: 0}  # C/G: the waveguide benchmark's chord
+
+
+def strum_scene() -> dict:
+    """The fretted C/G strum of ``benchmarks.waveguide`` and ``tools.instructions``: the fingers
+    down at 0, a 2 N strum at 50 ms, 4 s."""
+    evs = [fret(s, q) for s, q in CG_CHORD.items() if q > 0]
+    evs.append({"type": "strum", "time": 0.05, "force": 2.0, "spread": 0.03})
+    return scene(evs, 4.0)

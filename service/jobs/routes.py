@@ -18,7 +18,16 @@ from pydantic import BaseModel, Field, ValidationError
 import engine
 
 from .. import audio
-from ..routes.render import scene_payload
+from ..responses import scene_payload
+from ..score_form import (
+    apply_scene_options,
+    import_score,
+    importer_options,
+    parse_options,
+    parse_output,
+    read_upload,
+    validate_scene,
+)
 from ..validation import reject_nonfinite_json
 
 router = APIRouter(tags=["jobs"])
@@ -79,8 +88,6 @@ async def _scene_from_json(request: Request) -> engine.Scene:
 async def _scene_from_score(request: Request) -> engine.Scene:
     """A multipart form as ``POST /render/score`` takes (``file``, ``options``, ``output``), read
     by the same code: the score is imported in a worker, never in this process."""
-    from ..routes import score as score_routes
-
     s = request.state.settings
     form = await request.form()
     upload = form.get("file")
@@ -91,10 +98,10 @@ async def _scene_from_score(request: Request) -> engine.Scene:
     if any(v is not None and not isinstance(v, str) for v in text.values()):
         raise _field_error("options", "string_type", "options and output are form fields of "
                                                      "JSON text, not files", None)
-    opts = score_routes._options(text["options"])
-    out_fields = score_routes._output(text["output"])
-    data, name = await score_routes._upload(upload)
-    importer = score_routes._importer_options(opts)
+    opts = parse_options(text["options"])
+    out_fields = parse_output(text["output"])
+    data, name = await read_upload(upload)
+    importer = importer_options(opts)
     asked = importer.get("max_seconds")
     if asked is not None and asked > s.job_max_duration_s:
         raise _field_error("options.max_seconds", "less_than_equal", f"options.max_seconds: at "
@@ -103,10 +110,10 @@ async def _scene_from_score(request: Request) -> engine.Scene:
     # never import more than a job may render: a longer score is cut just past the limit and
     # refused by the duration check, unless the client asked for its beginning
     importer["max_seconds"] = asked if asked is not None else s.job_max_duration_s + 0.5
-    scene, _warnings = await score_routes._import(request, data, name, importer)
-    score_routes.apply_scene_options(scene, opts)
+    scene, _warnings = await import_score(request, data, name, importer)
+    apply_scene_options(scene, opts)
     scene["output"] = {**scene.get("output", {}), **out_fields}
-    return score_routes._validate(scene)
+    return validate_scene(scene)
 
 
 def _check_job_limits(scene: engine.Scene, request: Request) -> None:
@@ -182,7 +189,7 @@ async def create_job(request: Request) -> JSONResponse:
             return JSONResponse({"detail": f"{s.max_jobs} jobs are stored and none can be "
                                            "deleted yet (GUITAR_MAX_JOBS); try again later"},
                                 status_code=503, headers={"Retry-After": "60"})
-    # only the fields the client set, as /render sends them (render.scene_payload)
+    # only the fields the client set, as /render sends them (responses.scene_payload)
     job = jobs.store.create(scene_payload(scene), scene.output.format, scene.duration)
     jobs.wake()
     return JSONResponse(_public(job), status_code=202, headers={"Location": f"/jobs/{job['id']}"})

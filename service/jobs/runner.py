@@ -26,16 +26,8 @@ from typing import Any
 
 from .. import audio
 from ..config import Settings
-from ..pool import (
-    PoolBusy,
-    PoolClosed,
-    PoolError,
-    RenderFailed,
-    RenderStream,
-    StreamAborted,
-    WorkerDied,
-    WorkerPool,
-)
+from ..exceptions import PoolBusy, PoolClosed, PoolError, RenderFailed, StreamAborted, WorkerDied
+from ..pool import RenderStream, WorkerPool
 from .store import Store
 
 log = logging.getLogger("service.jobs")

@@ -7,7 +7,6 @@ to the worker pool, turn the result into a response.  Status codes for failures:
 from __future__ import annotations
 
 import asyncio
-import json
 from collections.abc import AsyncIterator, Awaitable, Callable
 from typing import Annotated, Any
 
@@ -20,27 +19,11 @@ import engine
 
 from .. import audio
 from ..examples import scene_examples, stream_examples
-from ..pool import ClientGone
+from ..exceptions import ClientGone
+from ..responses import ERROR_RESPONSES, realtime_factor, scene_payload, seconds, warnings_header
 from ..validation import StrictJSONRoute, check_limits, check_streamable
 
 router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
-
-_ERRORS: dict[int | str, dict[str, Any]] = {
-    413: {"description": "request body too large"},
-    422: {"description": "invalid scene or outside the service's limits; `detail[].field` names "
-                         "the field"},
-    502: {"description": "the render worker died during the render (it is replaced)"},
-    503: {"description": "all workers busy and the queue full (see Retry-After)"},
-    504: {"description": "the render ran past its time limit and was stopped"},
-}
-
-
-def scene_payload(scene: engine.Scene) -> dict[str, Any]:
-    """The scene as the worker re-parses it: only the fields the client set (the rest are the
-    same defaults again).  A full dump of a scene with ``tracks`` would also carry the default
-    top-level ``guitar``, which the schema refuses beside ``tracks``."""
-    return scene.model_dump(mode="json", exclude_unset=True)
-
 
 async def _while_connected(request: Request, work: Awaitable[Any], poll_s: float) -> Any:
     """Await ``work`` (the pool's render or the start of a stream), checking every ``poll_s``
@@ -63,28 +46,6 @@ async def _while_connected(request: Request, work: Awaitable[Any], poll_s: float
                 pass
 
 
-def _seconds(x: float) -> str:
-    return f"{x:.6f}"
-
-
-def _realtime_factor(audio_s: float, render_s: float) -> str:
-    return f"{audio_s / render_s:.2f}" if render_s > 0 else "inf"
-
-
-MAX_HEADER_WARNINGS = 10  # a scene of 500 light taps would otherwise send a 90 kB header
-
-
-def _warnings(warnings: list[str]) -> dict[str, str]:
-    """``X-Render-Warnings``: a JSON array of what the scene asks for that may not sound as meant
-    (``engine.RenderResult.warnings``: a finger pressing too lightly to seat its string), when
-    there is any; the first ``MAX_HEADER_WARNINGS`` and a count of the rest.  The worker works
-    them out with the render, inside its time limit."""
-    if len(warnings) > MAX_HEADER_WARNINGS:
-        more = len(warnings) - MAX_HEADER_WARNINGS
-        warnings = [*warnings[:MAX_HEADER_WARNINGS], f"and {more} more warnings like these"]
-    return {"X-Render-Warnings": json.dumps(warnings)} if warnings else {}
-
-
 @router.post(
     "/render",
     response_class=Response,
@@ -96,7 +57,7 @@ def _warnings(warnings: list[str]) -> dict[str, str]:
                            "X-Energy-Error",
             "content": {t: {} for t in audio.MEDIA_TYPES.values()},
         },
-        **_ERRORS,
+        **ERROR_RESPONSES,
     },
 )
 async def render(
@@ -120,10 +81,10 @@ async def render(
     audio_s = out.frames / scene.sample_rate
     request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
     headers = {
-        "X-Render-Seconds": _seconds(out.render_seconds),
-        "X-Realtime-Factor": _realtime_factor(audio_s, out.render_seconds),
+        "X-Render-Seconds": seconds(out.render_seconds),
+        "X-Realtime-Factor": realtime_factor(audio_s, out.render_seconds),
         "Content-Disposition": f'inline; filename="guitar.{scene.output.format}"',
-        **_warnings(out.warnings),
+        **warnings_header(out.warnings),
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)  # e.g. 6.24e-15
@@ -158,7 +119,7 @@ class _StreamResponse(StreamingResponse):
                            "headers are sent. X-Render-Warnings as for /render",
             "content": {"audio/wav": {}},
         },
-        **_ERRORS,
+        **ERROR_RESPONSES,
     },
 )
 async def render_stream(
@@ -185,9 +146,9 @@ async def render_stream(
     request.state.audio_seconds = audio_s
     headers = {
         "Content-Length": str(audio.wav_size(frames, subtype, channels)),
-        "X-Render-Seconds": _seconds(stream.first_block_seconds),
+        "X-Render-Seconds": seconds(stream.first_block_seconds),
         "Content-Disposition": 'inline; filename="guitar.wav"',
-        **_warnings(stream.warnings),
+        **warnings_header(stream.warnings),
     }
 
     async def body() -> AsyncIterator[bytes]:

@@ -13,7 +13,8 @@ import pytest
 from svc_helpers import brief, chord_scene, decode, heavy_scene, pluck_scene, same_bytes
 
 from service.config import Settings
-from service.pool import PoolBusy, WorkerPool
+from service.exceptions import PoolBusy
+from service.pool import WorkerPool
 
 
 def wait_for(check, timeout: float = 30.0) -> None:

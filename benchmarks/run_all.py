@@ -27,6 +27,7 @@ from benchmarks import (
     seating,
     skips,
     soak,
+    songs,
     speed,
 )
 
@@ -48,6 +49,7 @@ RUNS = [
     ("seating_nylon", seating.main, ["--preset", "nylon-classical", "--quality", "standard"]),
     ("pareto", pareto.main, []),
     ("soak", soak.main, ["--minutes", "3"]),
+    ("songs", songs.main, []),  # whole songs against FluidSynth, and the cold start
     # last: it pins its process to one core
     ("scores", scores.main, []),
 ]

@@ -351,29 +351,67 @@ def _progress(total_s: float, quiet: bool) -> Any:
                            "[{elapsed}<{remaining}{postfix}]")
 
 
+def scene_models(sc: Any) -> set[str]:
+    """The string models a validated scene renders with (a track's own, or the scene's)."""
+    tracks = getattr(sc, "tracks", None) or []
+    return {t.model or sc.model for t in tracks} if tracks else {sc.model}
+
+
+def prepare_kernels(sc: Any, quiet: bool) -> None:
+    """Load the compiled kernels the scene's models need, or compile them (the first run on a
+    machine, or after an upgrade), saying so, before the progress bar starts."""
+    from engine import precompile
+
+    models = scene_models(sc)
+    if precompile.kernels_cached(models):
+        precompile.prepare_kernels(models)
+        return
+    if not quiet:
+        print(f"compiling kernels ({', '.join(sorted(models))}), first run only: about half a "
+              "minute ...", file=sys.stderr, flush=True)
+    seconds = precompile.prepare_kernels(models)
+    if not quiet:
+        print(f"compiled in {seconds:.1f} s (kept in the cache for the next runs)",
+              file=sys.stderr, flush=True)
+
+
 def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
     """The scene's audio (frames,) or (frames, 2), scaled as its ``output`` asks, rendered
-    block by block with a progress bar; and the wall time of the render."""
+    block by block with a progress bar; and the wall time of the render (kernels loaded or
+    compiled first, the preparation included)."""
     import numpy as np
 
     import engine
+    from engine import calibration_store
 
     rate = sc.sample_rate
     frames = engine.frame_count(sc)
     # written block by block into the output: a song holds no more than its audio
     audio = np.zeros((frames, 2) if sc.output.channels == 2 else frames)
     t0 = time.perf_counter()
+    prepare_kernels(sc, quiet)
     with _progress(frames / rate, quiet) as bar:
-        blocks = engine.blocks(sc)  # prepares the instruments: the bar says "preparing"
+        def calibrating(kind: str) -> None:
+            what = ("designing the decimation filter" if kind == "decimation_taps"
+                    else "calibrating frets")
+            bar.set_description(f"{what} (first use of this guitar and quality)")
+
+        calibration_store.on_compute(calibrating)
+        try:
+            blocks = engine.blocks(sc)  # prepares the instruments: the bar says "preparing"
+        finally:
+            calibration_store.on_compute(None)
         _print_warnings(blocks.warnings, quiet)
         bar.set_description("rendering")
+        bar.reset(total=round(frames / rate, 3))  # the rate and time left count from here
+        t1 = time.perf_counter()
         done = 0
         for block in blocks:
             if not np.all(np.isfinite(block)):
                 raise FloatingPointError("the audio holds non-finite samples")
             audio[done:done + len(block)] = block
             done += len(block)
-            elapsed = time.perf_counter() - t0
+            elapsed = time.perf_counter() - t1
             bar.set_postfix_str(f"{done / rate / elapsed:.2f}x real time" if elapsed else "")
             bar.update(round(done / rate, 3) - bar.n)
     seconds = time.perf_counter() - t0

@@ -33,6 +33,7 @@ _SOURCES = ("fd/intonation.py", "fd/string.py", "fd/grid.py", "losses.py", "fd/c
             "performance.py", "presets.py", "fd/kernels/linear.py")
 _LOCK = threading.Lock()
 _STATE: dict = {}
+_LOCAL = threading.local()  # per thread: the on_compute callback
 
 
 def _version(sources: tuple[str, ...] = ()) -> str:
@@ -104,6 +105,12 @@ def save(k: str, values: tuple[float, ...]) -> None:
             pass
 
 
+def on_compute(callback) -> None:
+    """Call ``callback(kind)`` (or nothing, for None) in this thread whenever a calibration is
+    computed because the store does not hold it: the CLI says "calibrating frets" then."""
+    _LOCAL.callback = callback
+
+
 def recall(kind: str, inputs: tuple, compute, sources: tuple[str, ...] = ()) -> tuple[float, ...]:
     """The values of a calibration of ``kind`` from ``inputs``: read from the store, or
     ``compute()`` (a tuple of floats) and kept.  ``sources``: the modules beyond ``_SOURCES``
@@ -112,6 +119,9 @@ def recall(kind: str, inputs: tuple, compute, sources: tuple[str, ...] = ()) -> 
     stored = load(k)
     if stored is not None:
         return stored
+    callback = getattr(_LOCAL, "callback", None)
+    if callback is not None:
+        callback(kind)
     values = tuple(compute())
     save(k, values)
     return values

@@ -28,3 +28,15 @@ PREPARE = {"fdtd": prepare_fd, "waveguide": _waveguide}
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Instrument:
     """The instrument of the model ``scene.model`` names, prepared for ``scene`` (one track)."""
     return PREPARE[scene.model](scene, options)
+
+
+def entry_points(model: str) -> list:
+    """The compiled functions a render of ``model`` calls from Python (``engine.precompile`` loads
+    or compiles just these)."""
+    if model not in PREPARE:
+        raise KeyError(model)
+    from .fd import kernels
+    from .output import fir_decimate
+    from .waveguide import kernel
+
+    return {"fdtd": [kernels.step_block, fir_decimate], "waveguide": [kernel.run_block]}[model]

@@ -16,11 +16,12 @@ impulse response (any length) is applied with scipy's FFT convolution, in ``engi
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
-from scipy import signal
 
+from . import calibration_store
 from .config import JIT
 
 # Output gain for ``normalize: false`` and for streams: pickup velocity (m/s) -> full scale.  A 2 N
@@ -128,6 +129,8 @@ def default_pan(n_strings: int) -> list[float]:
 
 def convolve_ir(audio: np.ndarray, ir: np.ndarray) -> np.ndarray:
     """A user impulse response, by scipy's FFT convolution, trimmed to the input length."""
+    from scipy import signal  # here: importing scipy.signal takes a second of CPU
+
     ir = np.asarray(ir, dtype=float)
     if audio.ndim == 1:
         return signal.fftconvolve(audio, ir)[: len(audio)]
@@ -145,6 +148,27 @@ def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = Fals
     if peak == 0.0:
         return velocity if in_place else velocity.copy()
     return np.multiply(velocity, 10.0 ** (PEAK_DBFS / 20.0) / peak, out=out)
+
+
+def _firwin(ntaps: int, rate_out: float, factor: int) -> tuple[float, ...]:
+    from scipy import signal  # only on a machine's first use of a factor: a second of CPU
+
+    return tuple(signal.firwin(ntaps, 0.45 * rate_out, fs=rate_out * factor,
+                               window=("kaiser", 9.0))[::-1])
+
+
+@lru_cache(maxsize=64)
+def _stored_taps(ntaps: int, rate_out: float, factor: int) -> tuple[float, ...]:
+    return calibration_store.recall("decimation_taps", (ntaps, rate_out, factor),
+                                    lambda: _firwin(ntaps, rate_out, factor),
+                                    sources=("output.py",))
+
+
+def decimation_taps(ntaps: int, rate_out: float, factor: int) -> np.ndarray:
+    """The decimator's taps, reversed: designed by scipy's ``firwin`` once per machine and kept
+    in the calibration store (exact to the bit, as every value there), so that a render need not
+    import scipy.signal."""
+    return np.array(_stored_taps(ntaps, rate_out, factor), dtype=np.float64)
 
 
 class Decimator:
@@ -169,8 +193,7 @@ class Decimator:
         if factor > 1:
             ntaps = 24 * factor + (1 if factor % 2 else 2)
             self.lead = (ntaps - 1 + factor - 1) // 2
-            self.taps = signal.firwin(ntaps, 0.45 * rate_out, fs=rate_out * factor,
-                                      window=("kaiser", 9.0))[::-1].copy()
+            self.taps = decimation_taps(ntaps, float(rate_out), factor)
             self.history = np.zeros(ntaps - 1)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:

@@ -1,4 +1,14 @@
-"""Compile the numba kernels, or load them from the cache, once per process.
+"""Compile the numba kernels, or load them from the cache, once per process; and, at install,
+everything a first render would otherwise wait for.
+
+    python -m engine.precompile      # every kernel, and the fret calibrations of every preset
+
+``prepare_kernels(models)`` loads (or, the first time on a machine, compiles) just the kernels a
+render of those string models calls, by rendering ``KERNEL_SCENES``: the CLI does this before its
+progress bar starts, and says so when the kernels are not in the cache yet
+(``kernels_cached``).  Compiling is done by one process at a time (a lock file in the cache's
+folder): processes started together, like the service's workers on a first start, wait for the
+first one and then load what it wrote, instead of each compiling everything.
 
 ``WARMUP_SCENES`` are tiny scenes that between them take every numba kernel path a render can
 take: fingers (fret, tap, hammer-on, pull-off, slide), rigid frets and the fretboard, the
@@ -9,8 +19,11 @@ several pickups, stereo, both built-in bodies and none, the energy terms, oversa
 
 from __future__ import annotations
 
+import contextlib
+import os
 import time
 
+from . import config
 from .rendering import render
 
 WARMUP_SCENES: tuple[dict, ...] = (
@@ -59,11 +72,128 @@ WARMUP_SCENES: tuple[dict, ...] = (
 )
 
 
+# per string model, a tiny scene whose render calls every kernel a render of that model calls
+# from Python with the types a render passes (diagnostics off): the finite-difference step (a
+# fretted, oversampled string at ``standard``, and an open one), the decimator and the body filter;
+# the waveguide's sample loop and the body filter
+KERNEL_SCENES: dict[str, dict] = {
+    "fdtd": {"duration": 0.01, "model": "fdtd",
+             "events": [{"type": "fret", "time": 0.0, "string": 2, "fret": 3},
+                        {"type": "pluck", "time": 0.0, "string": 2},
+                        {"type": "pluck", "time": 0.0, "string": 6}]},
+    "waveguide": WARMUP_SCENES[-1],
+}
+
+
+def _dispatchers(model: str) -> list:
+    """The compiled functions a render of ``model`` calls from Python."""
+    from . import models
+
+    return models.entry_points(model)
+
+
+def kernels_cached(models) -> bool:
+    """Whether numba's cache holds, for this machine's CPU and the kernels' current source, the
+    compiled kernels a render of ``models`` calls (so ``prepare_kernels`` loads rather than
+    compiles).  Reads numba's cache index (not public API): False if it cannot tell."""
+    try:
+        for model in models:
+            for d in _dispatchers(model):
+                index = d._cache._cache_file._load_index()
+                magic = d.targetctx.codegen().magic_tuple()
+                if not any(key[1] == magic for key in index):
+                    return False
+        return True
+    except Exception:  # a numba without these internals: say "not cached", which is safe
+        return False
+
+
+@contextlib.contextmanager
+def _compile_lock():
+    """One process compiles at a time: the others wait here, then load what it cached."""
+    folder = os.environ.get("NUMBA_CACHE_DIR") or config.CACHE_DIR
+    try:
+        import fcntl
+
+        os.makedirs(folder, exist_ok=True)
+        f = open(os.path.join(folder, "compile.lock"), "a")  # noqa: SIM115
+    except (ImportError, OSError):
+        yield
+        return
+    with f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(f, fcntl.LOCK_UN)
+
+
+def prepare_kernels(models=("fdtd",)) -> float:
+    """Load, or compile once per machine, the kernels a render of ``models`` calls, so that the
+    render itself spends no time on them.  Returns the seconds it took."""
+    t0 = time.perf_counter()
+    models = sorted(set(models))
+    if kernels_cached(models):
+        for m in models:
+            render(KERNEL_SCENES[m])
+    else:
+        with _compile_lock():
+            for m in models:
+                render(KERNEL_SCENES[m])
+    return time.perf_counter() - t0
+
+
 def warmup() -> float:
     """Compile the numba kernels, or load them from the cache (``NUMBA_CACHE_DIR``), by rendering
-    ``WARMUP_SCENES``, so that the first real render of a process spends no time compiling.
-    Returns the seconds it took."""
+    ``WARMUP_SCENES``, so that the first real render of a process spends no time compiling; one
+    process at a time when they must be compiled.  Returns the seconds it took."""
     t0 = time.perf_counter()
-    for scene in WARMUP_SCENES:
-        render(scene)
+    if kernels_cached(KERNEL_SCENES):
+        for scene in WARMUP_SCENES:
+            render(scene)
+    else:
+        with _compile_lock():
+            for scene in WARMUP_SCENES:
+                render(scene)
     return time.perf_counter() - t0
+
+
+def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("standard",),
+                      sample_rates=(44100,)) -> float:
+    """Calibrate every stopped fret of every string of ``presets`` (default: all) for ``models``
+    at ``qualities`` and ``sample_rates``, into the calibration store (``engine.calibration_store``)
+    where a later render finds them: preparing a scene that frets each string at every fret does
+    it.  Returns the seconds it took."""
+    from .mix import prepare
+    from .presets import PRESETS
+    from .scene import Scene
+
+    t0 = time.perf_counter()
+    for name in presets or PRESETS:
+        preset = PRESETS[name]
+        events = [{"type": "fret", "time": 0.01 * q, "string": s, "fret": q}
+                  for s in range(1, len(preset.strings) + 1) for q in range(1, preset.frets + 1)]
+        for model in models:
+            for quality in qualities:
+                for rate in sample_rates:
+                    prepare(Scene.model_validate(
+                        {"duration": 0.5, "sample_rate": rate, "quality": quality,
+                         "model": model, "guitar": {"preset": name}, "events": events}))
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description="Fill the caches a first render would wait for: "
+                                 "numba's compiled kernels (NUMBA_CACHE_DIR) and the fret "
+                                 "calibrations of every preset (GUITAR_CACHE_DIR).")
+    ap.add_argument("--kernels-only", action="store_true", help="no calibrations")
+    args = ap.parse_args()
+    print(f"compiling kernels (or loading them from the cache) ... {warmup():.1f} s", flush=True)
+    if not args.kernels_only:
+        print(f"calibrating the frets of every preset ... {warm_calibrations():.1f} s", flush=True)
+
+
+if __name__ == "__main__":
+    main()

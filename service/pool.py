@@ -206,6 +206,9 @@ class WorkerPool:
 
     def _on_message(self, w: _Worker, msg: tuple) -> None:
         kind = msg[0]
+        if kind == "warming":  # what a worker's warm-up is doing (compiling kernels: minutes)
+            log.info(msg[2], extra={"fields": {"worker": w.number, "pid": w.pid}})
+            return
         if kind == "ready":
             w.ready = w.warmed = True
             self._failed_starts = 0

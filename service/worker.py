@@ -6,6 +6,7 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
     parent -> worker   ("render", job_id, payload) | ("stream", job_id, payload)
                        | ("cancel", job_id) | None (stop)
     worker -> parent   ("beat", pid)                                  every heartbeat_s, always
+                       ("warming", pid, what it is doing), before a long warm-up
                        ("ready", pid, warmup_seconds)
                        ("done", job_id, file_bytes, meta)             render finished
                        ("block", job_id, pcm_bytes, seconds_so_far, warnings)
@@ -80,6 +81,11 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
 
     t0 = time.perf_counter()
     if warmup:
+        from engine import precompile
+
+        if not precompile.kernels_cached(precompile.KERNEL_SCENES):
+            conn.send(("warming", os.getpid(), "compiling kernels, first run only (one worker "
+                       "compiles, the others wait and load them)"))
         engine.warmup()  # every numba kernel path, compiled or loaded from NUMBA_CACHE_DIR
         for fmt in ("wav", "flac", "ogg"):  # and libsndfile with its codecs
             audio.encode(np.zeros(64), 44100, fmt)

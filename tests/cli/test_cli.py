@@ -330,3 +330,32 @@ def test_the_command_knows_the_engine_by_its_public_names() -> None:
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
             for name in names:
                 assert not name.startswith(("engine.", "service")), (path.name, name)
+
+
+def test_a_render_says_when_it_calibrates_frets_and_only_then(tmp_path: Path) -> None:
+    scene = write_json(tmp_path / "s.json", {**SCENE, "quality": "standard"})
+    env = {"GUITAR_CACHE_DIR": str(tmp_path / "calibrations")}  # an empty store: after install
+    first = run("render", scene, "-o", tmp_path / "a.wav", env=env)
+    assert first.returncode == 0, first.stderr
+    assert "calibrating frets" in first.stderr
+    second = run("render", scene, "-o", tmp_path / "b.wav", env=env)
+    assert second.returncode == 0, second.stderr
+    assert "calibrating" not in second.stderr and "compiling" not in second.stderr
+    assert sf.read(tmp_path / "a.wav")[0].tobytes() == sf.read(tmp_path / "b.wav")[0].tobytes()
+
+
+def test_a_render_says_when_it_compiles_kernels(monkeypatch, capsys) -> None:
+    from cli import main as cli_main
+    from engine import precompile
+    from engine.scene import Scene
+
+    models = []
+    monkeypatch.setattr(precompile, "kernels_cached", lambda m: False)
+    monkeypatch.setattr(precompile, "prepare_kernels", lambda m: models.append(set(m)) or 1.0)
+    sc = Scene.model_validate({**SCENE, "model": "waveguide"})
+    cli_main.prepare_kernels(sc, quiet=False)
+    err = capsys.readouterr().err
+    assert "compiling kernels (waveguide), first run only" in err and "compiled in" in err
+    assert models == [{"waveguide"}]
+    cli_main.prepare_kernels(sc, quiet=True)
+    assert capsys.readouterr().err == ""

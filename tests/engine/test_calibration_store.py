@@ -132,3 +132,32 @@ def test_an_unwritable_store_changes_nothing(tmp_path, monkeypatch):
     finally:
         calibration_store.reset()
         intonation.fret_calibration.cache_clear()
+
+
+def test_decimation_taps_are_firwins_to_the_bit(store):
+    from scipy import signal
+
+    from engine import output
+
+    output._stored_taps.cache_clear()
+    for factor in (2, 3, 4):
+        ntaps = 24 * factor + (1 if factor % 2 else 2)
+        want = signal.firwin(ntaps, 0.45 * 44100, fs=44100 * factor,
+                             window=("kaiser", 9.0))[::-1]
+        first = output.decimation_taps(ntaps, 44100.0, factor)  # designed and stored
+        output._stored_taps.cache_clear()
+        again = output.decimation_taps(ntaps, 44100.0, factor)  # read back from the store
+        assert first.tobytes() == want.tobytes() == again.tobytes()
+    output._stored_taps.cache_clear()
+
+
+def test_on_compute_is_told_of_a_computation_only(store):
+    kinds = []
+    calibration_store.on_compute(kinds.append)
+    try:
+        calibration_store.recall("test_kind", (1, 2.5), lambda: (3.0,))
+        calibration_store.recall("test_kind", (1, 2.5), lambda: (3.0,))  # stored: not computed
+    finally:
+        calibration_store.on_compute(None)
+    calibration_store.recall("test_kind", (2, 2.5), lambda: (4.0,))  # no callback any more
+    assert kinds == ["test_kind"]

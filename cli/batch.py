@@ -31,10 +31,12 @@ from __future__ import annotations
 import argparse
 import csv
 import hashlib
+import itertools
 import json
 import os
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,7 +55,9 @@ class Item:
     input: str
     kind: str  # scene | score | drawn
     data: bytes | None = None  # file contents (scene or score)
-    scene: dict | None = None  # a drawn scene
+    scene: dict | None = None  # a drawn scene (or None: drawn from ``spec`` when rendered)
+    spec: Any = None  # a dataset.Spec whose scene ``index`` this item is, drawn on the worker
+    index: int = 0
     seed: int | None = None
     error: str | None = None  # the input could not be read: fails without rendering
     duration: float = 0.0  # a guess at the cost, for the order of submission
@@ -138,6 +142,10 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
             scene = json.loads(item.data or b"")
             if not isinstance(scene, dict):
                 raise ValueError("a scene is a JSON object")
+        elif item.scene is None and item.spec is not None:
+            from cli import dataset
+
+            scene = dataset.draw_scene(item.spec, item.index)
         else:
             scene = dict(item.scene or {})
         if options.get("quality"):
@@ -203,10 +211,43 @@ def _safe_id(text: str) -> str:
     return keep.strip("._") or "item"
 
 
-def gather(inputs: list[str], options: dict) -> list[Item]:
+@dataclass
+class Plan:
+    """What a batch renders: the files' items (a list) and the specs' items, drawn lazily: a
+    spec of ten million scenes costs nothing until its items are rendered, one at a time."""
+
+    files: list[Item]
+    specs: list[tuple[Any, Path, bytes]]  # (dataset.Spec, its path, its bytes)
+    opts_hash: bytes = b""
+
+    @property
+    def total(self) -> int:
+        return len(self.files) + sum(spec.count for spec, _, _ in self.specs)
+
+    def items(self) -> Iterator[Item]:
+        """Every item: the files' longest first, then each spec's in index order (its scenes
+        are drawn on the workers, from the spec and the index)."""
+        yield from sorted(self.files, key=lambda i: -i.duration)
+        for spec, path, spec_bytes in self.specs:
+            low, high = spec.duration
+            for i in range(spec.count):
+                yield Item(id=_drawn_id(spec.name, i), input=f"{path}#{i}", kind="drawn",
+                           spec=spec, index=i, seed=spec.seed, duration=(low + high) / 2,
+                           input_hash=_hash(spec_bytes, str(i).encode(), self.opts_hash))
+
+
+def _drawn_id(name: str, index: int) -> str:
+    return f"{name}-{index:06d}"
+
+
+def gather(inputs: list[str], options: dict) -> Plan:
+    """The batch's items.  Ids are unique by construction: two files of one name get ``NAME``,
+    ``NAME-2``, ``NAME-3``, ... (skipping every id another input has); two specs of one name, or
+    a file whose id is one a spec draws, are refused naming both."""
     from cli import dataset
 
     items: list[Item] = []
+    specs: list[tuple[Any, Path, bytes]] = []
     opts_hash = json.dumps({**{k: options.get(k) for k in (
         "quality", "diagnostics", "max_seconds", "format", "labels", "score_options")},
         # only when given: the items of a batch run before there was --model keep their ids
@@ -226,13 +267,13 @@ def gather(inputs: list[str], options: dict) -> list[Item]:
                 spec = dataset.load_spec(p)
             except dataset.SpecError as exc:
                 raise BadInput(str(exc)) from None
-            spec_bytes = p.read_bytes()
-            for i in range(spec.count):
-                scene = dataset.draw_scene(spec, i)
-                items.append(Item(
-                    id=f"{spec.name}-{i:06d}", input=f"{p}#{i}", kind="drawn", scene=scene,
-                    seed=spec.seed, duration=scene["duration"],
-                    input_hash=_hash(spec_bytes, str(i).encode(), opts_hash)))
+            same = [q for other, q, _ in specs if other.name == spec.name]
+            if same:
+                raise BadInput(f"{p} and {same[0]}: two dataset specs named {spec.name!r} would "
+                               f"draw the same ids ({_drawn_id(spec.name, 0)}, ...): give each "
+                               "spec its own name")
+            # the spec's bytes, and only them: an item's hash stays what it was in earlier runs
+            specs.append((spec, p, p.read_bytes()))
             continue
         elif p.suffix.lower() in (*SCENE_SUFFIXES, *SCORE_SUFFIXES):
             names = [(p, p.stem)]
@@ -251,13 +292,29 @@ def gather(inputs: list[str], options: dict) -> list[Item]:
                 item.error = f"cannot read {f}: {exc.strerror or exc}"
                 item.input_hash = _hash(b"unreadable", opts_hash)
             items.append(item)
-    seen: dict[str, int] = {}
-    for item in items:  # two inputs with one name get distinct ids
-        n = seen.get(item.id, 0)
-        seen[item.id] = n + 1
-        if n:
-            item.id = f"{item.id}-{n + 1}"
-    return items
+    _unique_ids(items)
+    for item in items:
+        for spec, path, _ in specs:
+            head, _, tail = item.id.rpartition("-")
+            if head == spec.name and tail.isdigit() and len(tail) >= 6 \
+                    and int(tail) < spec.count and _drawn_id(head, int(tail)) == item.id:
+                raise BadInput(f"{item.input}: its id {item.id!r} is also item {int(tail)} of "
+                               f"the spec {path}: rename the file or the spec")
+    return Plan(items, specs, opts_hash)
+
+
+def _unique_ids(items: list[Item]) -> None:
+    """Files of one name get ``NAME``, ``NAME-2``, ... in the order given, never an id that any
+    other input has by its own name (``a/x.json b/x.json x-2.json``: x, x-3, x-2)."""
+    taken = {item.id for item in items}  # every input's own id, claimed first
+    used: set[str] = set()
+    for item in items:
+        if item.id in used:
+            n, base = 2, item.id
+            while f"{base}-{n}" in taken or f"{base}-{n}" in used:
+                n += 1
+            item.id = f"{base}-{n}"
+        used.add(item.id)
 
 
 def _guess_duration(item: Item) -> float:
@@ -410,67 +467,100 @@ def run(args: argparse.Namespace) -> int:
     options = {"format": args.format, "quality": args.quality, "model": args.model,
                "max_seconds": args.max_seconds,
                "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {}}
-    items = gather(args.inputs, options)
-    if not items:
+    plan = gather(args.inputs, options)
+    if not plan.total:
         raise BadInput("no inputs found (scene .json, Guitar Pro, MIDI files or specs)")
     _prepare_output(out)
     old = read_manifest(out, args.manifest)
     rows: dict[str, dict[str, Any]] = {}
-    todo: list[Item] = []
-    for item in items:
-        if _is_done(old.get(item.id), item, out):
-            rows[item.id] = old[item.id]
-        else:
-            todo.append(item)
-    skipped = len(rows)
+    skipped = 0
+
+    def todo() -> Iterator[Item]:  # lazily: a spec's items are made as they are submitted
+        nonlocal skipped
+        for item in plan.items():
+            if _is_done(old.get(item.id), item, out):
+                rows[item.id] = old[item.id]
+                skipped += 1
+            else:
+                yield item
+
     t0 = time.perf_counter()
-    if todo:
-        _submit_all(todo, out, options, args, rows, skipped, len(items))
+    rendered = _submit_all(todo(), out, options, args, rows, plan.total)
     write_manifest(out, args.manifest, list(rows.values()))
+    if len(rows) != plan.total:  # ids are unique by construction: this is a bug, never silent
+        print(f"{len(rows)} manifest rows for {plan.total} items", file=sys.stderr)
+        return 1
     failed = [r for r in rows.values() if r.get("status") != "done"]
     if not args.quiet:
-        audio_s = sum(r.get("audio_seconds") or 0 for r in rows.values()
-                      if r["id"] in {i.id for i in todo})
+        audio_s = sum(r.get("audio_seconds") or 0 for r in rendered)
         wall = time.perf_counter() - t0
-        print(f"{len(items) - len(failed)} of {len(items)} items done ({skipped} skipped as done "
-              f"before, {len(failed)} failed); {audio_s:.1f} s of audio rendered in {wall:.1f} s"
-              f"; manifest {_manifest_path(out, args.manifest)}", file=sys.stderr)
+        print(f"{plan.total - len(failed)} of {plan.total} items done ({skipped} skipped as "
+              f"done before, {len(failed)} failed); {audio_s:.1f} s of audio rendered in "
+              f"{wall:.1f} s; manifest {_manifest_path(out, args.manifest)}", file=sys.stderr)
     return 1 if failed else 0
 
 
-def _submit_all(todo: list[Item], out: Path, options: dict, args: argparse.Namespace,
-                rows: dict[str, dict[str, Any]], skipped: int, total: int) -> None:
+IN_FLIGHT_PER_WORKER = 4  # items submitted ahead per Dask worker: they stay busy, memory flat
+
+
+def _submit_all(todo: Iterator[Item], out: Path, options: dict, args: argparse.Namespace,
+                rows: dict[str, dict[str, Any]], total: int) -> list[dict[str, Any]]:
+    """Render the items of ``todo`` on Dask, a bounded number in flight at once (so a spec of
+    millions of scenes is drawn and submitted as the workers take them); their rows go into
+    ``rows``.  Returns the rows of the items rendered in this run.  The cluster is started only
+    when there is something to do."""
     from dask.distributed import as_completed
     from tqdm import tqdm
 
-    client, cluster = connect(args.scheduler, args.workers)
-    try:
-        futures = {}
-        for item in sorted(todo, key=lambda i: -i.duration):  # longest first
-            fut = client.submit(render_item, item, str(out.resolve()), options, key=(
-                f"render-{item.id}-{item.input_hash}"), retries=args.retries, pure=False,
-                priority=int(item.duration * 1000))
-            futures[fut] = item
-        last = time.monotonic()
-        with tqdm(total=total, initial=skipped, unit="item", file=sys.stderr,
-                  disable=args.quiet, dynamic_ncols=True) as bar:
-            for fut in as_completed(futures):
-                item = futures[fut]
+    rendered: list[dict[str, Any]] = []
+    first = next(todo, None)
+    with tqdm(total=total, unit="item", file=sys.stderr, disable=args.quiet,
+              dynamic_ncols=True) as bar:
+        if first is None:
+            bar.update(len(rows))
+            return rendered
+        client, cluster = connect(args.scheduler, args.workers)
+        try:
+            workers = max(1, len(client.scheduler_info().get("workers", {})))
+            window = IN_FLIGHT_PER_WORKER * workers
+            futures: dict[Any, Item] = {}
+            pending = itertools.chain([first], todo)
+
+            def submit(item: Item) -> Any:
+                fut = client.submit(render_item, item, str(out.resolve()), options, key=(
+                    f"render-{item.id}-{item.input_hash}"), retries=args.retries, pure=False,
+                    priority=int(item.duration * 1000))
+                futures[fut] = item
+                return fut
+
+            done = as_completed([submit(i) for i in itertools.islice(pending, window)])
+            last = time.monotonic()
+            shown = 0
+            for fut in done:
+                item = futures.pop(fut)
                 try:
                     row = fut.result()
                 except Exception as exc:  # KilledWorker: the item killed every worker it met
                     row = {"id": item.id, "input": item.input, "seed": item.seed,
                            "input_hash": item.input_hash, "status": "failed",
                            "error": _one_line(exc)}
+                fut.release()
                 rows[item.id] = row
-                bar.update(1)
+                rendered.append(row)
+                nxt = next(pending, None)
+                if nxt is not None:
+                    done.add(submit(nxt))
+                bar.update(len(rows) - shown)
+                shown = len(rows)
                 if time.monotonic() - last > MANIFEST_INTERVAL_S:
                     write_manifest(out, args.manifest, list(rows.values()))
                     last = time.monotonic()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+            bar.update(len(rows) - shown)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    return rendered
 
 
 def main(argv: list[str] | None = None) -> int:

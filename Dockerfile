@@ -45,11 +45,12 @@ USER 10001:10001
 # Compile the numba kernels now, into NUMBA_CACHE_DIR, so that workers start in about a second
 # instead of compiling for 10-15 s each. (The cache is keyed to this CPU's features; on another
 # CPU model the workers compile once at start-up and write the cache again: it stays writable.)
+# Calibrate the frets of every preset for offline renders at the default quality (same command).
 # And calibrate the frets of the guitar a live worker prepares when it warms up (the default
 # guitar at 44.1 and 48 kHz, on both models: the finite-difference frets, the waveguide's finger
 # damping of every held fret) into GUITAR_CACHE_DIR, so that a live worker does not spend seconds
 # calibrating every fret (engine.calibration_store; benchmarks/calibration.py).
-RUN python -c "import engine; engine.warmup()" \
+RUN python -m engine.precompile \
     && python -c "import engine; [engine.Session(sample_rate=r, model=m) for r in (44100, 48000) for m in engine.MODELS]"
 
 EXPOSE 8000

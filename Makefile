@@ -20,10 +20,15 @@ venv-support:
 	  $(APT_INSTALL) python3-venv >/dev/null ; } || \
 	  { echo "$(PY) cannot create a venv: apt-get install python3-venv" >&2; exit 1; }
 
+# Then the caches a first render would wait for (engine/precompile.py): the compiled kernels, in
+# NUMBA_CACHE_DIR (the service's and the tests') and in numba's default place (a plain
+# `guitar-synth render`), and the fret calibrations of every preset.
 $(VENV)/.installed: pyproject.toml | venv-support
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	$(BIN)/python -m engine.precompile
+	env -u NUMBA_CACHE_DIR $(BIN)/python -m engine.precompile --kernels-only
 	touch $@
 
 # the service writes its own JSON access log; uvicorn's would duplicate every line

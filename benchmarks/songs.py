@@ -88,16 +88,17 @@ def run_process(argv: list[str], env: dict | None = None, core: int | None = Non
     """Run ``argv`` to its end (pinned to ``core``); its wall time and the CPU time of the
     process and its children (``wait4``'s rusage)."""
     pre = (lambda: os.sched_setaffinity(0, {core})) if core is not None else None
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, preexec_fn=pre)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
-    proc.stderr and proc.stderr.close()
-    if proc.returncode != 0:
-        sys.exit(f"{' '.join(argv)} failed ({proc.returncode}):\n{err[-2000:]}")
+    with tempfile.TemporaryFile() as err:  # a file, not a pipe: a long stderr cannot block it
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=err,
+                                preexec_fn=pre)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            text = err.read().decode(errors="replace")
+            sys.exit(f"{' '.join(argv)} failed ({proc.returncode}):\n{text[-2000:]}")
     return Run(wall, usage.ru_utime + usage.ru_stime)
 
 

@@ -41,26 +41,18 @@ their own up to the next step that needs the general one (a period update every 
 steps, a reach, a junction's onset), compiled apart so that its few values stay in registers; with a
 steady period (no glide or bend moving it) it stops recomputing the delay once a step has neither
 walked the termination nor moved the taps (every later step of the run would compute the same), and
-a single pickup keeps its constants and last displacement in registers.  With no live collision
-point a plain run goes in chunks (``_plain_free``): within a chunk of at most N - n_t steps the
-termination reads only what the bridge wrote before it, so the chunk runs the termination over all
-its steps (``_term_run``), then the bridge and the pickups (``_pickup_run``), each a loop with
-only its own values in registers, the same arithmetic in another order; while the glide moves the
-period, the termination skips the delay's computation at every step whose period lies in the window
-where it could neither walk nor move the taps (``_window``, with a margin far above the rounding):
-such steps run in stretches, the period's steps over a stretch first, then the filters over it in
-a loop of their own for each number of allpass sections (``_term_steps``), which tests nothing
-per step.  The loops of the filters and of the bridge with one pickup go in pieces in which no
-ring offset wraps around, so that their offsets only count up (no mask per step).  The live
-collision points are tested for being cut off by the termination only after it has walked or the
-reach has listed them anew (``_inside``).
+a single pickup keeps its constants and last displacement in registers; while the glide moves the
+period, a step whose period lies in the window where it could neither walk the termination nor move
+the taps (``_window``, with a margin far above the rounding) skips the delay's computation and reads
+the Lagrange taps' three older inputs from registers.  The live collision points are tested for
+being cut off by the termination only after it has walked or the reach has listed them anew
+(``_inside``).
 All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
 depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
 steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
 times below every obstacle) it is not needed again before the next ``BLOCK`` step.  The filters'
 states live in registers for a call (``_terminate``), and ring indices are masked by a mask the
-compiler knows to be non-negative (no wraparound test), or in those pieces are an offset masked
-once plus a count up from 0.
+compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -321,13 +313,7 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
                 e = min(e, js_on[j])
             elif s1 < js_off[j] + js_rel[j] + tail:
                 e = s1
-        if e > s1 and nlive == 0:
-            (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
-             peak) = _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau,
-                                 dcap, d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
-                                 disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n,
-                                 pk_w, pk_g, fs, peak)
-        elif e > s1:
+        if e > s1:
             (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
              peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
                             d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
@@ -494,9 +480,9 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     # a steady period (dper = 0) at a step that neither walked the termination nor moved the
     # taps: every later step of the run computes the same delay, so it only terminates
     steady = False
-    # as in ``_term_run``: the period window in which a step changes neither the place nor the
-    # taps, and the Lagrange read's last three inputs (the collisions write u-(n) for n > n_t
-    # only at steps before the termination reads it)
+    # the period window in which a step changes neither the place nor the taps (``_window``),
+    # and the Lagrange read's last three inputs (the collisions write u-(n) for n > n_t only at
+    # steps before the termination reads it)
     plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
     base = s1 + n_t - j0
     m1 = Mb[(base - 1) & mask]
@@ -555,161 +541,6 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
 
 
-@njit(**JIT_STEP)
-def _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0,
-                h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2,
-                y3, fst, pk_n, pk_w, pk_g, fs, peak):
-    """``_plain`` with no live collision point, in chunks: the samples of ``_plain`` in another
-    order.  Within a chunk of at most N - n_t steps the termination reads only what the bridge
-    wrote before the chunk (its input at step s left the bridge at s - (N - n_t) or earlier), and
-    the bridge only what the termination wrote before it, so the chunk runs the termination over
-    all its steps, then the bridge and the pickups (which read both rails after both wrote
-    them), each a loop with only its own values in registers.  A chunk ends after a step that
-    walked the termination, so that every pickup reads with the n_t of its own step.  The
-    chunk is also short enough that no step of it overwrites a ring slot that another step of
-    it still reads: the bridge's read at step q and the termination's write at step t are
-    (t - q) + N - n_t slots apart (and the pickups' reads nearer), less than the ring's size
-    when the chunk is at most size - (N - n_t) - 1 steps long."""
-    mask &= NONNEG
-    size = mask + 1
-    one = pk_n.shape[0] == 1
-    pn = pk_n[0] if one else 0
-    pw = pk_w[0] if one else 0.0
-    pw1 = 1.0 - pw
-    pg = pk_g[0] if one else 0.0
-    pu = fst[F_PICKUP] if one else 0.0
-    steady = False  # as in ``_plain``
-    s = s1
-    while s < e:
-        b = min(e, s + min(N - n_t, size - (N - n_t) - 1))
-        nt0 = n_t
-        (t, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
-         y3) = _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0,
-                         h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
-                         x3, y0, y1, y2, y3)
-        if one:  # the bridge in the pickup's loop
-            # the step that walked (the chunk's last) reads with its new place
-            pu, peak = _pickup_run(R, Mb, mask, s, t - 1, step0, out, nt0, N, pn, pw, pw1, pg,
-                                   pu, fs, peak)
-            pu, peak = _pickup_run(R, Mb, mask, t - 1, t, step0, out, n_t, N, pn, pw, pw1, pg,
-                                   pu, fs, peak)
-        else:
-            for q in range(s, t):
-                Mb[(q + N) & mask] = -R[(q - N) & mask]
-                nq = n_t if q == t - 1 else nt0
-                acc = _pickups(R, Mb, mask, q, nq, N, fst, pk_n, pk_w, pk_g, fs)
-                out[(q - step0) & NONNEG] = acc
-                peak = max(peak, abs(acc))
-        s = t
-    if one:
-        fst[F_PICKUP] = pu
-    return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
-
-
-@njit(**JIT_STEP)
-def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0, h0, h1,
-              h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
-    """The termination (``_terminate_step`` without the bridge) at steps s .. b - 1, or up to and
-    including the first step that walks it; returns the step after the last one run and the
-    state.  The steps whose period lies in the window where ``_walk`` would neither walk nor move
-    the taps (``_window``; all of them once the period is steady) run in stretches: first the
-    period's steps over the stretch, then the filters over it (``_term_steps``)."""
-    mask &= NONNEG
-    plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-    # the Lagrange read's last three inputs: at step q it reads Mb at q + n_t - j0 and the three
-    # before, three of which the step before read (nothing writes Mb during the run)
-    base = s + n_t - j0
-    m1 = Mb[(base - 1) & mask]
-    m2 = Mb[(base - 2) & mask]
-    m3 = Mb[(base - 3) & mask]
-    q = s
-    while q < b:
-        # the stretch q .. r - 1 that skips ``_walk``
-        r = b
-        if not steady:
-            r = q
-            while r < b:
-                p = period + dper
-                if not plo < p < phi:
-                    break
-                period = p
-                r += 1
-                if dper == 0.0:  # steady: every later step computes the same delay
-                    steady = True
-                    r = b
-        (m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _term_steps(
-            R, Mb, mask, q, r, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
-            disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-        q = r
-        if q >= b:
-            break
-        # step q: the period leaves the window
-        period += dper
-        d_was = d_taps
-        (walk, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
-         y3) = _walk_terminate(R, Mb, mask, q, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2,
-                               h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0,
-                               y1, y2, y3)
-        steady = dper == 0.0 and walk == 0 and d_taps == d_was
-        if walk != 0:
-            return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3,
-                    y0, y1, y2, y3)
-        plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-        q += 1
-        base = q + n_t - j0  # the next step's read (the taps may have moved)
-        m1 = Mb[(base - 1) & mask]
-        m2 = Mb[(base - 2) & mask]
-        m3 = Mb[(base - 3) & mask]
-    return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
-
-
-@njit(**JIT_HELPER)
-def _term_steps(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
-                disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
-    """``_terminate`` at steps s .. b - 1 with fixed place and taps, the read's last three inputs
-    m1, m2, m3 kept from the step before; a loop for each number of allpass sections, so that
-    none tests it per step.  Returns the inputs and the filters' states."""
-    if disp_m == 0:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 0, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    if disp_m == 1:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 1, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    if disp_m == 2:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 2, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    if disp_m == 3:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 3, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a,
-                      disp_a, 4, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-
-
-@njit(**JIT_INLINE)
-def _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
-               dm, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
-    """``_term_steps``' loop for dm allpass sections (a constant where it is inlined)."""
-    mask &= NONNEG
-    size = mask + 1
-    q = s
-    while q < b:
-        # the ring offsets at q, and the steps from q in which neither wraps around the ring
-        im = (q + n_t - j0) & mask
-        ir = (q - n_t) & mask
-        r = min(b - q, size - im, size - ir)
-        for k in range(r):
-            m0 = Mb[im + k]
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
-                h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, dm, refl, ly,
-                x0, x1, x2, x3, y0, y1, y2, y3)
-            R[ir + k] = v
-            m3 = m2
-            m2 = m1
-            m1 = m0
-        q += r
-    return m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3
-
-
 @njit(**JIT_HELPER)
 def _window(N, n_t, tau, dcap, d_taps, period):
     """The periods p, plo < p < phi, for which ``_walk`` at n_t neither walks the termination nor
@@ -724,52 +555,6 @@ def _window(N, n_t, tau, dcap, d_taps, period):
     hi = min(3.0, dcap, d_taps + tol) - WINDOW_MARGIN
     base = 2.0 * (N - n_t) + tau
     return lo + base, hi + base
-
-
-@njit(**JIT_STEP)
-def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, peak):
-    """The bridge and one pickup (``_pickups``' arithmetic) at steps s .. t - 1, the termination
-    at n_t: each step's output into out and the largest |output|; returns the last displacement
-    and that."""
-    mask &= NONNEG
-    if pn <= n_t or pn + 1 > N:
-        for q in range(s, t):
-            Mb[(q + N) & mask] = -R[(q - N) & mask]
-            acc = 0.0
-            acc += pg * (0.0 - pu) * fs
-            pu = 0.0
-            out[(q - step0) & NONNEG] = acc
-            peak = max(peak, abs(acc))
-        return pu, peak
-    # each step reads u+ at pn, pn + 1 and u- at pn, pn + 1: its u+(pn + 1) is the step
-    # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (the bridge writes only u-(N))
-    rp1 = R[(s - pn - 1) & mask]
-    mm0 = Mb[(s + pn) & mask]
-    size = mask + 1
-    q = s
-    while q < t:
-        # the ring offsets at q (all >= 0), and the steps from q in which none of them wraps
-        # around the ring: in those the offsets only count up (no mask per step)
-        ib = (q - N) & mask
-        jb = (q + N) & mask
-        ip = (q - pn) & mask
-        jp = (q + pn + 1) & mask
-        o = (q - step0) & NONNEG  # q >= step0: the mask only tells the compiler so
-        r = min(t - q, size - ib, size - jb, size - ip, size - jp)
-        for k in range(r):
-            Mb[jb + k] = -R[ib + k]
-            rp0 = R[ip + k]
-            mm1 = Mb[jp + k]
-            u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
-            rp1 = rp0
-            mm0 = mm1
-            acc = 0.0
-            acc += pg * (u - pu) * fs
-            pu = u
-            out[o + k] = acc
-            peak = max(peak, abs(acc))
-        q += r
-    return pu, peak
 
 
 @njit(**JIT_INLINE)

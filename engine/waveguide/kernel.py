@@ -230,11 +230,12 @@ def run_block(wave, events, step0, out):
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
-    slot_lo = 1 << 62
-    slot_hi = -(1 << 62)
-    for j in range(nslot):
-        slot_lo = min(slot_lo, js_on[j])
-        slot_hi = max(slot_hi, js_off[j] + js_rel[j] + tail)
+    # the junctions whose window (onset to the end of their leak) holds the step, in their order,
+    # and the step at which that list next changes (``_active``): a song's string has hundreds
+    # of junctions, a step a few
+    act = np.empty(nslot, np.int64)
+    nact = 0
+    act_until = -1
     ncol = col_n.shape[0]
     npk = pk_n.shape[0]
     n_t = st.n_t
@@ -309,11 +310,12 @@ def run_block(wave, events, step0, out):
         (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _terminate_step(
             R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
             loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-        # 4. junctions (none before the first onset or after the last one is gone)
-        if slot_lo <= s < slot_hi:
-            for j in range(nslot):
-                if s < js_on[j] or s >= js_off[j] + js_rel[j] + tail:
-                    continue
+        # 4. junctions: those whose window holds s (``_active``)
+        if s >= act_until:
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
+        if nact > 0:
+            for a in range(nact):
+                j = act[a]
                 t = s - js_on[j]
                 if s < js_off[j]:
                     env = _envelope(t, js_len[j])
@@ -386,11 +388,9 @@ def run_block(wave, events, step0, out):
         e = min(s1 + (GLIDE_EVERY - s1 % GLIDE_EVERY) % GLIDE_EVERY, step0 + nsteps)
         if ncol > 0 and s1 >= quiet_until:
             e = min(e, s1 + (REACH_EVERY - ri % REACH_EVERY) % REACH_EVERY)
-        for j in range(nslot):
-            if js_on[j] > s1:
-                e = min(e, js_on[j])
-            elif s1 < js_off[j] + js_rel[j] + tail:
-                e = s1
+        if s1 >= act_until:
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act)
+        e = s1 if nact > 0 else min(e, act_until)  # up to the next junction's onset
         if e > s1:
             (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
              peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
@@ -472,6 +472,24 @@ def _walk_terminate(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
             ly, x0, x1, x2, x3, y0, y1, y2, y3)
         R[(s - n_t) & mask] = v
     return walk, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _active(js_on, js_off, js_rel, tail, s, act):
+    """The junctions whose window, from the onset to the end of the leak (js_off + js_rel +
+    tail), holds step s, listed in act in their order; returns how many and the first step after
+    s at which the list changes (an active one's window ends or another's begins)."""
+    n = 0
+    until = 1 << 62
+    for j in range(js_on.shape[0]):
+        end = js_off[j] + js_rel[j] + tail
+        if js_on[j] > s:
+            until = min(until, js_on[j])
+        elif s < end:
+            act[n] = j
+            n += 1
+            until = min(until, end)
+    return n, until
 
 
 @njit(**JIT_HELPER)

@@ -75,7 +75,6 @@ from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN, Scene
 from engine.testing import scenes as shared
 from engine.testing.scenes import fret, pluck, tap
 from engine.waveguide.collision import FRET_RESTITUTION
-from engine.waveguide.kernel import I_NT
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 OUT = pathlib.Path(__file__).parent / "out"
@@ -344,7 +343,7 @@ class SinkProbe:
         for v in eng.voices:
             if not len(v.col_n):
                 continue
-            s, mask, nt = v.step - 1, len(v.R) - 1, int(v.ist[I_NT])
+            s, mask, nt = v.step - 1, len(v.R) - 1, int(v.st["n_t"])
             live = (v.col_n > nt) & (v.col_n < v.n)
             n = v.col_n[live]
             depth = v.col_ref[live] - (v.R[(s - n) & mask] + v.Mb[(s + n) & mask])

@@ -25,7 +25,6 @@ import numpy as np
 
 from engine.scene import Scene
 from engine.waveguide import WaveguideOptions, prepare
-from engine.waveguide.kernel import F_GLIDE
 
 BLOCK = 64  # samples between two readings of the energy
 GROWTH = 1e-3  # a window's mean energy over the one before (glide off) or the first (glide on)
@@ -66,7 +65,7 @@ def energy_windows(scene: Scene, window_s: float = WINDOW_S,
     for block in inst.blocks(BLOCK):
         finite &= bool(np.isfinite(block).all())
         for v in inst.voices:
-            glide_max = max(glide_max, float(v.fst[F_GLIDE]))
+            glide_max = max(glide_max, float(v.st["glide"]))
             if v.step > v.timeline.last_step + 2 * v.p0 + int(0.003 * rate):
                 history[v.index].append(v.energy())
     worst = above = 0.0

@@ -2,7 +2,7 @@
 
 Per sample, in this order (all at time step s; a point's values at s depend only on step s - 1):
 
-1. the period: the note's frequency f(s), the stopped string's (``cfg``) times the pitch
+1. the period: the note's frequency f(s), the stopped string's (``config``) times the pitch
    ratio of the breakpoints (bends, vibrato) and of the tension-modulation glide (``glide``,
    every ``GLIDE_EVERY`` samples), P = fs / f, exact every ``GLIDE_EVERY`` samples (and where
    the schedules restart: every ``BLOCK`` steps and where the stop changes) and linear between;
@@ -24,9 +24,9 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    (``_still``; a stopped string costs nothing).
 
 The period's stretch, the reach schedule, the live collision points and a quiet string's
-respite carry from one call to the next (``ist``, ``fst``): the schedules restart only on the
-global grid of ``BLOCK`` steps and where ``voice`` asks (``I_FRESH``: the start, a change of the
-stop), so a render gives the same samples however its calls are cut, and a live session
+respite carry from one call to the next (``Wave.carry``): the schedules restart only on the
+global grid of ``BLOCK`` steps and where ``voice`` asks (``carry.fresh``: the start, a change of
+the stop), so a render gives the same samples however its calls are cut, and a live session
 (``engine.live``), whose calls end at its blocks and which learns of events only as they come,
 gives the samples of the render of its events.  For that, nothing a call decides may depend on
 an event more than ``LOOKAHEAD`` steps ahead (the session acts on events that much after they
@@ -41,26 +41,18 @@ their own up to the next step that needs the general one (a period update every 
 steps, a reach, a junction's onset), compiled apart so that its few values stay in registers; with a
 steady period (no glide or bend moving it) it stops recomputing the delay once a step has neither
 walked the termination nor moved the taps (every later step of the run would compute the same), and
-a single pickup keeps its constants and last displacement in registers.  With no live collision
-point a plain run goes in chunks (``_plain_free``): within a chunk of at most N - n_t steps the
-termination reads only what the bridge wrote before it, so the chunk runs the termination over all
-its steps (``_term_run``), then the bridge and the pickups (``_pickup_run``), each a loop with
-only its own values in registers, the same arithmetic in another order; while the glide moves the
-period, the termination skips the delay's computation at every step whose period lies in the window
-where it could neither walk nor move the taps (``_window``, with a margin far above the rounding):
-such steps run in stretches, the period's steps over a stretch first, then the filters over it in
-a loop of their own for each number of allpass sections (``_term_steps``), which tests nothing
-per step.  The loops of the filters and of the bridge with one pickup go in pieces in which no
-ring offset wraps around, so that their offsets only count up (no mask per step).  The live
-collision points are tested for being cut off by the termination only after it has walked or the
-reach has listed them anew (``_inside``).
+a single pickup keeps its constants and last displacement in registers; while the glide moves the
+period, a step whose period lies in the window where it could neither walk the termination nor move
+the taps (``_window``, with a margin far above the rounding) skips the delay's computation and reads
+the Lagrange taps' three older inputs from registers.  The live collision points are tested for
+being cut off by the termination only after it has walked or the reach has listed them anew
+(``_inside``).
 All are compiled without fastmath (``config.JIT_STEP``): they round alike, so the samples do not
 depend on where a plain run starts or ends.  Collision reach (``_reach``) runs every ``REACH_EVERY``
 steps; when the string is quiet (no junction, a steady pitch, and the energy bound ``QUIET_MARGIN``
 times below every obstacle) it is not needed again before the next ``BLOCK`` step.  The filters'
 states live in registers for a call (``_terminate``), and ring indices are masked by a mask the
-compiler knows to be non-negative (no wraparound test), or in those pieces are an offset masked
-once plus a count up from 0.
+compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
 kernel: numba's cache only watches this file, so after changing one of them, touch this file.
@@ -72,7 +64,9 @@ the offsets s - n and s + n grow with s, so nothing is copied as the waves trave
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
+import numpy as np
 from numba import njit
 
 from ..config import JIT_HELPER, JIT_INLINE, JIT_STEP
@@ -80,24 +74,10 @@ from .collision import NO_PREV, REACH_EVERY, _collide
 from .glide import GLIDE_EVERY, _slope_sum
 from .pluck import J_CUT, LEAK_HZ, _blow, _envelope, _msd
 
-# ist: integer state: the termination's place, the bend breakpoint, the first step at which the
-# decay stop may act (``voice``: no event left to come), whether it has; the step the period and
-# reach schedules last restarted at, the step until which a quiet string needs no reach, how many
-# collision points are live, and whether the next call must restart (``voice`` sets it: at the
-# start and after every change of the stop)
-I_NT, I_PB, I_STOP_FROM, I_STOPPED, I_RESTART, I_QUIET, I_NLIVE, I_FRESH = range(8)
-N_IST = 8
-# fst: float state: the loss filter's, the glide's ratio, the taps' delay, the output's peak since
-# the last decay test, the period and its step per sample; pickups' previous displacement from
-# F_PICKUP on
-F_LOSS, F_GLIDE, F_D, F_PEAK, F_PERIOD, F_DPER, F_PICKUP = range(7)
-# cfg: the current termination and string constants; C_DECAY_V <= 0 turns the decay stop off
-(C_LOSS_G, C_LOSS_A, C_DISP_A, C_REFL_G, C_TAU, C_GAIN, C_FS, C_GLIDE_K, C_DCAP, C_FBASE,
- C_DECAY_V) = range(11)
 HISTORY = 64  # samples of the u- history at the termination that the reach bound covers
 ENERGY_SAFETY = 2.0  # the energy bound's allowance for what the termination's filters hold
 # The glide's exact period and the reach schedule restart at every multiple of BLOCK (and where
-# ``voice`` asks: ``I_FRESH``), and the decay stop is tested there.
+# ``voice`` asks: ``Carry.fresh``), and the decay stop is tested there.
 BLOCK = 1024
 QUIET_MARGIN = 2.0  # a quiet string's energy bound stays this far below every obstacle
 MAX_SECTIONS = 4  # dispersion allpass sections at most (``string``)
@@ -110,80 +90,171 @@ SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost a
 TAP_REL = 5e-6
 WINDOW_MARGIN = 1e-9  # samples (``_window``)
 
+# The kernel's inputs are records (numpy structured dtypes, numba ``Record``s): each array of
+# records costs one unboxing per call whatever its fields, and a field is read at a fixed offset.
+_I, _F = np.int64, np.float64
+# the string's constants for its current stop (``voice._configure``): one record
+CONFIG = np.dtype([
+    ("n", _I),  # N: the bridge's grid index
+    ("disp_m", _I),  # dispersion allpass sections in use (<= MAX_SECTIONS)
+    ("fs", _F),  # the sample rate
+    ("loss_g", _F), ("loss_a", _F),  # the loss one-pole g (1 + a) / (1 + a z^-1)
+    ("disp_a", _F),  # the allpasses' coefficient
+    ("refl_g", _F),  # |reflection| of the termination
+    ("tau", _F),  # the filters' phase delay at the fundamental, samples
+    ("gain", _F),  # a bound on the termination's gain (``string.Loop.gain_bound``)
+    ("glide_k", _F),  # the tension-modulation glide's constant (0: no glide, ``glide``)
+    ("dcap", _F),  # the largest fractional delay the ring holds
+    ("fbase", _F),  # the stopped string's frequency, Hz
+    ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
+    ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
+], align=True)
+# what carries from one call to the next: one record
+CARRY = np.dtype([
+    ("n_t", _I),  # the termination's grid index
+    ("pb", _I),  # the pitch breakpoint in force
+    ("stop_from", _I),  # the first step the decay stop may act at (``voice``: no event to come)
+    ("stopped", _I),  # 1 once the decay stop has acted
+    ("restart", _I),  # the step the period and reach schedules last restarted at
+    ("quiet", _I),  # the step until which a quiet string needs no reach (``_reach``)
+    ("nlive", _I),  # how many collision points are live
+    ("fresh", _I),  # 1: the next call restarts the schedules (``voice``: the start, a new stop)
+    ("loss", _F),  # the loss one-pole's state
+    ("glide", _F),  # the glide's pitch ratio
+    ("d", _F),  # the delay the Lagrange taps were computed for (0: none yet)
+    ("peak", _F),  # the pickups' largest |output| since the last decay test
+    ("period", _F),  # the loop's period, samples
+    ("dper", _F),  # its step per sample
+    ("ap_x", _F, (MAX_SECTIONS,)),  # the allpass sections' last inputs
+    ("ap_y", _F, (MAX_SECTIONS,)),  # and outputs
+], align=True)
+# a junction (``pluck``): its contact's onset, end, pulse length, release and points (a row of
+# ``POINT``s)
+SLOT = np.dtype([("on", _I), ("off", _I), ("length", _I), ("rel", _I), ("npts", _I)], align=True)
+# a junction's point: grid index, force share (N), mass, damping and stiffness (``pluck._msd``)
+POINT = np.dtype([("n", _I), ("f", _F), ("mp", _F), ("rho", _F), ("kappa", _F)], align=True)
+# a pitch breakpoint: step and ratio (linear between them)
+BEND = np.dtype([("step", _I), ("ratio", _F)], align=True)
+# a collision point (``collision``): grid index, whether live, the live points' indices listed
+# first (``order``), the obstacle's height from the rest line, restitution, last displacement
+COLLIDER = np.dtype([("n", _I), ("live", _I), ("order", _I), ("ref", _F), ("cr", _F),
+                     ("prev", _F)], align=True)
+# a pickup: grid index n and weight w of its interpolant (between n and n + 1), gain, last
+# displacement
+PICKUP = np.dtype([("n", _I), ("w", _F), ("g", _F), ("u", _F)], align=True)
+# the reach's per-segment maxima of |u+| and |u-| (``_reach``'s scratch)
+SEGMENT = np.dtype([("up", _F), ("down", _F)], align=True)
+
+
+class Wave(NamedTuple):
+    """The string as the kernel steps it (built by ``voice``)."""
+
+    config: np.ndarray  # (1,) CONFIG
+    carry: np.ndarray  # (1,) CARRY
+    rails: np.ndarray  # (2, 2^k): R (u+) and Mb (u-), ring buffers
+    pickups: np.ndarray  # PICKUP
+    colliders: np.ndarray  # COLLIDER
+    segments: np.ndarray  # SEGMENT, N // REACH_EVERY + 2 of them
+
+
+class Events(NamedTuple):
+    """What acts on the string (built by ``voice`` from its ``controls.Timeline``)."""
+
+    slots: np.ndarray  # SLOT per junction
+    points: np.ndarray  # (junctions, pluck.MAX_POINTS) POINT
+    jst: np.ndarray  # (junctions, pluck.MAX_POINTS, pluck.J_STATE) floats: ``pluck._msd``'s state
+    bends: np.ndarray  # BEND
+
 
 @njit(**JIT_STEP)
-def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, pb_f, js_i,
-              js_idx, js_x, jst, x_k0, col_i, col_x, seg, pk_n, pk_w, pk_g):
-    """Run nsteps samples from step0 into out; returns the number run (fewer if the decay stop
-    acted: ist[I_STOPPED] is then 1), -1 if the string became non-finite, or -2 if the reach's
-    segment arrays do not fit this kernel's ``REACH_EVERY`` (a kernel cached from another value
-    of it: numba's cache watches only this file).  The arrays come in groups (each array of a
-    call costs its unboxing): the rails R, Mb; the allpasses' states dsx, dsy; the junctions'
-    js_on, js_off, js_len, js_rel, js_np and js_f, js_mp, js_rho, js_kappa; the collision
-    points' col_n, col_live, col_list and col_ref, col_cr, col_prev; the reach's seg_p, seg_m."""
-    R = rails[0]
-    Mb = rails[1]
-    dsx = ds[0]
-    dsy = ds[1]
-    js_on = js_i[0]
-    js_off = js_i[1]
-    js_len = js_i[2]
-    js_rel = js_i[3]
-    js_np = js_i[4]
-    js_f = js_x[0]
-    js_mp = js_x[1]
-    js_rho = js_x[2]
-    js_kappa = js_x[3]
-    col_n = col_i[0]
-    col_live = col_i[1]
-    col_list = col_i[2]
-    col_ref = col_x[0]
-    col_cr = col_x[1]
-    col_prev = col_x[2]
-    seg_p = seg[0]
-    seg_m = seg[1]
-    if seg_p.shape[0] < N // REACH_EVERY + 2 or seg_m.shape[0] < N // REACH_EVERY + 2:
+def run_block(wave, events, step0, out):
+    """Run len(out) samples from step0 into out; returns the number run (fewer if the decay stop
+    acted: ``carry.stopped`` is then 1), -1 if the string became non-finite, or -2 if the reach's
+    segments do not fit this kernel's ``REACH_EVERY`` (a kernel cached from another value of it:
+    numba's cache watches only this file).  The records' fields are taken out as scalars or as
+    arrays (field views) once, before the loop."""
+    cf = wave.config[0]
+    st = wave.carry[0]
+    nsteps = out.shape[0]
+    N = cf.n
+    disp_m = cf.disp_m
+    x_k0 = cf.x_k0
+    R = wave.rails[0]
+    Mb = wave.rails[1]
+    ap_x = st.ap_x
+    ap_y = st.ap_y
+    slots = events.slots
+    js_on = slots.on
+    js_off = slots.off
+    js_len = slots.length
+    js_rel = slots.rel
+    js_np = slots.npts
+    pts = events.points
+    js_idx = pts.n
+    js_f = pts.f
+    js_mp = pts.mp
+    js_rho = pts.rho
+    js_kappa = pts.kappa
+    jst = events.jst
+    pb_step = events.bends.step
+    pb_f = events.bends.ratio
+    col = wave.colliders
+    col_n = col.n
+    col_live = col.live
+    col_list = col.order
+    col_ref = col.ref
+    col_cr = col.cr
+    col_prev = col.prev
+    seg_p = wave.segments.up
+    seg_m = wave.segments.down
+    pk = wave.pickups
+    pk_n = pk.n
+    pk_w = pk.w
+    pk_g = pk.g
+    pk_u = pk.u
+    if seg_p.shape[0] < N // REACH_EVERY + 2:
         return -2
     mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound
-    fs = cfg[C_FS]
-    loss_gg = cfg[C_LOSS_G] * (1.0 + cfg[C_LOSS_A])
-    loss_a = cfg[C_LOSS_A]
-    disp_a = cfg[C_DISP_A]
-    refl = -cfg[C_REFL_G]
-    tau = cfg[C_TAU]
-    gain = cfg[C_GAIN]
-    glide_k = cfg[C_GLIDE_K]
-    dcap = cfg[C_DCAP]
-    fbase = cfg[C_FBASE]
-    decay_v = cfg[C_DECAY_V]
-    stop_from = ist[I_STOP_FROM]
+    fs = cf.fs
+    loss_gg = cf.loss_g * (1.0 + cf.loss_a)
+    loss_a = cf.loss_a
+    disp_a = cf.disp_a
+    refl = -cf.refl_g
+    tau = cf.tau
+    gain = cf.gain
+    glide_k = cf.glide_k
+    dcap = cf.dcap
+    fbase = cf.fbase
+    decay_v = cf.decay_v
+    stop_from = st.stop_from
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
-    slot_lo = 1 << 62
-    slot_hi = -(1 << 62)
-    for j in range(nslot):
-        slot_lo = min(slot_lo, js_on[j])
-        slot_hi = max(slot_hi, js_off[j] + js_rel[j] + tail)
+    # the junctions whose window (onset to the end of their leak) holds the step, in their order,
+    # and the step at which that list next changes (``_active``): a song's string has hundreds
+    # of junctions, a step a few
+    act = np.empty(nslot, np.int64)
+    nact = 0
+    act_until = -1
     ncol = col_n.shape[0]
     npk = pk_n.shape[0]
-    n_t = ist[I_NT]
-    ib = ist[I_PB]
-    fresh = ist[I_FRESH] != 0
-    ist[I_FRESH] = 0
+    n_t = st.n_t
+    ib = st.pb
+    fresh = st.fresh != 0
+    st.fresh = 0
     # the termination's filter states, in registers for the call
-    ly = fst[F_LOSS]
-    x0 = dsx[0] if disp_m > 0 else 0.0
-    x1 = dsx[1] if disp_m > 1 else 0.0
-    x2 = dsx[2] if disp_m > 2 else 0.0
-    x3 = dsx[3] if disp_m > 3 else 0.0
-    y0 = dsy[0] if disp_m > 0 else 0.0
-    y1 = dsy[1] if disp_m > 1 else 0.0
-    y2 = dsy[2] if disp_m > 2 else 0.0
-    y3 = dsy[3] if disp_m > 3 else 0.0
-    peak = fst[F_PEAK]
-    nlive = ist[I_NLIVE]
-    quiet_until = ist[I_QUIET]  # reach not needed before this step (``_reach``)
+    ly = st.loss
+    x0 = ap_x[0] if disp_m > 0 else 0.0
+    x1 = ap_x[1] if disp_m > 1 else 0.0
+    x2 = ap_x[2] if disp_m > 2 else 0.0
+    x3 = ap_x[3] if disp_m > 3 else 0.0
+    y0 = ap_y[0] if disp_m > 0 else 0.0
+    y1 = ap_y[1] if disp_m > 1 else 0.0
+    y2 = ap_y[2] if disp_m > 2 else 0.0
+    y3 = ap_y[3] if disp_m > 3 else 0.0
+    peak = st.peak
+    nlive = st.nlive
+    quiet_until = st.quiet  # reach not needed before this step (``_reach``)
     if quiet_until > step0:  # a junction or breakpoint come since it was decided ends it
         for j in range(nslot):
             if step0 <= js_on[j] < quiet_until:
@@ -193,11 +264,11 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
             b += 1
         if b < pb_step.shape[0] and pb_step[b] < quiet_until:
             quiet_until = -1
-    period = fst[F_PERIOD]
-    dper = fst[F_DPER]
-    d_taps = fst[F_D]  # the delay the taps were computed for (0 before the first call)
+    period = st.period
+    dper = st.dper
+    d_taps = st.d  # the delay the taps were computed for (0 before the first call)
     j0, h0, h1, h2, h3 = _taps(d_taps if d_taps >= 1.0 else 1.5)
-    ri = step0 - ist[I_RESTART]  # steps since the schedule's restart
+    ri = step0 - st.restart  # steps since the schedule's restart
     inside_nt = -1  # the place of the termination ``inside`` was found for (``_inside``)
     inside = False
     i = 0
@@ -211,7 +282,7 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
         restart = (i == 0 and fresh) or s % BLOCK == 0
         if restart:
             ri = 0
-            ist[I_RESTART] = s
+            st.restart = s
             if i == 0 and fresh:
                 quiet_until = -1
         phase = s % GLIDE_EVERY
@@ -223,27 +294,28 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
                                                              js_off, js_rel, js_idx, js_np,
                                                              tail))
             else:
-                g_new = fst[F_GLIDE]
+                g_new = st.glide
             ratio, ib = _ratio_at(s, pb_step, pb_f, ib)
             if restart:
-                period = fs / (fbase * ratio * fst[F_GLIDE])
+                period = fs / (fbase * ratio * st.glide)
             ahead = GLIDE_EVERY - phase
             r_next, _ = _ratio_at(s + ahead, pb_step, pb_f, ib)
             dper = (fs / (fbase * r_next * g_new) - period) / ahead
             if abs(dper) * ahead < 1e-5:  # under 1e-5 samples a stretch: hold the taps
                 dper = 0.0
-            fst[F_GLIDE] = g_new
+            st.glide = g_new
         else:
             period += dper
         # 2. the termination at n_t, 3. the bridge
         (n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _terminate_step(
             R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
             loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-        # 4. junctions (none before the first onset or after the last one is gone)
-        if slot_lo <= s < slot_hi:
-            for j in range(nslot):
-                if s < js_on[j] or s >= js_off[j] + js_rel[j] + tail:
-                    continue
+        # 4. junctions: those whose window holds s (``_active``)
+        if s >= act_until:
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
+        if nact > 0:
+            for a in range(nact):
+                j = act[a]
                 t = s - js_on[j]
                 if s < js_off[j]:
                     env = _envelope(t, js_len[j])
@@ -294,7 +366,7 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
             _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list,
                         nlive, inside, fs)
         # 6. pickups
-        acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
+        acc = _pickups(R, Mb, mask, s, n_t, N, pk_n, pk_w, pk_g, pk_u, fs)
         out[i] = acc
         ri += 1
         i += 1
@@ -316,24 +388,15 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
         e = min(s1 + (GLIDE_EVERY - s1 % GLIDE_EVERY) % GLIDE_EVERY, step0 + nsteps)
         if ncol > 0 and s1 >= quiet_until:
             e = min(e, s1 + (REACH_EVERY - ri % REACH_EVERY) % REACH_EVERY)
-        for j in range(nslot):
-            if js_on[j] > s1:
-                e = min(e, js_on[j])
-            elif s1 < js_off[j] + js_rel[j] + tail:
-                e = s1
-        if e > s1 and nlive == 0:
-            (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
-             peak) = _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau,
-                                 dcap, d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a,
-                                 disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n,
-                                 pk_w, pk_g, fs, peak)
-        elif e > s1:
+        if s1 >= act_until:
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act)
+        e = s1 if nact > 0 else min(e, act_until)  # up to the next junction's onset
+        if e > s1:
             (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
              peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
                             d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
-                            ly, x0, x1, x2, x3, y0, y1, y2, y3, fst, pk_n, pk_w, pk_g, fs, peak,
+                            ly, x0, x1, x2, x3, y0, y1, y2, y3, pk_n, pk_w, pk_g, pk_u, fs, peak,
                             col_n, col_ref, col_cr, col_prev, col_list, nlive)
-        if e > s1:
             i += e - s1
             ri += e - s1
             if decay_v > 0.0 and e % BLOCK == 0:
@@ -343,31 +406,31 @@ def run_block(rails, ist, fst, ds, step0, nsteps, out, cfg, disp_m, N, pb_step, 
                     break
                 peak = 0.0
     if stopped:
-        ist[I_STOPPED] = 1
+        st.stopped = 1
         peak = 0.0
-    ist[I_NT] = n_t
-    ist[I_PB] = ib
-    ist[I_QUIET] = quiet_until
-    ist[I_NLIVE] = nlive
-    fst[F_PERIOD] = period
-    fst[F_DPER] = dper
-    fst[F_D] = d_taps
-    fst[F_LOSS] = ly
-    fst[F_PEAK] = peak
+    st.n_t = n_t
+    st.pb = ib
+    st.quiet = quiet_until
+    st.nlive = nlive
+    st.period = period
+    st.dper = dper
+    st.d = d_taps
+    st.loss = ly
+    st.peak = peak
     if disp_m > 0:
-        dsx[0] = x0
-        dsy[0] = y0
+        ap_x[0] = x0
+        ap_y[0] = y0
     if disp_m > 1:
-        dsx[1] = x1
-        dsy[1] = y1
+        ap_x[1] = x1
+        ap_y[1] = y1
     if disp_m > 2:
-        dsx[2] = x2
-        dsy[2] = y2
+        ap_x[2] = x2
+        ap_y[2] = y2
     if disp_m > 3:
-        dsx[3] = x3
-        dsy[3] = y3
+        ap_x[3] = x3
+        ap_y[3] = y3
     for p in range(npk):
-        if not math.isfinite(fst[F_PICKUP + p]):
+        if not math.isfinite(pk_u[p]):
             return -1
     return i
 
@@ -409,6 +472,24 @@ def _walk_terminate(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
             ly, x0, x1, x2, x3, y0, y1, y2, y3)
         R[(s - n_t) & mask] = v
     return walk, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
+
+
+@njit(**JIT_HELPER)
+def _active(js_on, js_off, js_rel, tail, s, act):
+    """The junctions whose window, from the onset to the end of the leak (js_off + js_rel +
+    tail), holds step s, listed in act in their order; returns how many and the first step after
+    s at which the list changes (an active one's window ends or another's begins)."""
+    n = 0
+    until = 1 << 62
+    for j in range(js_on.shape[0]):
+        end = js_off[j] + js_rel[j] + tail
+        if js_on[j] > s:
+            until = min(until, js_on[j])
+        elif s < end:
+            act[n] = j
+            n += 1
+            until = min(until, end)
+    return n, until
 
 
 @njit(**JIT_HELPER)
@@ -477,8 +558,8 @@ def _walk(period, N, n_t, tau, dcap, d_taps, j0, h0, h1, h2, h3):
 
 @njit(**JIT_STEP)
 def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0, h1,
-           h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3, fst,
-           pk_n, pk_w, pk_g, fs, peak, col_n, col_ref, col_cr, col_prev, col_list, nlive):
+           h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3,
+           pk_n, pk_w, pk_g, pk_u, fs, peak, col_n, col_ref, col_cr, col_prev, col_list, nlive):
     """Steps s1 .. e - 1 of ``run_block`` when no junction acts and neither the period's exact
     value nor the reach is due: the period's linear step, the termination, the bridge, the live
     collision points and the pickups, as in the general step (a function of its own, so that the
@@ -490,13 +571,13 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     pw = pk_w[0] if one else 0.0
     pw1 = 1.0 - pw
     pg = pk_g[0] if one else 0.0
-    pu = fst[F_PICKUP] if one else 0.0
+    pu = pk_u[0] if one else 0.0
     # a steady period (dper = 0) at a step that neither walked the termination nor moved the
     # taps: every later step of the run computes the same delay, so it only terminates
     steady = False
-    # as in ``_term_run``: the period window in which a step changes neither the place nor the
-    # taps, and the Lagrange read's last three inputs (the collisions write u-(n) for n > n_t
-    # only at steps before the termination reads it)
+    # the period window in which a step changes neither the place nor the taps (``_window``),
+    # and the Lagrange read's last three inputs (the collisions write u-(n) for n > n_t only at
+    # steps before the termination reads it)
     plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
     base = s1 + n_t - j0
     m1 = Mb[(base - 1) & mask]
@@ -547,167 +628,12 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
             acc += pg * (u - pu) * fs
             pu = u
         else:
-            acc = _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs)
+            acc = _pickups(R, Mb, mask, s, n_t, N, pk_n, pk_w, pk_g, pk_u, fs)
         out[(s - step0) & NONNEG] = acc  # s >= step0: the mask only tells the compiler so
         peak = max(peak, abs(acc))
     if one:
-        fst[F_PICKUP] = pu
+        pk_u[0] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
-
-
-@njit(**JIT_STEP)
-def _plain_free(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0,
-                h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2,
-                y3, fst, pk_n, pk_w, pk_g, fs, peak):
-    """``_plain`` with no live collision point, in chunks: the samples of ``_plain`` in another
-    order.  Within a chunk of at most N - n_t steps the termination reads only what the bridge
-    wrote before the chunk (its input at step s left the bridge at s - (N - n_t) or earlier), and
-    the bridge only what the termination wrote before it, so the chunk runs the termination over
-    all its steps, then the bridge and the pickups (which read both rails after both wrote
-    them), each a loop with only its own values in registers.  A chunk ends after a step that
-    walked the termination, so that every pickup reads with the n_t of its own step.  The
-    chunk is also short enough that no step of it overwrites a ring slot that another step of
-    it still reads: the bridge's read at step q and the termination's write at step t are
-    (t - q) + N - n_t slots apart (and the pickups' reads nearer), less than the ring's size
-    when the chunk is at most size - (N - n_t) - 1 steps long."""
-    mask &= NONNEG
-    size = mask + 1
-    one = pk_n.shape[0] == 1
-    pn = pk_n[0] if one else 0
-    pw = pk_w[0] if one else 0.0
-    pw1 = 1.0 - pw
-    pg = pk_g[0] if one else 0.0
-    pu = fst[F_PICKUP] if one else 0.0
-    steady = False  # as in ``_plain``
-    s = s1
-    while s < e:
-        b = min(e, s + min(N - n_t, size - (N - n_t) - 1))
-        nt0 = n_t
-        (t, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
-         y3) = _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0,
-                         h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2,
-                         x3, y0, y1, y2, y3)
-        if one:  # the bridge in the pickup's loop
-            # the step that walked (the chunk's last) reads with its new place
-            pu, peak = _pickup_run(R, Mb, mask, s, t - 1, step0, out, nt0, N, pn, pw, pw1, pg,
-                                   pu, fs, peak)
-            pu, peak = _pickup_run(R, Mb, mask, t - 1, t, step0, out, n_t, N, pn, pw, pw1, pg,
-                                   pu, fs, peak)
-        else:
-            for q in range(s, t):
-                Mb[(q + N) & mask] = -R[(q - N) & mask]
-                nq = n_t if q == t - 1 else nt0
-                acc = _pickups(R, Mb, mask, q, nq, N, fst, pk_n, pk_w, pk_g, fs)
-                out[(q - step0) & NONNEG] = acc
-                peak = max(peak, abs(acc))
-        s = t
-    if one:
-        fst[F_PICKUP] = pu
-    return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
-
-
-@njit(**JIT_STEP)
-def _term_run(R, Mb, mask, s, b, N, n_t, period, dper, steady, tau, dcap, d_taps, j0, h0, h1,
-              h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
-    """The termination (``_terminate_step`` without the bridge) at steps s .. b - 1, or up to and
-    including the first step that walks it; returns the step after the last one run and the
-    state.  The steps whose period lies in the window where ``_walk`` would neither walk nor move
-    the taps (``_window``; all of them once the period is steady) run in stretches: first the
-    period's steps over the stretch, then the filters over it (``_term_steps``)."""
-    mask &= NONNEG
-    plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-    # the Lagrange read's last three inputs: at step q it reads Mb at q + n_t - j0 and the three
-    # before, three of which the step before read (nothing writes Mb during the run)
-    base = s + n_t - j0
-    m1 = Mb[(base - 1) & mask]
-    m2 = Mb[(base - 2) & mask]
-    m3 = Mb[(base - 3) & mask]
-    q = s
-    while q < b:
-        # the stretch q .. r - 1 that skips ``_walk``
-        r = b
-        if not steady:
-            r = q
-            while r < b:
-                p = period + dper
-                if not plo < p < phi:
-                    break
-                period = p
-                r += 1
-                if dper == 0.0:  # steady: every later step computes the same delay
-                    steady = True
-                    r = b
-        (m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3) = _term_steps(
-            R, Mb, mask, q, r, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
-            disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-        q = r
-        if q >= b:
-            break
-        # step q: the period leaves the window
-        period += dper
-        d_was = d_taps
-        (walk, n_t, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2,
-         y3) = _walk_terminate(R, Mb, mask, q, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2,
-                               h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0,
-                               y1, y2, y3)
-        steady = dper == 0.0 and walk == 0 and d_taps == d_was
-        if walk != 0:
-            return (q + 1, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3,
-                    y0, y1, y2, y3)
-        plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
-        q += 1
-        base = q + n_t - j0  # the next step's read (the taps may have moved)
-        m1 = Mb[(base - 1) & mask]
-        m2 = Mb[(base - 2) & mask]
-        m3 = Mb[(base - 3) & mask]
-    return b, n_t, period, steady, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3
-
-
-@njit(**JIT_HELPER)
-def _term_steps(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
-                disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
-    """``_terminate`` at steps s .. b - 1 with fixed place and taps, the read's last three inputs
-    m1, m2, m3 kept from the step before; a loop for each number of allpass sections, so that
-    none tests it per step.  Returns the inputs and the filters' states."""
-    if disp_m == 0:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 0, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    if disp_m == 1:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 1, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    if disp_m == 2:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 2, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    if disp_m == 3:
-        return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg,
-                          loss_a, disp_a, 3, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-    return _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a,
-                      disp_a, 4, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
-
-
-@njit(**JIT_INLINE)
-def _term_loop(R, Mb, mask, s, b, n_t, j0, h0, h1, h2, h3, m1, m2, m3, loss_gg, loss_a, disp_a,
-               dm, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3):
-    """``_term_steps``' loop for dm allpass sections (a constant where it is inlined)."""
-    mask &= NONNEG
-    size = mask + 1
-    q = s
-    while q < b:
-        # the ring offsets at q, and the steps from q in which neither wraps around the ring
-        im = (q + n_t - j0) & mask
-        ir = (q - n_t) & mask
-        r = min(b - q, size - im, size - ir)
-        for k in range(r):
-            m0 = Mb[im + k]
-            v, ly, x0, x1, x2, x3, y0, y1, y2, y3 = _filters(
-                h0 * m0 + h1 * m1 + h2 * m2 + h3 * m3, loss_gg, loss_a, disp_a, dm, refl, ly,
-                x0, x1, x2, x3, y0, y1, y2, y3)
-            R[ir + k] = v
-            m3 = m2
-            m2 = m1
-            m1 = m0
-        q += r
-    return m1, m2, m3, ly, x0, x1, x2, x3, y0, y1, y2, y3
 
 
 @njit(**JIT_HELPER)
@@ -724,52 +650,6 @@ def _window(N, n_t, tau, dcap, d_taps, period):
     hi = min(3.0, dcap, d_taps + tol) - WINDOW_MARGIN
     base = 2.0 * (N - n_t) + tau
     return lo + base, hi + base
-
-
-@njit(**JIT_STEP)
-def _pickup_run(R, Mb, mask, s, t, step0, out, n_t, N, pn, pw, pw1, pg, pu, fs, peak):
-    """The bridge and one pickup (``_pickups``' arithmetic) at steps s .. t - 1, the termination
-    at n_t: each step's output into out and the largest |output|; returns the last displacement
-    and that."""
-    mask &= NONNEG
-    if pn <= n_t or pn + 1 > N:
-        for q in range(s, t):
-            Mb[(q + N) & mask] = -R[(q - N) & mask]
-            acc = 0.0
-            acc += pg * (0.0 - pu) * fs
-            pu = 0.0
-            out[(q - step0) & NONNEG] = acc
-            peak = max(peak, abs(acc))
-        return pu, peak
-    # each step reads u+ at pn, pn + 1 and u- at pn, pn + 1: its u+(pn + 1) is the step
-    # before's u+(pn), its u-(pn) the step before's u-(pn + 1) (the bridge writes only u-(N))
-    rp1 = R[(s - pn - 1) & mask]
-    mm0 = Mb[(s + pn) & mask]
-    size = mask + 1
-    q = s
-    while q < t:
-        # the ring offsets at q (all >= 0), and the steps from q in which none of them wraps
-        # around the ring: in those the offsets only count up (no mask per step)
-        ib = (q - N) & mask
-        jb = (q + N) & mask
-        ip = (q - pn) & mask
-        jp = (q + pn + 1) & mask
-        o = (q - step0) & NONNEG  # q >= step0: the mask only tells the compiler so
-        r = min(t - q, size - ib, size - jb, size - ip, size - jp)
-        for k in range(r):
-            Mb[jb + k] = -R[ib + k]
-            rp0 = R[ip + k]
-            mm1 = Mb[jp + k]
-            u = pw1 * (rp0 + mm0) + pw * (rp1 + mm1)
-            rp1 = rp0
-            mm0 = mm1
-            acc = 0.0
-            acc += pg * (u - pu) * fs
-            pu = u
-            out[o + k] = acc
-            peak = max(peak, abs(acc))
-        q += r
-    return pu, peak
 
 
 @njit(**JIT_INLINE)
@@ -835,9 +715,9 @@ def _allpass(a, y, x, yo):
 
 
 @njit(**JIT_INLINE)
-def _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs):
+def _pickups(R, Mb, mask, s, n_t, N, pk_n, pk_w, pk_g, pk_u, fs):
     """The pickups' velocity (u(s) - u(s - 1)) fs at each, times its gain, summed; each one's
-    displacement kept in fst for the next step."""
+    displacement kept in pk_u for the next step."""
     acc = 0.0
     for p in range(pk_n.shape[0]):
         n = pk_n[p]
@@ -847,8 +727,8 @@ def _pickups(R, Mb, mask, s, n_t, N, fst, pk_n, pk_w, pk_g, fs):
             w = pk_w[p]
             u = ((1.0 - w) * (R[(s - n) & mask] + Mb[(s + n) & mask])
                  + w * (R[(s - n - 1) & mask] + Mb[(s + n + 1) & mask]))
-        acc += pk_g[p] * (u - fst[F_PICKUP + p]) * fs
-        fst[F_PICKUP + p] = u
+        acc += pk_g[p] * (u - pk_u[p]) * fs
+        pk_u[p] = u
     return acc
 
 

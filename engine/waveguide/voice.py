@@ -54,11 +54,10 @@ LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
 RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
 
 
-def _group(name: str, row: int) -> property:
-    """One of the kernel's arrays as a row of the group it is passed in (``run_block``: each
-    array of a call costs its unboxing, so they go in groups); a view made when it is read, so
-    that a copy of the voice keeps it a view of the copy's group."""
-    return property(lambda self: getattr(self, name)[row])
+def _part(name: str, key: int | str) -> property:
+    """A row or a field of one of the kernel's arrays (``kernel.Wave``, ``kernel.Events``); a
+    view made when it is read, so that a copy of the voice keeps it a view of the copy's array."""
+    return property(lambda self: getattr(self, name)[key])
 
 
 @dataclass
@@ -84,14 +83,15 @@ class WaveguideVoice:
     _run: object = field(default=None, repr=False)  # engine.config.entry_point of run_block
     ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
     _ramped: bool = False  # the last kernel call was a step of such a move
-    # the kernel's arrays, in groups (``_group``)
-    R, Mb = _group("rails", 0), _group("rails", 1)
-    dsx, dsy = _group("ds", 0), _group("ds", 1)
-    js_on, js_off, js_len, js_rel, js_np = (_group("js_i", k) for k in range(5))
-    js_f, js_mp, js_rho, js_kappa = (_group("js_x", k) for k in range(4))
-    col_n, col_live, col_list = (_group("col_i", k) for k in range(3))
-    col_ref, col_cr, col_prev = (_group("col_x", k) for k in range(3))
-    seg_p, seg_m = _group("seg", 0), _group("seg", 1)
+    # the kernel's arrays' rows and fields (``_part``)
+    R, Mb = _part("rails", 0), _part("rails", 1)
+    js_on, js_off, js_len, js_rel, js_np = (_part("slots", f) for f in K.SLOT.names)
+    js_idx, js_f, js_mp, js_rho, js_kappa = (_part("points", f) for f in K.POINT.names)
+    col_n, col_live, col_list, col_ref, col_cr, col_prev = (_part("colliders", f)
+                                                            for f in K.COLLIDER.names)
+    pk_n, pk_w = _part("pk", "n"), _part("pk", "w")
+    pb_step, pb_f = _part("bends", "step"), _part("bends", "ratio")
+    st = _part("carry", 0)  # the kernel's ``CARRY`` record
 
     def __post_init__(self):
         spec = self.preset.strings[self.index - 1]
@@ -103,13 +103,11 @@ class WaveguideVoice:
         # the ring must hold the live rails, the history the termination reads and its delay
         dmax = 0.12 * self.p0 + 16.0 + K.HISTORY
         size = 1 << int(math.ceil(math.log2(n + dmax + 16)))
-        self.rails = np.zeros((2, size))  # R and Mb (``_group``)
+        self.rails = np.zeros((2, size))  # R and Mb (``_part``)
         self.dcap = float(size - n - 8)
-        self.ist = np.zeros(K.N_IST, np.int64)
-        self.ist[K.I_FRESH] = 1  # the first call starts the kernel's schedules
-        self.fst = np.zeros(K.F_PICKUP + len(self.pickups))
-        self.fst[K.F_GLIDE] = 1.0
-        self.ds = np.zeros((2, MAX_SECTIONS))  # dsx and dsy
+        self.carry = np.zeros(1, K.CARRY)  # what the kernel carries from call to call
+        self.st["fresh"] = 1  # the first call starts the kernel's schedules
+        self.st["glide"] = 1.0
         length = self.phys.length_m
         self.x_step = length / (0.5 * self.p0)  # X, metres per grid step
         mu = self.phys.mu
@@ -119,8 +117,8 @@ class WaveguideVoice:
         self.x_k0 = self.x_step / self.k0
         self._slots(self.timeline.slots)
         # pickups
-        self.pk_n = np.zeros(len(self.pickups), np.int64)
-        self.pk_w = np.zeros(len(self.pickups))
+        self.pk = np.zeros(len(self.pickups), K.PICKUP)
+        self.pk["g"] = self.gains
         for p, xp in enumerate(self.pickups):
             g = min(max(self.n_of(xp * length), 1.0), n - 1.0 - 1e-9)
             self.pk_n[p] = int(math.floor(g))
@@ -128,30 +126,29 @@ class WaveguideVoice:
         # collision points: every grid point under the neck, its obstacle's height from the
         # straight rest line and its restitution
         self._collision_points()
-        self.seg = np.zeros((2, n // REACH_EVERY + 2))  # seg_p and seg_m
+        self.segments = np.zeros(n // REACH_EVERY + 2, K.SEGMENT)  # the reach's scratch
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / self.x_step
                         if self.glide else 0.0)
         self._stops_and_pitch(self.timeline)
         self.change_i = 0
         self.stop_fret: int | None = None
         self.stop_held = False
-        self.cfg = np.zeros(11)
+        self.config = np.zeros(1, K.CONFIG)
         self._configure(None)
-        self.ist[K.I_NT] = self._place(self.open_loop)
-        self.ist[K.I_STOP_FROM] = self._stop_from()
+        self.st["n_t"] = self._place(self.open_loop)
+        self.st["stop_from"] = self._stop_from()
 
     # -- the timeline ----------------------------------------------------------------------------
     def _slots(self, slots: list) -> None:
         """The junctions' arrays for the kernel, and their states at rest."""
         ns = len(slots)
-        self.js_i = np.zeros((5, ns), np.int64)  # js_on, js_off, js_len, js_rel, js_np
+        self.slots = np.zeros(ns, K.SLOT)
         self.js_on[:] = [s.on for s in slots]
         self.js_off[:] = [s.off for s in slots]
         self.js_len[:] = [s.length for s in slots]
         # every contact lets go over its pulse's length, at least RELEASE_S
         self.js_rel[:] = [max(s.length, int(round(RELEASE_S * self.rate)), 1) for s in slots]
-        self.js_idx = np.zeros((ns, MAX_POINTS), np.int64)
-        self.js_x = np.zeros((4, ns, MAX_POINTS))  # js_f, js_mp, js_rho, js_kappa
+        self.points = np.zeros((ns, MAX_POINTS), K.POINT)
         self.jst = np.zeros((ns, MAX_POINTS, J_STATE))
         X = self.x_step
         z = self.z
@@ -175,8 +172,9 @@ class WaveguideVoice:
 
     def _stops_and_pitch(self, tl: Timeline) -> None:
         """The pitch ratio's breakpoints and the changes of the stop."""
-        self.pb_step = np.array(tl.ratio_steps, np.int64)
-        self.pb_f = np.array(tl.ratios, float)
+        self.bends = np.zeros(len(tl.ratio_steps), K.BEND)
+        self.bends["step"] = tl.ratio_steps
+        self.bends["ratio"] = tl.ratios
         # (step, fret, strike, held): a finger resting on the fret damps the note, one sliding
         # past the crowns does not (``fingering``)
         self.changes = tl.stops(self.preset, self.spec)
@@ -207,12 +205,12 @@ class WaveguideVoice:
         self._stops_and_pitch(tl)
         self.change_i = int(np.searchsorted([c[0] for c in self.changes], self.step,
                                             side="left"))
-        self.ist[K.I_PB] = self._pb_index()
-        self.ist[K.I_STOP_FROM] = self._stop_from()
+        self.st["pb"] = self._pb_index()
+        self.st["stop_from"] = self._stop_from()
         if self.stopped:  # it decayed or was at rest: it runs again, its schedules anew
             self.stopped = False
-            self.ist[K.I_STOPPED] = 0
-            self.ist[K.I_FRESH] = 1
+            self.st["stopped"] = 0
+            self.st["fresh"] = 1
 
     # -- geometry -------------------------------------------------------------------------------
     def n_of(self, x_m: float) -> float:
@@ -245,9 +243,8 @@ class WaveguideVoice:
                     board[hit[0]] = max(board[hit[0]], -float(p.clearance_m(xq)))
                     cr[hit[0]] = FRET_RESTITUTION
         self.col_abs = board
-        self.col_i = np.zeros((3, len(idx)), np.int64)  # col_n, col_live, col_list
+        self.colliders = np.zeros(len(idx), K.COLLIDER)
         self.col_n[:] = idx
-        self.col_x = np.zeros((3, len(idx)))  # col_ref, col_cr, col_prev
         self.col_ref[:] = board
         self.col_cr[:] = cr
 
@@ -274,13 +271,13 @@ class WaveguideVoice:
 
     def _configure(self, fret: int | None, held: bool = False) -> None:
         lp = self.loop(fret, held)
-        c = self.cfg
-        c[K.C_LOSS_G], c[K.C_LOSS_A] = lp.loss_g, lp.loss_a
-        c[K.C_DISP_A], c[K.C_REFL_G], c[K.C_TAU] = lp.disp_a, lp.refl_g, lp.tau
-        c[K.C_GAIN], c[K.C_FS], c[K.C_GLIDE_K] = lp.gain_bound, self.rate, self.glide_k
-        c[K.C_DCAP], c[K.C_FBASE] = self.dcap, self.rate / lp.period
-        c[K.C_DECAY_V] = self.decay_velocity if self.skip_decayed else 0.0
-        self.disp_m = lp.disp_m
+        c = self.config[0]
+        c["n"], c["disp_m"], c["fs"], c["x_k0"] = self.n, lp.disp_m, self.rate, self.x_k0
+        c["loss_g"], c["loss_a"] = lp.loss_g, lp.loss_a
+        c["disp_a"], c["refl_g"], c["tau"] = lp.disp_a, lp.refl_g, lp.tau
+        c["gain"], c["glide_k"] = lp.gain_bound, self.glide_k
+        c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
+        c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
         self.stop_fret = fret
         self.stop_held = held
         if len(self.col_n):
@@ -290,7 +287,7 @@ class WaveguideVoice:
 
     def _pb_index(self) -> int:
         """The pitch breakpoint in force now (the last at or before ``step``; the kernel's
-        ``I_PB``)."""
+        ``carry.pb``)."""
         return max(int(np.searchsorted(self.pb_step, self.step, side="right")) - 1, 0)
 
     def _ratio_now(self) -> float:
@@ -304,7 +301,7 @@ class WaveguideVoice:
     def _place(self, lp: Loop) -> int:
         """The termination's grid index for loop ``lp`` now: D = P - 2 (N - n_t) - tau in
         [1, 3)."""
-        period = lp.period / (self._ratio_now() * self.fst[K.F_GLIDE])
+        period = lp.period / (self._ratio_now() * self.st["glide"])
         half = int(math.floor((period - lp.tau - D_LOW) / 2.0))
         return int(min(max(self.n - half, 0), self.n - 1))
 
@@ -335,7 +332,7 @@ class WaveguideVoice:
             return
         mask = len(self.R) - 1
         s = self.step
-        nt_old = int(self.ist[K.I_NT])
+        nt_old = int(self.st["n_t"])
         self._configure(fret, held)
         nt = self._place(self.loop(fret, held))
         x_old = -1.0 if old is None else float(self.preset.fret_x_m(old, self.spec))
@@ -346,11 +343,11 @@ class WaveguideVoice:
             for i in range(lo, nt_old):  # the part cut off comes back at rest
                 self.R[(s - i) & mask] = 0.0
                 self.Mb[(s + i) & mask] = 0.0
-        self.ist[K.I_NT] = nt
+        self.st["n_t"] = nt
         if release:  # the filters' memory belongs to the loop that was cut
-            self.fst[K.F_LOSS] = 0.0
-            self.dsx[:] = 0.0
-            self.dsy[:] = 0.0
+            self.st["loss"] = 0.0
+            self.st["ap_x"] = 0.0
+            self.st["ap_y"] = 0.0
         if release or strike > 0.0:
             # the string moves from the old rest line to the new one at the finger's speed: the
             # displacement from the rest line changes by rest_old - rest_new over that time, in
@@ -377,7 +374,7 @@ class WaveguideVoice:
         s = self.step
         self.R[(s - idx) & mask] += 0.5 * d
         self.Mb[(s + idx) & mask] += 0.5 * d
-        self.fst[K.F_PICKUP:] += jumps
+        self.pk["u"] += jumps
         self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
 
     # -- running ---------------------------------------------------------------------------------
@@ -436,11 +433,11 @@ class WaveguideVoice:
                 fresh = True
                 self._ramped = False
             if fresh:
-                self.ist[K.I_FRESH] = 1
-            args = (self.rails, self.ist, self.fst, self.ds, self.step, m, out[done:done + m],
-                    self.cfg, self.disp_m, self.n, self.pb_step, self.pb_f, self.js_i,
-                    self.js_idx, self.js_x, self.jst, self.x_k0, self.col_i, self.col_x,
-                    self.seg, self.pk_n, self.pk_w, self.gains)
+                self.st["fresh"] = 1
+            args = (K.Wave(self.config, self.carry, self.rails, self.pk, self.colliders,
+                           self.segments),
+                    K.Events(self.slots, self.points, self.jst, self.bends), self.step,
+                    out[done:done + m])
             if self._run is None:  # the argument types are the same in every call
                 self._run = entry_point(K.run_block, args)
             ran = self._run(*args)
@@ -451,7 +448,7 @@ class WaveguideVoice:
                 raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
             self.step += ran
             done += ran
-            if self.ist[K.I_STOPPED]:
+            if self.st["stopped"]:
                 self.stopped = True
                 out[done:] = 0.0  # the rest is silence
         self.step = end
@@ -462,7 +459,7 @@ class WaveguideVoice:
         the junctions' masses are not counted)."""
         mask = len(self.R) - 1
         s = self.step - 1
-        nt = int(self.ist[K.I_NT])
+        nt = int(self.st["n_t"])
         idx = np.arange(nt, self.n + 1)
         # u+(n, s) - u+(n, s - 1) = R[s - n] - R[s - 1 - n]; u-: Mb[s + n] - Mb[s - 1 + n]
         dp = self.R[(s - idx) & mask] - self.R[(s - 1 - idx) & mask]

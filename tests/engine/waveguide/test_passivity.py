@@ -27,7 +27,6 @@ from engine.testing.random_scenes import NumpyDraw, random_scene
 from engine.testing.waveguide_stability import GROWTH, check
 from engine.waveguide import WaveguideOptions, prepare
 from engine.waveguide import voice as wg_voice
-from engine.waveguide.kernel import I_NT
 from engine.waveguide.pluck import LEAK_HZ, MAX_MASS_RATIO, _msd, max_damping
 from engine.waveguide.string import design_loop, lagrange3, physical
 
@@ -99,7 +98,7 @@ def test_a_junction_cut_off_by_the_termination_starts_afresh():
         t = v.step / rate
         if 0.008 <= t < 0.017:  # held (it starts back towards 0.02 s: ``kernel``'s period)
             held.append(v.energy())
-            assert v.ist[I_NT] > max(v.js_idx[0]), "the bend must cut the pluck's point off"
+            assert v.st["n_t"] > max(v.js_idx[0]), "the bend must cut the pluck's point off"
         elif t >= 0.017:
             after.append(v.energy())
     assert max(after) <= max(held), (max(after), max(held))

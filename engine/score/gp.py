@@ -324,9 +324,14 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
             continue
         n_strings = len(t.strings)
         if not 1 <= n_strings <= 12:
-            warnings.append(f"bar 1, beat 1, {label}: {n_strings} strings, left out")
+            warnings.append(f"bar 1, beat 1, {label}: {n_strings} strings, left out"
+                            + (" (a notation staff without tablature)" if not n_strings else ""))
             continue
         program = t.channel.instrument
+        if want is None and not options.get("all_instruments") and \
+                not C.is_guitar_program(program):
+            C.skip_instrument(f"bar 1, beat 1, {label}", program, warnings)
+            continue
         preset = C.preset_for_program(program, n_strings)
         if isinstance(preset_opt, str):
             preset = preset_opt
@@ -365,6 +370,9 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
                              "gain_db": round(20 * math.log10(max(volume, 1) / 104.0), 2),
                              "pan": round(min(max((balance - 64) / 64.0, -1.0), 1.0), 3)})
     if not scene_tracks:
+        if want is None and any("options.all_instruments" in w for w in warnings):
+            raise ScoreError("the score has no guitar or bass track (options.all_instruments "
+                             "plays its other instruments on guitars)")
         raise ScoreError("the score has no pitched track to play" if want is None else
                          f"options.tracks: none of {sorted(map(str, want))} is a pitched track "
                          "of this score")

@@ -634,4 +634,10 @@ def parse_song(data: bytes, warnings: list[str]):
     xml = unpack(data)
     if not xml.strip():
         raise ScoreError("Guitar Pro 6/7/8 file holds an empty score.gpif")
+    # counted in the bytes before a tree is built: a hostile document costs no element objects
+    for tag, limit, what in ((b"<MasterBar", C.MAX_MEASURES, "bars"),
+                             (b"<Note", C.MAX_NOTES, "notes"), (b"<Beat", C.MAX_BEATS, "beats")):
+        n = xml.count(tag + b" ") + xml.count(tag + b">")
+        if n > limit:
+            raise ScoreError(f"Guitar Pro file has {n} {what} (allowed at most {limit})")
     return to_song(parse_xml(xml, "Guitar Pro score.gpif"), warnings)

@@ -40,7 +40,8 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 SCENE_SUFFIXES = (".json",)
-SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".mid", ".midi")  # engine.score.SUFFIXES
+SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".musicxml", ".xml", ".mxl", ".mid",
+                  ".midi")  # engine.score.SUFFIXES
 SPEC_SUFFIXES = (".yaml", ".yml")
 EXIT_BAD_INPUT = 2
 MANIFEST_INTERVAL_S = 5.0

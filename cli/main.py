@@ -25,7 +25,8 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 SCENE_SUFFIXES = (".json",)
-SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".mid", ".midi")  # engine.score.SUFFIXES
+SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".musicxml", ".xml", ".mxl", ".mid",
+                  ".midi")  # engine.score.SUFFIXES
 AUDIO_FORMATS = {".wav": "wav", ".flac": "flac", ".ogg": "ogg"}
 MAX_WARNINGS_SHOWN = 10
 EXIT_BAD_INPUT = 2

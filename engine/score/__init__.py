@@ -26,9 +26,9 @@ __all__ = ["FORMATS", "SUFFIXES", "ScoreError", "ScoreScene", "scene_labels", "s
 
 _OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate",
             "all_instruments"}
-FORMATS = ("gp", "gpx", "gp7", "midi")
+FORMATS = ("gp", "gpx", "gp7", "musicxml", "midi")
 # the file names a score may have (the CLI, batches and the upload endpoints accept these)
-SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".mid", ".midi")
+SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".musicxml", ".xml", ".mxl", ".mid", ".midi")
 
 
 class ScoreScene(dict):
@@ -85,11 +85,17 @@ def sniff(data: bytes, name: str = "") -> str:
     kind = gpif_sniff(data)
     if kind is not None:
         return kind
+    from .musicxml import sniff as musicxml_sniff
+
+    if musicxml_sniff(data):
+        return "musicxml"
     suffix = os.path.splitext(name)[1].lower()
     base = os.path.basename(name)
     if data[:4] == b"PK\x03\x04":
         if suffix == ".gp":
             return "gp7"  # the reader names what is missing (Content/score.gpif)
+        if suffix == ".mxl":
+            return "musicxml"
         raise ScoreError("a zip archive without Content/score.gpif: not a Guitar Pro 7/8 file")
     if suffix in (".gp3", ".gp4", ".gp5"):
         raise ScoreError(f"not a Guitar Pro 3/4/5 file despite its name {base!r} "
@@ -102,6 +108,9 @@ def sniff(data: bytes, name: str = "") -> str:
                          "archive)")
     if suffix in (".mid", ".midi"):
         raise ScoreError(f"not a MIDI file despite its name {base!r} (no 'MThd' header)")
+    if suffix in (".musicxml", ".xml", ".mxl"):
+        raise ScoreError(f"not a MusicXML score despite its name {base!r} (no <score-partwise> "
+                         "or <score-timewise>)")
     raise ScoreError("not a Guitar Pro (3-8) or Standard MIDI file (unknown header "
                      f"{data[:8]!r})")
 
@@ -154,11 +163,15 @@ def score_to_scene(source, **options) -> ScoreScene:
     if not isinstance(options.get("all_instruments", False), bool):
         raise ScoreError(f"options.all_instruments: {options['all_instruments']!r} is not true "
                          "or false")
-    if fmt in ("gp", "gpx", "gp7"):
+    if fmt in ("gp", "gpx", "gp7", "musicxml"):
         from . import gp
 
         if fmt == "gp":
             song = gp.parse_song(data)
+        elif fmt == "musicxml":
+            from . import musicxml
+
+            song = musicxml.parse_song(data, warnings)
         else:
             from . import gpif
 

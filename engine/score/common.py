@@ -201,8 +201,9 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
         elif n.attack == "slide":
             prev = n.legato_from
             d = min(SLIDE_S, 0.5 * max(n.time - (notes[i - 1].time if i else 0.0), 2e-3))
-            out.append({"type": "slide", "time": _r(n.time - d), "string": s, "from_fret": prev,
-                        "to_fret": n.fret, "duration": _r(d)})
+            ts = _r(n.time - d)  # the glide ends at the note's time, rounded as the labels read it
+            out.append({"type": "slide", "time": ts, "string": s, "from_fret": prev,
+                        "to_fret": n.fret, "duration": _r(n.time - ts)})
         # strum: its plucks are written once per beat by the caller
         if n.attack in ("pluck", "strum", "tap", "slide"):
             held = {n.fret} if n.fret > 0 else set()

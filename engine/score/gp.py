@@ -559,7 +559,10 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         spread = min(spread, 0.5 * (t1 - t0), 0.5)
                         direction = "down" if stroke == "down" else "up"
                         force = sum(n.force for n in plucked) / len(plucked)
-                        times = C.strum_times(t0, strings, direction, spread)
+                        # from the strum event's own (rounded) numbers, so that the notes'
+                        # times are the ones the engine and the labels derive from the event
+                        spread = round(spread, 6)
+                        times = C.strum_times(round(t0, 6), strings, direction, spread)
                         for n in plucked:
                             n.attack = "strum"
                             n.time = times[n.string]

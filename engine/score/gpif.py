@@ -189,18 +189,22 @@ def unpack(data: bytes) -> bytes:
     raise ScoreError(f"not a Guitar Pro 6/7/8 file (unknown header {head!r})")
 
 
-def parse_xml(xml: bytes, what: str):
-    """An ElementTree root of untrusted XML: DTDs, entities and external references refused."""
+def parse_xml(xml: bytes, what: str, allow_doctype: bool = False):
+    """An ElementTree root of untrusted XML: entity declarations and external references
+    refused, and a DOCTYPE too unless ``allow_doctype`` (MusicXML files name their DTD; it is
+    never fetched)."""
     from xml.etree.ElementTree import ParseError
 
     import defusedxml.ElementTree as DET
     from defusedxml import DefusedXmlException
 
     try:
-        return DET.fromstring(xml, forbid_dtd=True)
+        return DET.fromstring(xml, forbid_dtd=not allow_doctype, forbid_entities=True,
+                              forbid_external=True)
     except DefusedXmlException as exc:
-        raise ScoreError(f"{what} refused: {type(exc).__name__} (DTDs and entity declarations "
-                         "are not accepted)") from None
+        raise ScoreError(f"{what} refused: {type(exc).__name__} (entity declarations, external "
+                         "references" + ("" if allow_doctype else " and DTDs") + " are not "
+                         "accepted)") from None
     except ParseError as exc:
         raise ScoreError(f"{what} is not well-formed XML: {exc}"[:300]) from None
 

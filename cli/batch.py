@@ -4,7 +4,7 @@
     guitar-synth batch dataset.yaml -o out/ --workers 8
     guitar-synth batch dataset.yaml -o out/ --scheduler tcp://10.0.0.5:8786
 
-INPUTS are scene ``.json`` files, Guitar Pro ``.gp3/.gp4/.gp5`` and MIDI ``.mid/.midi`` files,
+INPUTS are scene ``.json`` files, Guitar Pro ``.gp3``-``.gp5``, ``.gpx``, ``.gp`` and MIDI files,
 folders (searched recursively for those), and dataset specs (``cli.dataset``: YAML, or JSON with a
 top-level ``dataset``), each of which stands for ``count`` drawn scenes.  OUT_DIR receives
 ``audio/ID.wav`` (or ``.flac``), ``labels/ID.jams`` and ``manifest.parquet`` (or ``.csv``): one row

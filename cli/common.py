@@ -6,8 +6,10 @@ from __future__ import annotations
 import argparse
 from typing import Any, NoReturn
 
+from engine.score import SUFFIXES
+
 SCENE_SUFFIXES = (".json",)
-SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".mid", ".midi")
+SCORE_SUFFIXES = SUFFIXES  # every score format engine.score reads
 EXIT_BAD_INPUT = 2
 
 

@@ -71,6 +71,10 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="play X times as fast (default 1)")
     g.add_argument("--max-seconds", type=_positive_float, metavar="S",
                    help="keep only the first S seconds (a score or a scene)")
+    g.add_argument("--all-instruments", action="store_true",
+                   help="play every pitched track of a score (piano, voice, strings ...) on a "
+                        "guitar; by default only guitar and bass tracks are played and the others "
+                        "are named in the warnings")
 
 
 def _add_render_options(p: argparse.ArgumentParser) -> None:
@@ -92,10 +96,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     r = sub.add_parser("render", help="render a scene or a score to an audio file",
-                       description="Render a scene (.json), a Guitar Pro file (.gp3/.gp4/.gp5) "
+                       description="Render a scene (.json), a Guitar Pro file (.gp3-.gp5, .gpx, .gp) "
                                    "or a MIDI file (.mid/.midi) to WAV, FLAC or Ogg Vorbis, with "
                                    "a progress bar on stderr.")
-    r.add_argument("input", metavar="INPUT", help="scene .json, .gp3/.gp4/.gp5 or .mid/.midi")
+    r.add_argument("input", metavar="INPUT", help="scene .json, .gp3/.gp4/.gp5/.gpx/.gp or .mid/.midi")
     r.add_argument("-o", "--output", required=True, metavar="OUTPUT",
                    help="audio file; its suffix picks the format: .wav, .flac or .ogg")
     r.add_argument("--labels", metavar="LABELS.jams",
@@ -119,7 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Turn a Guitar Pro or MIDI file into a scene (JSON): to read, "
                                    "edit, render or send to POST /render. A scene .json is "
                                    "checked and written back with its overrides applied.")
-    s.add_argument("input", metavar="INPUT", help=".gp3/.gp4/.gp5, .mid/.midi or a scene .json")
+    s.add_argument("input", metavar="INPUT", help=".gp3/.gp4/.gp5/.gpx/.gp, .mid/.midi or a scene .json")
     s.add_argument("-o", "--output", required=True, metavar="SCENE.json",
                    help="where to write the scene ('-' for standard output)")
     _add_score_options(s)
@@ -186,11 +190,14 @@ def _score_options(args: argparse.Namespace) -> dict[str, Any]:
         opts["tempo_scale"] = args.tempo_scale
     if args.max_seconds is not None:
         opts["max_seconds"] = args.max_seconds
+    if getattr(args, "all_instruments", False):
+        opts["all_instruments"] = True
     return opts
 
 
 _FLAGS = {"options.tracks": "--tracks", "options.presets": "--preset",
-          "options.tempo_scale": "--tempo-scale", "options.max_seconds": "--max-seconds"}
+          "options.tempo_scale": "--tempo-scale", "options.max_seconds": "--max-seconds",
+          "options.all_instruments": "--all-instruments"}
 
 
 def _read_score(p: Path, args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
@@ -257,7 +264,7 @@ def load_input(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
         scene, warnings = _read_score(p, args)
     else:
         raise BadInput(f"{p}: unknown input type {suffix or '(no suffix)'!r}: give a scene "
-                       ".json, a Guitar Pro .gp3/.gp4/.gp5 or a MIDI .mid/.midi file")
+                       ".json, a Guitar Pro .gp3/.gp4/.gp5/.gpx/.gp or a MIDI .mid/.midi file")
     _overrides(scene, args)
     return scene, warnings
 

@@ -15,11 +15,12 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 import engine
 from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+from engine.score import SUFFIXES
 
 from . import audio
 from .exceptions import RenderFailed, RenderTimeout
 
-SCORE_SUFFIXES = (".gp3", ".gp4", ".gp5", ".mid", ".midi")
+SCORE_SUFFIXES = SUFFIXES  # every score format engine.score reads
 _OPTION_IN_MESSAGE = re.compile(r"^(options\.[a-z_]+): (.*)$", re.S)
 
 
@@ -32,7 +33,10 @@ class ScoreOptions(BaseModel):
     tracks: list[int | str] | None = Field(
         None, min_length=1, max_length=64,
         description="the tracks to play, by number as the score numbers them (from 1) or by name; "
-                    "default every pitched track")
+                    "default every guitar and bass track")
+    all_instruments: bool | None = Field(
+        None, description="true: play every pitched track (piano, voice, strings ...) on a guitar "
+                          "too; by default other instruments are skipped and named in the warnings")
     presets: str | dict[str, str] | None = Field(
         None, description="one preset for every track, or {track number or name: preset}")
     tempo_scale: float | None = Field(None, ge=0.05, le=20.0,
@@ -94,7 +98,7 @@ async def read_upload(file: UploadFile) -> tuple[bytes, str]:
     suffix = PurePath(name).suffix.lower()
     if name and suffix not in SCORE_SUFFIXES:
         raise form_error("file", f"{name!r}: unknown type {suffix or '(no suffix)'!r}; a score "
-                                  "is .gp3, .gp4, .gp5, .mid or .midi", value=name)
+                                  f"is one of {', '.join(SCORE_SUFFIXES)}", value=name)
     data = await file.read()
     if not data:
         raise form_error("file", f"{name or 'the upload'} is empty (0 bytes)", value=name)

@@ -42,10 +42,11 @@ def truncated_gp5() -> bytes:
 
 
 def zip_as_gp5() -> bytes:
-    """A zip archive, as Guitar Pro 6/7 files are, that a user renamed .gp5."""
+    """A zip archive that holds no Guitar Pro score (a Guitar Pro 7 file, a zip holding
+    Content/score.gpif, is read whatever its name), renamed .gp5."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
-        z.writestr("Content/score.gpif", "<GPIF/>")
+        z.writestr("word/document.xml", "<w/>")
     return buf.getvalue()
 
 

@@ -1,4 +1,4 @@
-"""Scores in, labels out: Guitar Pro 3/4/5 and Standard MIDI Files become scenes (the JSON form of
+"""Scores in, labels out: Guitar Pro 3-8 and Standard MIDI Files become scenes (the JSON form of
 ``../shared/API.md``, with ``tracks``), and any scene's notes become a JAMS file.
 
     >>> import engine.score as score
@@ -6,10 +6,11 @@
     >>> scene.warnings          # what could not be played, each naming bar, beat, track, effect
     >>> jam = score.scene_labels(scene)   # jams.JAMS, GuitarSet's layout
 
-Modules: ``gp`` (Guitar Pro, via PyGuitarPro), ``midi`` (Standard MIDI Files, via pretty_midi and
-mido), ``fingering`` (strings and frets for MIDI notes), ``labels`` (scene -> JAMS), ``common``
-(limits, the event builder).  This package knows only the scene's JSON form and
-``engine.presets``; it renders nothing.
+Modules: ``gp`` (Guitar Pro 3-5, via PyGuitarPro, and the song -> scene mapping every Guitar Pro
+version shares), ``gpif`` (Guitar Pro 6 .gpx and 7/8 .gp -> PyGuitarPro's song model), ``midi``
+(Standard MIDI Files, via pretty_midi and mido), ``fingering`` (strings and frets for MIDI notes),
+``labels`` (scene -> JAMS), ``common`` (limits, the event builder).  This package knows only the
+scene's JSON form and ``engine.presets``; it renders nothing.
 """
 
 from __future__ import annotations
@@ -21,16 +22,21 @@ from ..scene import MAX_DURATION_S, MAX_TRACKS
 from .common import MAX_SCORE_BYTES, ScoreError
 from .labels import scene_labels, scene_notes
 
-__all__ = ["ScoreError", "ScoreScene", "scene_labels", "scene_notes", "score_to_scene"]
+__all__ = ["FORMATS", "SUFFIXES", "ScoreError", "ScoreScene", "scene_labels", "scene_notes",
+           "score_to_scene"]
 
-_OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate"}
+_OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate",
+            "all_instruments"}
+FORMATS = ("gp", "gpx", "gp7", "musicxml", "midi")
+# the file names a score may have (the CLI, batches and the upload endpoints accept these)
+SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".musicxml", ".xml", ".mxl", ".mid", ".midi")
 
 
 class ScoreScene(dict):
     """The scene (a plain ``dict`` in the JSON form, ready for ``engine.render``), with the
     conversion's report as attributes: ``warnings`` (list of one-line strings), ``notes`` (the
     score's notes as played: track, string, fret, time, end, pitch, articulations, bar and beat)
-    and ``format`` ("gp" or "midi")."""
+    and ``format`` ("gp", "gpx", "gp7" or "midi")."""
 
     warnings: list[str]
     notes: list[dict]
@@ -69,39 +75,65 @@ def _read(source) -> tuple[bytes, str]:
 
 
 def sniff(data: bytes, name: str = "") -> str:
-    """'gp' or 'midi' from the file's first bytes (its name's suffix only breaks no tie)."""
+    """'gp' (Guitar Pro 3/4/5), 'gpx' (Guitar Pro 6), 'gp7' (Guitar Pro 7/8) or 'midi' from the
+    file's first bytes (its name's suffix only breaks no tie)."""
+    from .gpif import sniff as gpif_sniff
+
     if data[:4] == b"MThd" or data[:4] == b"RIFF" and data[8:12] == b"RMID":
         return "midi"
     if data[1:19] in (b"FICHIER GUITAR PRO", b"CLIPBOARD GUITAR P") or data[1:13] == b"CLIPBOARD GP":
         return "gp"
-    if data[:4] == b"PK\x03\x04":
-        raise ScoreError("a zip archive (Guitar Pro 6/7 .gpx/.gp or another format), not a "
-                         "Guitar Pro 3/4/5 or MIDI file")
+    kind = gpif_sniff(data)
+    if kind is not None:
+        return kind
+    from .musicxml import sniff as musicxml_sniff
+
+    if musicxml_sniff(data):
+        return "musicxml"
     suffix = os.path.splitext(name)[1].lower()
+    base = os.path.basename(name)
+    if data[:4] == b"PK\x03\x04":
+        if suffix == ".gp":
+            return "gp7"  # the reader names what is missing (Content/score.gpif)
+        if suffix == ".mxl":
+            return "musicxml"
+        raise ScoreError("a zip archive without Content/score.gpif: not a Guitar Pro 7/8 file")
     if suffix in (".gp3", ".gp4", ".gp5"):
-        raise ScoreError(f"not a Guitar Pro 3/4/5 file despite its name {os.path.basename(name)!r} "
+        raise ScoreError(f"not a Guitar Pro 3/4/5 file despite its name {base!r} "
                          "(no Guitar Pro header)")
+    if suffix == ".gpx":
+        raise ScoreError(f"not a Guitar Pro 6 file despite its name {base!r} (no BCFZ/BCFS "
+                         "header)")
+    if suffix == ".gp":
+        raise ScoreError(f"not a Guitar Pro 7/8 file despite its name {base!r} (not a zip "
+                         "archive)")
     if suffix in (".mid", ".midi"):
-        raise ScoreError(f"not a MIDI file despite its name {os.path.basename(name)!r} "
-                         "(no 'MThd' header)")
-    raise ScoreError("not a Guitar Pro 3/4/5 or Standard MIDI file (unknown header "
+        raise ScoreError(f"not a MIDI file despite its name {base!r} (no 'MThd' header)")
+    if suffix in (".musicxml", ".xml", ".mxl"):
+        raise ScoreError(f"not a MusicXML score despite its name {base!r} (no <score-partwise> "
+                         "or <score-timewise>)")
+    raise ScoreError("not a Guitar Pro (3-8) or Standard MIDI file (unknown header "
                      f"{data[:8]!r})")
 
 
 def score_to_scene(source, **options) -> ScoreScene:
-    """A Guitar Pro 3/4/5 or Standard MIDI file as a scene (``../shared/API.md``, "Scores in").
+    """A Guitar Pro (3/4/5 .gp3-.gp5, 6 .gpx, 7/8 .gp) or Standard MIDI file as a scene
+    (``../shared/API.md``, "Scores in").
 
     ``source``: a path, the file's bytes, or a binary file object.  Options:
 
     * ``tracks``: the tracks to keep, by number as the score numbers them (Guitar Pro's track
       number, 1-based; for MIDI, the 1-based index of the score's parts, one part per channel and
       program, in the order ``ScoreScene.notes``/warnings name them) or by name; default all
-      pitched tracks.
+      guitar and bass tracks (General MIDI programs 24-39); a track asked for by number or name
+      is played whatever its instrument.
+    * ``all_instruments``: true plays every pitched track (piano, voice, strings ...) on a guitar
+      too; by default each other instrument is skipped and named in the warnings.
     * ``presets``: one preset name for every track, or ``{track number or name: preset}``; default
       from the instrument (General MIDI program; string count).
     * ``tempo_scale``: > 0, multiplies the tempo (2.0 plays twice as fast); default 1.
     * ``max_seconds``: cut the scene there (events after it dropped, duration clamped).
-    * ``format``: "gp" or "midi" to skip detection from the file's header.
+    * ``format``: "gp", "gpx", "gp7" or "midi" to skip detection from the file's header.
     * ``sample_rate``: the scene's sample rate (default 44100).
 
     Returns a ``ScoreScene`` (a dict) with ``.warnings`` and ``.notes``.  Raises ``ScoreError``
@@ -129,17 +161,29 @@ def score_to_scene(source, **options) -> ScoreScene:
     data, name = _read(source)
     fmt = options.get("format") or sniff(data, name)
     warnings: list[str] = []
-    if fmt == "gp":
+    if not isinstance(options.get("all_instruments", False), bool):
+        raise ScoreError(f"options.all_instruments: {options['all_instruments']!r} is not true "
+                         "or false")
+    if fmt in ("gp", "gpx", "gp7", "musicxml"):
         from . import gp
 
-        song = gp.parse_song(data)
+        if fmt == "gp":
+            song = gp.parse_song(data)
+        elif fmt == "musicxml":
+            from . import musicxml
+
+            song = musicxml.parse_song(data, warnings)
+        else:
+            from . import gpif
+
+            song = gpif.parse_song(data, warnings)
         scene, planned = gp.convert(song, options, warnings)
     elif fmt == "midi":
         from . import midi
 
         scene, planned = midi.convert(data, options, warnings)
     else:
-        raise ScoreError(f"options.format: {fmt!r} is not 'gp' or 'midi'")
+        raise ScoreError(f"options.format: {fmt!r} is not one of {list(FORMATS)}")
     if not planned:
         raise ScoreError("the score has no notes to play" + (" in the chosen tracks"
                                                               if options.get("tracks") else ""))

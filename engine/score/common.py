@@ -77,6 +77,26 @@ def preset_for_program(program: int, n_strings: int = 6) -> str:
     return _presets.DEFAULT_PRESET
 
 
+def is_guitar_program(program: int) -> bool:
+    """General MIDI programs 24-39 (0-based): the guitars (24-31) and the basses (32-39)."""
+    return 24 <= program <= 39
+
+
+def program_name(program: int) -> str:
+    """General MIDI instrument name of a 0-based program ("Acoustic Grand Piano" ...)."""
+    try:
+        import pretty_midi
+
+        return pretty_midi.program_to_instrument_name(int(program))
+    except (ImportError, ValueError):
+        return f"program {program}"
+
+
+def skip_instrument(label: str, program: int, warnings: list[str]) -> None:
+    warnings.append(f"{label}: {program_name(program)} (General MIDI program {program}) is not a "
+                    "guitar or bass, skipped (options.all_instruments plays it on a guitar)")
+
+
 def preset_tuning(preset: str) -> list[int]:
     """The preset's open strings as MIDI numbers, string 1 first."""
     return [round(note_midi(s.note)) for s in _presets.get_preset(preset).strings]
@@ -181,8 +201,9 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
         elif n.attack == "slide":
             prev = n.legato_from
             d = min(SLIDE_S, 0.5 * max(n.time - (notes[i - 1].time if i else 0.0), 2e-3))
-            out.append({"type": "slide", "time": _r(n.time - d), "string": s, "from_fret": prev,
-                        "to_fret": n.fret, "duration": _r(d)})
+            ts = _r(n.time - d)  # the glide ends at the note's time, rounded as the labels read it
+            out.append({"type": "slide", "time": ts, "string": s, "from_fret": prev,
+                        "to_fret": n.fret, "duration": _r(n.time - ts)})
         # strum: its plucks are written once per beat by the caller
         if n.attack in ("pluck", "strum", "tap", "slide"):
             held = {n.fret} if n.fret > 0 else set()

@@ -325,9 +325,14 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
             continue
         n_strings = len(t.strings)
         if not 1 <= n_strings <= 12:
-            warnings.append(f"bar 1, beat 1, {label}: {n_strings} strings, left out")
+            warnings.append(f"bar 1, beat 1, {label}: {n_strings} strings, left out"
+                            + (" (a notation staff without tablature)" if not n_strings else ""))
             continue
         program = t.channel.instrument
+        if want is None and not options.get("all_instruments") and \
+                not C.is_guitar_program(program):
+            C.skip_instrument(f"bar 1, beat 1, {label}", program, warnings)
+            continue
         preset = C.preset_for_program(program, n_strings)
         if isinstance(preset_opt, str):
             preset = preset_opt
@@ -366,6 +371,9 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
                              "gain_db": round(20 * math.log10(max(volume, 1) / 104.0), 2),
                              "pan": round(min(max((balance - 64) / 64.0, -1.0), 1.0), 3)})
     if not scene_tracks:
+        if want is None and any("options.all_instruments" in w for w in warnings):
+            raise ScoreError("the score has no guitar or bass track (options.all_instruments "
+                             "plays its other instruments on guitars)")
         raise ScoreError("the score has no pitched track to play" if want is None else
                          f"options.tracks: none of {sorted(map(str, want))} is a pitched track "
                          "of this score")
@@ -552,7 +560,10 @@ def _track_notes(song, t, tr: _Track, order, clock, planned, strums, warnings, l
                         spread = min(spread, 0.5 * (t1 - t0), 0.5)
                         direction = "down" if stroke == "down" else "up"
                         force = sum(n.force for n in plucked) / len(plucked)
-                        times = dict(strum_times(t0, strings, direction, spread,
+                        # from the strum event's own (rounded) numbers, so that the notes'
+                        # times are the ones the engine and the labels derive from the event
+                        spread = round(spread, 6)
+                        times = dict(strum_times(round(t0, 6), strings, direction, spread,
                                                  len(tr.tuning)))
                         for n in plucked:
                             n.attack = "strum"

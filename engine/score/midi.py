@@ -187,18 +187,23 @@ def convert(data: bytes, options: dict, warnings: list[str]) -> tuple[dict, list
         first = bisect.bisect_left(beats, downbeats[bar - 1] - 1e-6) if bar else 0
         return f"{t_file / scale:.3f} s (bar {max(bar, 1)}, beat {max(beat_i - first, 1)})"
 
-    import pretty_midi
 
     scene_tracks, planned, frets_of = [], [], []
+    names = _part_names(pm.instruments)
     for number, inst in enumerate(pm.instruments, start=1):
-        name = inst.name.strip() or pretty_midi.program_to_instrument_name(inst.program)
+        name = names[number - 1]
         label = f"track '{name}' ({number})"
-        if want is not None and number not in want and name not in want:
+        if want is not None and number not in want and name not in want \
+                and inst.name.strip() not in want:
             continue
         if inst.is_drum:
             warnings.append(f"{label}: a percussion part, left out")
             continue
         if not inst.notes:
+            continue
+        if want is None and not options.get("all_instruments") and \
+                not C.is_guitar_program(inst.program):
+            C.skip_instrument(label, inst.program, warnings)
             continue
         preset = C.preset_for_program(inst.program)
         if isinstance(preset_opt, str):
@@ -239,6 +244,9 @@ def convert(data: bytes, options: dict, warnings: list[str]) -> tuple[dict, list
         scene_tracks.append({"name": name, "guitar": {"preset": preset}, "events": [],
                              "gain_db": 0.0, "pan": 0.0})
     if not scene_tracks:
+        if want is None and any("options.all_instruments" in w for w in warnings):
+            raise ScoreError("the MIDI file has no guitar or bass part (options.all_instruments "
+                             "plays its other instruments on guitars)")
         raise ScoreError("the MIDI file has no pitched notes to play" if want is None else
                          f"options.tracks: none of {sorted(map(str, want))} is a pitched part "
                          "of this file")
@@ -255,6 +263,31 @@ def convert(data: bytes, options: dict, warnings: list[str]) -> tuple[dict, list
     last = max([last] + [p.end for p in planned])
     return {"duration": round(last + C.TAIL_S, 6), "sample_rate": 44100,
             "tracks": scene_tracks}, planned
+
+
+def _part_names(instruments) -> list[str]:
+    """Each part's name: its track name; the General MIDI instrument where the name is missing
+    or shared with another part ("Piano" twice -> "Piano (Acoustic Grand Piano)", and a number
+    after that where even those agree)."""
+    import pretty_midi
+
+    raw = [i.name.strip() for i in instruments]
+    count: dict[str, int] = {}
+    for r in raw:
+        count[r] = count.get(r, 0) + 1
+    names = []
+    for r, inst in zip(raw, instruments, strict=True):
+        gm = "Drums" if inst.is_drum else pretty_midi.program_to_instrument_name(inst.program)
+        names.append(gm if not r else f"{r} ({gm})" if count[r] > 1 else r)
+    seen: dict[str, int] = {}
+    total: dict[str, int] = {}
+    for n in names:
+        total[n] = total.get(n, 0) + 1
+    out = []
+    for n in names:
+        seen[n] = seen.get(n, 0) + 1
+        out.append(f"{n} {seen[n]}" if total[n] > 1 else n)
+    return out
 
 
 def _bends(inst, notes: list[Planned], scale, warnings, label, where):

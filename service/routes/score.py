@@ -37,8 +37,9 @@ from ..validation import StrictJSONRoute, check_limits
 router = APIRouter(tags=["scores"])
 labels_router = APIRouter(route_class=StrictJSONRoute, tags=["scores"])
 
-_FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.mid/.midi file), optional `options` "
-             "(JSON: tracks, presets, tempo_scale, max_seconds, sample_rate, quality, model)")
+_FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.gpx/.gp/.musicxml/.xml/.mxl/.mid/.midi file), "
+             "optional `options` (JSON: tracks, presets, tempo_scale, max_seconds, sample_rate, "
+             "all_instruments, quality, model)")
 
 
 @router.post(

@@ -54,7 +54,7 @@ def test_missing_file_and_wrong_types(tmp_path):
         f.write("x")
     with open(tmp_path / "t.txt") as f:
         _err(f, "text mode")
-    _err(b"\x89PNG\r\n\x1a\n" + b"\0" * 100, "not a Guitar Pro 3/4/5 or Standard MIDI file")
+    _err(b"\x89PNG\r\n\x1a\n" + b"\0" * 100, "not a Guitar Pro (3-8) or Standard MIDI file")
     (tmp_path / "song.gp5").write_bytes(b"hello, I am text pretending to be a tab" * 3)
     _err(str(tmp_path / "song.gp5"), "not a Guitar Pro 3/4/5 file despite its name")
     (tmp_path / "song.mid").write_bytes(b"RIFX" + b"\0" * 40)
@@ -64,10 +64,16 @@ def test_missing_file_and_wrong_types(tmp_path):
 def test_zip_renamed_gp5(tmp_path):
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as z:
-        z.writestr("Content/score.gpif", "<GPIF/>")
+        z.writestr("word/document.xml", "<w/>")
     p = tmp_path / "modern.gp5"
     p.write_bytes(buf.getvalue())
-    _err(str(p), "zip archive")
+    _err(str(p), "zip archive without Content/score.gpif")
+    # a Guitar Pro 7 file renamed .gp5 is read by its content (and this one is empty)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr("Content/score.gpif", "<GPIF/>")
+    p.write_bytes(buf.getvalue())
+    _err(str(p), "Guitar Pro file has 0 bars")
 
 
 def test_bad_options():
@@ -135,7 +141,7 @@ def test_midi_with_a_million_notes():
 
 
 def test_small_midi_of_the_same_shape_is_fine():
-    scene = score_to_scene(_midi_notes(50))
+    scene = score_to_scene(_midi_notes(50), all_instruments=True)
     assert len(scene.notes) == 50
 
 

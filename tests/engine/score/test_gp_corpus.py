@@ -59,16 +59,16 @@ def test_gp_file_becomes_scene_with_matching_labels(path):
     name = os.path.basename(path)
     if name in BROKEN:
         with pytest.raises(ScoreError, match="truncated or corrupt"):
-            score_to_scene(path)
+            score_to_scene(path, all_instruments=True)
         return
     song = guitarpro.parse(path)
     has_notes = any(n for t in song.tracks if not t.isPercussionTrack for m in t.measures
                     for v in m.voices for b in v.beats for n in b.notes)
     if not has_notes:
         with pytest.raises(ScoreError):
-            score_to_scene(path)
+            score_to_scene(path, all_instruments=True)
         return
-    scene = score_to_scene(path)
+    scene = score_to_scene(path, all_instruments=True)
     check_scene(scene)
     labels = scene_notes(scene)
     bad = match_labels(scene, labels)
@@ -97,7 +97,7 @@ def _dead_count(path, scene) -> int:
 
 def test_labels_are_guitarset_jams(tmp_path):
     path = next(p for p in _files() if os.path.basename(p) == "Demo v5.gp5")
-    scene = score_to_scene(path)
+    scene = score_to_scene(path, all_instruments=True)
     jam = scene_labels(scene, title="Demo v5")
     out = tmp_path / "demo.jams"
     jam.save(str(out))
@@ -122,7 +122,7 @@ def test_labels_are_guitarset_jams(tmp_path):
 def test_demo_tracks_tempo_and_repeats():
     path = next(p for p in _files() if os.path.basename(p) == "Demo v5.gp5")
     song = guitarpro.parse(path)
-    scene = score_to_scene(path)
+    scene = score_to_scene(path, all_instruments=True)
     assert [t["name"] for t in scene["tracks"]] == [t.name for t in song.tracks
                                                     if not t.isPercussionTrack]
     bass = scene["tracks"][[t.name for t in song.tracks].index("Bass")]
@@ -139,3 +139,15 @@ def test_demo_tracks_tempo_and_repeats():
     bar1 = [n for n in scene.notes if n["where"].startswith("bar 1,")]
     firsts = sorted({round(n["time"], 3) for n in bar1})
     assert firsts[0] == 0.0 and max(firsts) > 4 * 60 / song.tempo * 3  # after bars 1-3 again
+
+
+def test_only_guitars_and_basses_by_default():
+    """Demo v5's 'Melody' is a choir (General MIDI 52): skipped by default and named in the
+    warnings with the option that plays it; asked for by name, it is played."""
+    path = next(p for p in _files() if os.path.basename(p) == "Demo v5.gp5")
+    scene = score_to_scene(path)
+    names = [t["name"] for t in scene["tracks"]]
+    assert "Melody" not in names and "Bass" in names
+    assert any("'Melody'" in w and "Choir Aahs" in w and "options.all_instruments" in w
+               for w in scene.warnings), scene.warnings
+    assert [t["name"] for t in score_to_scene(path, tracks=["Melody"])["tracks"]] == ["Melody"]

@@ -33,7 +33,7 @@ def _pm(path):
 
 @pytest.mark.parametrize("path", _files(collecting=True), ids=os.path.basename)
 def test_midi_file_becomes_scene_with_matching_labels(path):
-    scene = score_to_scene(path)
+    scene = score_to_scene(path, all_instruments=True)
     check_scene(scene)
     labels = scene_notes(scene)
     assert not match_labels(scene, labels)
@@ -165,7 +165,8 @@ def test_program_velocity_bend_and_range():
 
 def test_bass_and_nylon_programs_and_drums_left_out():
     for program, preset in ((33, "bass"), (24, "nylon-classical"), (0, "steel-acoustic")):
-        scene = score_to_scene(_midi([(0, 1, 45, 90)], program=program))
+        scene = score_to_scene(_midi([(0, 1, 45, 90)], program=program),
+                               all_instruments=True)
         assert scene["tracks"][0]["guitar"]["preset"] == preset
     mid = mido.MidiFile(file=io.BytesIO(_midi([(0, 1, 45, 90)])))
     drum = mido.MidiTrack([mido.Message("note_on", note=36, velocity=100, channel=9),

@@ -23,6 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 import engine
 from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+from engine.score.warnings import group as group_warnings
 
 from .. import audio
 from ..pool import RenderFailed, RenderTimeout
@@ -141,9 +142,14 @@ async def _import(request: Request, data: bytes, name: str, options: dict[str, A
 def _score_warnings(warnings: list[str]) -> dict[str, str]:
     """``X-Score-Warnings``: what the score asks for that the scene cannot play (each naming bar,
     beat, track and effect), as a JSON array; the first ``render.MAX_HEADER_WARNINGS`` and a
-    count of the rest."""
+    count of the rest.  ``X-Score-Warnings-Summary``: the same grouped (``engine.score.warnings``:
+    "track 'Lead' (1): fade-in (volume swell) not playable, ignored: bars 9–12 (8 beats)")."""
     header = _warnings(warnings).get("X-Render-Warnings")
-    return {"X-Score-Warnings": header} if header else {}
+    if not header:
+        return {}
+    # the same grouped as people read them: one line per message and track, with its bars
+    summary = _warnings(group_warnings(warnings))["X-Render-Warnings"]
+    return {"X-Score-Warnings": header, "X-Score-Warnings-Summary": summary}
 
 
 def _importer_options(opts: ScoreOptions) -> dict[str, Any]:
@@ -168,7 +174,9 @@ _FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.mid/.midi file), op
                 + _FORM_DOC,
     responses={
         200: {"description": "the scene (JSON) the score becomes; X-Score-Warnings: a JSON array "
-                             "of what could not be played (absent when nothing)"},
+                             "of what could not be played (absent when nothing); "
+                             "X-Score-Warnings-Summary: the same, one line per message and "
+                             "track with its bars"},
         **{k: v for k, v in _ERRORS.items() if k != 502},
     },
 )

@@ -195,6 +195,36 @@ async def score_scene(
 
 
 @router.post(
+    "/score/labels",
+    description="The note labels of a Guitar Pro or MIDI file as it plays (JAMS, as from "
+                "`POST /scene/labels` for the scene `POST /score/scene` gives), from the score "
+                "itself: a whole song's scene can be larger than a request body may be. "
+                + _FORM_DOC,
+    responses={
+        200: {"description": "JAMS (JSON), as from POST /scene/labels; X-Score-Warnings and "
+                             "X-Score-Warnings-Summary as for POST /score/scene",
+              "content": {"application/json": {}}},
+        **{k: v for k, v in _ERRORS.items() if k != 502},
+    },
+)
+async def score_labels(
+    request: Request,
+    file: Annotated[UploadFile, File(description="Guitar Pro 3/4/5 or Standard MIDI file")],
+    options: Annotated[str | None, Form(description="JSON object of options")] = None,
+) -> Response:
+    settings, pool = request.state.settings, request.state.pool
+    opts = _options(options)
+    data, name = await _upload(file)
+    scene, warnings = await _import(request, data, name, _importer_options(opts))
+    apply_scene_options(scene, opts)
+    sc = _validate(scene)
+    _check_label_limits(sc, settings)
+    raw, _ = await pool.call("labels", {"scene": scene_payload(sc)},
+                             settings.score_import_time_limit_s)
+    return Response(raw, media_type="application/json", headers=_score_warnings(warnings))
+
+
+@router.post(
     "/render/score",
     description="Render a Guitar Pro or MIDI file, like `POST /render` renders a scene. The score "
                 "may play at most the service's `max_duration_s` (`GET /limits`): "
@@ -297,8 +327,23 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
     """The note labels of a scene (for example one from `POST /score/scene`): which note sounds on
     which string and fret, when, as JAMS (`jams.load` reads it)."""
     settings, pool = request.state.settings, request.state.pool
-    check_limits(scene, settings, max_events=settings.max_score_events)
+    _check_label_limits(scene, settings)
     raw, _ = await pool.call("labels", {"scene": scene_payload(scene)},
                              settings.score_import_time_limit_s)
     return Response(raw, media_type="application/json")
 
+
+
+def _check_label_limits(scene: engine.Scene, settings: Any) -> None:
+    """Labelling renders no audio, so a scene as long as a job may render is labelled (the demo
+    page shows the tab of a whole song before and while it renders); its events are bounded by
+    ``GUITAR_MAX_SCORE_EVENTS``."""
+    if scene.duration > settings.job_max_duration_s:
+        raise _form_error("duration", f"Input should be less than or equal to "
+                          f"{settings.job_max_duration_s:g} (service limit "
+                          "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", scene.duration)
+    if scene.event_count() > settings.max_score_events:
+        raise _form_error("tracks" if scene.tracks is not None else "events",
+                          f"List should have at most {settings.max_score_events} items (service "
+                          f"limit GUITAR_MAX_SCORE_EVENTS, counted over all tracks), not "
+                          f"{scene.event_count()}", "too_long", scene.event_count())

@@ -224,7 +224,7 @@
     const head = q("#score-playhead");
     head.style.left = `${Math.min(100, (t / (state.duration || 1)) * 100)}%`;
     head.hidden = !state.duration;
-    if (state.tab) state.tab.setTime(t, !audio.paused);
+    if (state.tab) state.tab.setTime(t, true);  // playing or seeking: the cursor stays in view
     const now = state.notes.filter((n) => t >= n.time && t < n.time + n.duration);
     q("#score-now").textContent = now.length
       ? `Sounding: ${now.map((n) => `${noteName(n.pitch)} (s${n.string} f${n.fret})`).join(" · ")}`

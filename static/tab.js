@@ -76,9 +76,11 @@ class TabView {
     return lo;
   }
 
+  // one paint per frame, of the latest state (a pending paint is never cancelled: the playback
+  // loop asks for one every frame, and cancelling would starve it)
   draw() {
-    cancelAnimationFrame(this.frame);
-    this.frame = requestAnimationFrame(() => this.paint());
+    if (this.frame) return;
+    this.frame = requestAnimationFrame(() => { this.frame = 0; this.paint(); });
   }
 
   paint() {

@@ -31,9 +31,12 @@ $(VENV)/.installed: pyproject.toml | venv-support
 	env -u NUMBA_CACHE_DIR $(BIN)/python -m engine.precompile --kernels-only
 	touch $@
 
-# the service writes its own JSON access log; uvicorn's would duplicate every line
+# `make serve HOST=0.0.0.0 PORT=8080` to listen elsewhere; the service writes its own JSON access
+# log, uvicorn's would duplicate every line
+HOST ?= 127.0.0.1
+PORT ?= 8000
 serve: install
-	$(BIN)/uvicorn service.app:app --host 127.0.0.1 --port 8000 --no-access-log
+	$(BIN)/uvicorn service.app:app --host $(HOST) --port $(PORT) --no-access-log
 
 # Debian's chromium drives the demo-page test (PyPI's playwright talks to it; never `playwright
 # install`).  Installed when we are root and it is missing; without it that one test is skipped.

@@ -35,6 +35,7 @@ from cli.common import (
 
 AUDIO_FORMATS = {".wav": "wav", ".flac": "flac", ".ogg": "ogg"}
 MAX_WARNINGS_SHOWN = 10
+WARNING_MODES = ("summary", "all", "none")  # engine.score.warnings.MODES (imported when needed)
 EXIT_INTERNAL = 1
 
 
@@ -75,6 +76,9 @@ def _add_score_options(p: argparse.ArgumentParser) -> None:
                    help="play every pitched track of a score (piano, voice, strings ...) on a "
                         "guitar; by default only guitar and bass tracks are played and the others "
                         "are named in the warnings")
+    g.add_argument("--warnings", choices=WARNING_MODES, default="summary",
+                   help="what cannot be played: summary (the default: one line per kind and "
+                        "track, with its bars), all (one line per beat) or none")
 
 
 def _add_render_options(p: argparse.ArgumentParser) -> None:
@@ -321,9 +325,12 @@ def validate(scene: dict[str, Any], source: str) -> Any:
         raise BadInput(f"{source}: invalid scene: {text}{more}") from None
 
 
-def _print_warnings(warnings: list[str], quiet: bool = False) -> None:
+def _print_warnings(warnings: list[str], quiet: bool = False, mode: str = "summary") -> None:
     if quiet:
         return
+    from engine.score.warnings import select
+
+    warnings = select(warnings, mode)
     for w in warnings[:MAX_WARNINGS_SHOWN]:
         print(f"warning: {w}", file=sys.stderr)
     if len(warnings) > MAX_WARNINGS_SHOWN:
@@ -451,7 +458,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         _writable(args.labels)
     scene, warnings = load_input(args)
     sc = validate(scene, args.input)
-    _print_warnings(warnings, args.quiet)
+    _print_warnings(warnings, args.quiet, args.warnings)
     try:
         audio, seconds = render_audio(sc, args.quiet)
     except FloatingPointError as e:
@@ -474,7 +481,7 @@ def cmd_scene(args: argparse.Namespace) -> int:
         _writable(args.output)
     scene, warnings = load_input(args)
     validate(scene, args.input)  # what is written is a scene /render accepts
-    _print_warnings(warnings)
+    _print_warnings(warnings, mode=args.warnings)
     text = json.dumps(scene, indent=1, allow_nan=False) + "\n"
     if args.output == "-":
         sys.stdout.write(text)

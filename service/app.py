@@ -65,18 +65,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             await pool.close()
             store.close()
 
+    # /docs and /redoc are served from local assets (service/routes/pages.py), not FastAPI's CDN
     app = FastAPI(title="Guitar synthesis service", version="1.0.0", description=DESCRIPTION,
-                  lifespan=lifespan)
+                  lifespan=lifespan, docs_url=None, redoc_url=None,
+                  swagger_ui_oauth2_redirect_url="/docs/oauth2-redirect")
     # Added innermost first: the request-id/access-log layer also sees 413s.
     app.add_middleware(BodyLimitMiddleware, max_bytes=settings.max_body_bytes)
     app.add_middleware(MetricsMiddleware, metrics=counters)
     app.add_middleware(RequestContextMiddleware)
     errors.install(app, settings.retry_after_s)
     jobs.install(app)
-    for router in (pages.router, health.router, presets.router, render.router, score.router,
-                   score.labels_router, live.router, jobs.router, metrics.router):
+    for router in (pages.router, pages.docs_router, health.router, presets.router, render.router,
+                   score.router, score.labels_router, live.router, jobs.router, metrics.router):
         app.include_router(router)
     app.mount("/static", StaticFiles(directory=pages.STATIC_DIR), name="static")
+    app.mount(pages.DOCS_ASSETS, pages.docs_assets(), name="docs-assets")
     return app
 
 

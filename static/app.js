@@ -579,11 +579,16 @@ function drawSpectrogram(canvas, samples, rate) {
   const dpr = window.devicePixelRatio || 1;
   g.font = `${11 * dpr}px system-ui, sans-serif`;
   g.fillStyle = "rgba(255,255,255,0.75)";
-  for (const f of [100, 200, 500, 1000, 2000, 5000, 10000]) {
+  // A label only where it clears the one below it and the canvas's top edge (a short canvas or
+  // a narrow range would otherwise print them over each other).
+  let lastY = Infinity;
+  for (const f of [50, 100, 200, 500, 1000, 2000, 5000, 10000]) {
     if (f < fmin || f > fmax) continue;
     const y = (h - 1) * (1 - Math.log(f / fmin) / Math.log(fmax / fmin));
+    if (lastY - y < 16 * dpr || y < 10 * dpr) continue;
     g.fillRect(0, y, 6 * dpr, 1);
     g.fillText(f >= 1000 ? `${f / 1000}k` : `${f}`, 9 * dpr, y + 4 * dpr);
+    lastY = y;
   }
   canvas.dataset.drawn = "1";
 }
@@ -614,6 +619,7 @@ async function main() {
     const limits = await (await fetch("/limits")).json();
     renderLimit = limits.max_duration_s;  // longer scenes are rendered as jobs
     $("#duration").max = limits.job_max_duration_s ?? limits.max_duration_s;
+    $("#render").disabled = false;  // only now can a render be built (it needs the presets)
   } catch (err) {
     $("#general-error").textContent = `Could not reach the service: ${err}`;
   }

@@ -3,7 +3,6 @@
 "use strict";
 
 const L = (sel) => document.querySelector(sel);
-const SHOWN_FRETS = 12; // frets 0..12 on the page
 const KEYS = "asdfgh"; // strings 6..1
 const HEADER_BYTES = 8; // each binary block: uint64 LE frame index, then float32 LE samples
 
@@ -54,14 +53,14 @@ function presetChanged() {
 function drawFretboard() {
   const fb = L("#fretboard");
   fb.innerHTML = "";
-  fb.style.gridTemplateColumns = `3rem repeat(${SHOWN_FRETS + 1}, 1fr)`;
+  fb.style.gridTemplateColumns = `3rem repeat(${live.frets + 1}, minmax(1.6rem, 1fr))`;
   const p = live.presets.find((x) => x.name === L("#live-preset").value);
   for (let s = 1; s <= live.strings; s++) {
     const name = document.createElement("span");
     name.className = "name";
     name.textContent = `${s} ${p.tuning[s - 1]}`;
     fb.appendChild(name);
-    for (let f = 0; f <= SHOWN_FRETS; f++) {
+    for (let f = 0; f <= live.frets; f++) {  // every fret the preset has
       const b = document.createElement("button");
       b.type = "button";
       b.className = "cell" + (f === 0 ? " open" : "");
@@ -272,6 +271,7 @@ function pedal(down) {
 
 async function setupMidi() {
   if (!navigator.requestMIDIAccess) { L("#live-midi").textContent = "not available in this browser"; return; }
+  L("#live-midi").textContent = "asking…";
   try {
     const access = await navigator.requestMIDIAccess();
     const attach = () => {
@@ -285,7 +285,7 @@ async function setupMidi() {
     access.onstatechange = attach;
     attach();
   } catch (err) {
-    L("#live-midi").textContent = `refused (${err.message || err})`;
+    L("#live-midi").textContent = `not allowed (${err.message || err})`;
   }
 }
 
@@ -408,7 +408,8 @@ async function start() {
   window.addEventListener("keydown", keyDown);
   window.addEventListener("keyup", keyUp);
   setInterval(showStats, 250);
-  await setupMidi();
+  // Web MIDI only when the user asks for it: the browser's permission prompt follows a click
+  L("#live-midi-enable").addEventListener("click", setupMidi);
   document.body.dataset.ready = "1";
 }
 

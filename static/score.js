@@ -3,7 +3,8 @@
 // fret, under the waveform, with a playhead that follows the audio).
 //
 //   POST /score/scene   the file -> the scene (track list, warnings in X-Score-Warnings)
-//   POST /scene/labels  the scene -> its notes as JAMS (one note_midi annotation per string)
+//   POST /score/labels  the file -> its notes as JAMS (one note_midi annotation per string)
+//   POST /jobs          the file -> audio, for a song longer than one request may render
 //   POST /render/score  the file -> audio
 //
 // Self-contained: it uses nothing of app.js.
@@ -14,20 +15,34 @@
   const COLOURS = ["#e0a15e", "#6fb7d6", "#b58bd8", "#8fcf7a", "#e57373", "#e6d36a", "#5fc4b0",
                    "#d98bb3"];
   const NAMES = ["C", "C♯", "D", "D♯", "E", "F", "F♯", "G", "G♯", "A", "A♯", "B"];
-  const state = { file: null, tracks: [], notes: [], duration: 0, samples: null, url: null,
-                  limits: null, raf: 0 };
+  const state = { file: null, scene: null, tracks: [], notes: [], duration: 0, samples: null,
+                  urls: {}, limits: null, raf: 0, busy: false, tab: null };
 
   const noteName = (m) => `${NAMES[((Math.round(m) % 12) + 12) % 12]}${Math.floor(Math.round(m) / 12) - 1}`;
 
   function setStatus(text) { q("#score-status").textContent = text; }
   function setError(text) { q("#score-error").textContent = text || ""; }
 
-  // A 422's detail is a list of {field, message}; anything else a string.
+  // The page's own names of the fields the API names.
+  const FIELDS = { "options.max_seconds": "First seconds", "options.tempo_scale": "Tempo",
+                   "options.tracks": "Tracks", "options.quality": "Quality", "options.model": "Model",
+                   file: "Score file" };
+
+  // A refusal in the page's words: a 422's detail is a list of {field, msg, message}, each said
+  // as "<the page's field name>: <what is wrong>"; anything else is a plain sentence.
   async function failure(r) {
     const body = await r.json().catch(() => ({ detail: r.statusText }));
     const d = body.detail;
-    const text = Array.isArray(d) ? d.map((e) => e.message || `${e.field}: ${e.msg}`).join("\n") : d;
-    return `${r.status}: ${text}`;
+    if (!Array.isArray(d)) {
+      if (r.status === 429 || r.status === 503) return "The service is busy: try again in a moment.";
+      return String(d || `The service answered ${r.status}.`);
+    }
+    return d.map((e) => {
+      const field = e.field || "";
+      const name = FIELDS[field] || (field.startsWith("file") ? "Score file" : field);
+      const msg = String(e.msg || e.message || "").replace(/^Value error, /, "").replace(`${field}: `, "");
+      return name ? `${name}: ${msg}` : msg;
+    }).join("\n");
   }
 
   function showWarnings(header) {
@@ -54,6 +69,8 @@
     const o = { quality: q("#score-quality").value, model: q("#score-model").value };
     const secs = Number(q("#score-seconds").value);
     if (secs > 0) o.max_seconds = secs;
+    const tempo = Number(q("#score-tempo").value);
+    if (tempo > 0 && tempo !== 1) o.tempo_scale = tempo;
     if (withTracks) {
       const chosen = [...document.querySelectorAll("#score-tracks input:checked")].map((c) => c.value);
       o.tracks = chosen;
@@ -111,13 +128,6 @@
       });
     }
     return notes.sort((a, b) => a.time - b.time || a.pitch - b.pitch);
-  }
-
-  async function labels(scene) {
-    const r = await fetch("/scene/labels", { method: "POST", headers: { "content-type": "application/json" },
-                                             body: JSON.stringify(scene) });
-    if (!r.ok) throw new Error(await failure(r));
-    return notesOf(await r.json());
   }
 
   // ---- drawing --------------------------------------------------------------------------------
@@ -207,19 +217,80 @@
            `${arts ? ` · ${arts}` : ""}`;
   }
 
-  // The notes sounding now, and the playhead over both drawings.
+  // The notes sounding now, and the playhead over the tab and both drawings.
   function follow() {
     const audio = q("#score-audio");
     const t = audio.currentTime;
     const head = q("#score-playhead");
     head.style.left = `${Math.min(100, (t / (state.duration || 1)) * 100)}%`;
     head.hidden = !state.duration;
+    if (state.tab) state.tab.setTime(t, true);  // playing or seeking: the cursor stays in view
     const now = state.notes.filter((n) => t >= n.time && t < n.time + n.duration);
     q("#score-now").textContent = now.length
       ? `Sounding: ${now.map((n) => `${noteName(n.pitch)} (s${n.string} f${n.fret})`).join(" · ")}`
       : "";
     if (!audio.paused) state.raf = requestAnimationFrame(follow);
   }
+
+  // ---- the tablature ----------------------------------------------------------------------------
+  function tabTracks(scene) {
+    const sel = q("#tab-track");
+    const keep = sel.value;
+    sel.replaceChildren();
+    const present = new Set(state.notes.map((n) => n.track));
+    scene.tracks.forEach((t, i) => {
+      if (!present.has(i)) return;
+      const o = document.createElement("option");
+      o.value = String(i);
+      o.textContent = t.name || `Track ${i + 1}`;
+      sel.append(o);
+    });
+    if ([...sel.options].some((o) => o.value === keep)) sel.value = keep;
+    showTab();
+  }
+
+  function showTab() {
+    const i = Number(q("#tab-track").value);
+    const track = state.scene && state.scene.tracks[i];
+    const notes = state.notes.filter((n) => n.track === i);
+    const strings = track && track.guitar.tuning ? track.guitar.tuning.length : 0;
+    state.tab.setNotes(notes, state.duration, strings);
+  }
+
+  function download(id, href, name) {
+    const a = q(id);
+    a.href = href;
+    a.download = name;
+    a.hidden = false;
+  }
+
+  function blobUrl(key, blob) {
+    if (state.urls[key]) URL.revokeObjectURL(state.urls[key]);
+    state.urls[key] = URL.createObjectURL(blob);
+    return state.urls[key];
+  }
+
+  // The scene and its labels for the current choices: what the tab and the roll show.
+  async function loadScene(withTracks) {
+    const r = await fetch("/score/scene", { method: "POST", body: form({ options: options(withTracks) }) });
+    if (!r.ok) throw new PageError(await failure(r));
+    showWarnings(r.headers.get("x-score-warnings-summary") || r.headers.get("x-score-warnings"));
+    const scene = await r.json();
+    // from the score itself: a whole song's scene may be larger than a request body may be
+    const jamR = await fetch("/score/labels", { method: "POST", body: form({ options: options(withTracks) }) });
+    if (!jamR.ok) throw new PageError(await failure(jamR));
+    const jamText = await jamR.text();
+    state.scene = scene;
+    state.duration = scene.duration;
+    state.notes = notesOf(JSON.parse(jamText));
+    const stem = state.file.name.replace(/\.[^.]+$/, "");
+    download("#score-dl-labels", blobUrl("labels", new Blob([jamText], { type: "application/json" })), `${stem}.jams`);
+    download("#score-dl-scene", blobUrl("scene", new Blob([JSON.stringify(scene, null, 1)],
+                                                          { type: "application/json" })), `${stem}.json`);
+    return scene;
+  }
+
+  class PageError extends Error {}
 
   // ---- actions --------------------------------------------------------------------------------
   async function openFile() {
@@ -232,49 +303,97 @@
     state.file = file;
     setStatus(`Reading ${file.name}…`);
     try {
-      const r = await fetch("/score/scene", { method: "POST", body: form({ options: options(false) }) });
-      if (!r.ok) { setError(await failure(r)); setStatus("Not a score this service can read."); return; }
-      showWarnings(r.headers.get("x-score-warnings"));
-      const scene = await r.json();
+      const scene = await loadScene(false);
       listTracks(scene);
-      state.duration = scene.duration;
       state.samples = null;
-      state.notes = await labels(scene);
+      tabTracks(scene);
       drawWave();
       drawRoll();
-      setStatus(`${file.name}: ${scene.tracks.length} tracks, ${state.notes.length} notes, ` +
-                `${scene.duration.toFixed(1)} s. Choose tracks and render.`);
+      describeScene("Choose tracks and render.");
     } catch (err) {
-      setError(String(err));
-      setStatus("Failed.");
+      setError(err instanceof PageError ? err.message : `Could not read the score: ${err.message || err}`);
+      setStatus(err instanceof PageError ? "Not a score this page can play." : "Failed.");
     }
+  }
+
+  function describeScene(then) {
+    const m = Math.floor(state.duration / 60), sec = (state.duration % 60).toFixed(1).padStart(4, "0");
+    setStatus(`${state.file.name}: ${state.scene.tracks.length} tracks, ${state.notes.length} notes, ` +
+              `${m}:${sec} (${state.duration.toFixed(1)} s). ${then}`);
+  }
+
+  // "First seconds" or the tempo changed: the scene is another length, re-read it.
+  async function choicesChanged() {
+    if (!state.file || state.busy) return;
+    try {
+      await loadScene(true);
+      tabTracks(state.scene);
+      drawWave();
+      drawRoll();
+      describeScene("Render to hear it.");
+    } catch (err) {
+      setError(err instanceof PageError ? err.message : String(err));
+    }
+  }
+
+  // The audio: one request up to the service's limit for a render, a job (with its progress)
+  // beyond it.
+  async function renderAudio(opts) {
+    await state.limitsReady;
+    const limit = state.limits ? state.limits.max_duration_s : Infinity;
+    const body = form({ options: opts, output: "wav" });
+    if (state.duration <= limit) {
+      const r = await fetch("/render/score", { method: "POST", body });
+      if (!r.ok) throw new PageError(await failure(r));
+      return { blob: await r.blob(), seconds: Number(r.headers.get("x-render-seconds")) };
+    }
+    const r = await fetch("/jobs", { method: "POST", body });
+    if (!r.ok) throw new PageError(await failure(r));
+    let job = await r.json();
+    const bar = q("#score-progress");
+    bar.value = 0;
+    bar.hidden = false;
+    try {
+      while (job.status === "queued" || job.status === "running") {
+        setStatus(job.status === "queued" ? "Waiting for a free renderer…"
+          : `Rendering the whole song… ${Math.round(100 * job.progress)} %`);
+        await new Promise((resolve) => setTimeout(resolve, 400));
+        const poll = await fetch(`/jobs/${job.id}`);
+        if (!poll.ok) throw new PageError(await failure(poll));
+        job = await poll.json();
+        bar.value = job.progress;
+      }
+    } finally {
+      bar.hidden = true;
+    }
+    if (job.status !== "done") {
+      throw new PageError(job.status === "cancelled" ? "The render was cancelled."
+        : `The render failed: ${job.error || "no reason given"}.`);
+    }
+    const audio = await fetch(job.audio_url);
+    if (!audio.ok) throw new PageError(await failure(audio));
+    return { blob: await audio.blob(), seconds: job.render_seconds };
   }
 
   async function render() {
     setError("");
     const button = q("#score-render");
     button.disabled = true;
+    state.busy = true;
     q("#score-roll").dataset.drawn = "0";
     q("#score-waveform").dataset.drawn = "0";
     setStatus("Rendering…");
     try {
       const opts = options(true);
       if (!opts.tracks.length) { setError("Choose at least one track."); setStatus(""); return; }
-      const [sceneR, audioR] = await Promise.all([
-        fetch("/score/scene", { method: "POST", body: form({ options: opts }) }),
-        fetch("/render/score", { method: "POST", body: form({ options: opts, output: "wav" }) }),
-      ]);
-      if (!sceneR.ok) { setError(await failure(sceneR)); setStatus("Not rendered."); return; }
-      if (!audioR.ok) { setError(await failure(audioR)); setStatus(`Not rendered (${audioR.status}).`); return; }
-      showWarnings(audioR.headers.get("x-score-warnings"));
-      const scene = await sceneR.json();
-      state.duration = scene.duration;
-      state.notes = await labels(scene);
-      const blob = await audioR.blob();
-      if (state.url) URL.revokeObjectURL(state.url);
-      state.url = URL.createObjectURL(blob);
+      const scene = await loadScene(true);
+      tabTracks(scene);
+      drawRoll();
+      const { blob, seconds } = await renderAudio(opts);
+      const url = blobUrl("audio", blob);
       const audio = q("#score-audio");
-      audio.src = state.url;
+      audio.src = url;
+      download("#score-dl-audio", url, `${state.file.name.replace(/\.[^.]+$/, "")}.wav`);
       const ctx = new OfflineAudioContext(1, 1, scene.sample_rate);
       const buffer = await ctx.decodeAudioData(await blob.arrayBuffer());
       state.rate = buffer.sampleRate;
@@ -282,23 +401,27 @@
       drawWave();
       drawRoll();
       follow();
-      const secs = Number(audioR.headers.get("x-render-seconds"));
-      setStatus(`Rendered ${scene.duration.toFixed(1)} s of ${state.file.name} in ${secs.toFixed(1)} s ` +
-                `(${state.notes.length} notes).`);
+      setStatus(`Rendered ${scene.duration.toFixed(1)} s of ${state.file.name} in ${seconds.toFixed(1)} s ` +
+                `(${state.notes.length} notes). Press play.`);
     } catch (err) {
-      setError(String(err));
-      setStatus("Failed.");
+      setError(err instanceof PageError ? err.message : `Something went wrong: ${err.message || err}`);
+      setStatus("Not rendered.");
     } finally {
+      state.busy = false;
       button.disabled = false;
     }
   }
 
-  function seek(event) {
+  function seekTo(t) {
     const audio = q("#score-audio");
     if (!state.duration || !audio.src) return;
-    const r = event.currentTarget.getBoundingClientRect();
-    audio.currentTime = ((event.clientX - r.left) / r.width) * state.duration;
+    audio.currentTime = t;
     follow();
+  }
+
+  function seek(event) {
+    const r = event.currentTarget.getBoundingClientRect();
+    seekTo(((event.clientX - r.left) / r.width) * state.duration);
   }
 
   function wire() {
@@ -318,16 +441,19 @@
       const n = state.notes.length ? noteAt(e) : null;
       q("#score-note").textContent = n ? describe(n) : "";
     });
-    fetch("/limits").then((r) => r.json()).then((l) => {
+    state.tab = new TabView(q("#tab-box"), q("#tab"), { onSeek: seekTo });
+    q("#tab-track").addEventListener("change", showTab);
+    q("#tab-zoom-in").addEventListener("click", () => state.tab.zoom(1.5));
+    q("#tab-zoom-out").addEventListener("click", () => state.tab.zoom(1 / 1.5));
+    q("#score-seconds").addEventListener("change", choicesChanged);
+    q("#score-tempo").addEventListener("change", choicesChanged);
+    state.limitsReady = fetch("/limits").then((r) => r.json()).then((l) => {
       state.limits = l;
-      const s = q("#score-seconds");
-      s.max = l.max_duration_s;
-      if (Number(s.value) > l.max_duration_s) s.value = l.max_duration_s;
       q("#score-file").accept = (l.score_formats || ["gp3", "gp4", "gp5", "mid", "midi"]).map((x) => `.${x}`).join(",");
     }).catch(() => {});
     window.addEventListener("resize", () => { drawWave(); drawRoll(); });
   }
 
   wire();
-  window.scorePlayer = { state, describe };  // for the browser test and the console
+  window.scorePlayer = { state, describe, seekTo };  // for the browser test and the console
 })();

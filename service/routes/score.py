@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import json
 from pathlib import PurePath
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, File, Form, Request, Response, UploadFile
 
 import engine
+from engine.score.warnings import group as group_warnings
 
 from .. import audio
 from ..responses import ERROR_RESPONSES, realtime_factor, scene_payload, seconds, warnings_header
@@ -37,9 +38,9 @@ from ..validation import StrictJSONRoute, check_limits
 router = APIRouter(tags=["scores"])
 labels_router = APIRouter(route_class=StrictJSONRoute, tags=["scores"])
 
-_FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.gpx/.gp/.musicxml/.xml/.mxl/.mid/.midi file), "
-             "optional `options` (JSON: tracks, presets, tempo_scale, max_seconds, sample_rate, "
-             "all_instruments, quality, model)")
+_FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.gpx/.gp/.musicxml/.xml/.mxl/.mid/"
+             ".midi file), optional `options` (JSON: tracks, presets, tempo_scale, max_seconds, "
+             "sample_rate, all_instruments, quality, model)")
 
 
 @router.post(
@@ -48,7 +49,9 @@ _FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.gpx/.gp/.musicxml/.
                 + _FORM_DOC,
     responses={
         200: {"description": "the scene (JSON) the score becomes; X-Score-Warnings: a JSON array "
-                             "of what could not be played (absent when nothing)"},
+                             "of what could not be played (absent when nothing); "
+                             "X-Score-Warnings-Summary: the same, one line per message and "
+                             "track with its bars"},
         **{k: v for k, v in ERROR_RESPONSES.items() if k != 502},
     },
 )
@@ -64,6 +67,35 @@ async def score_scene(
     validate_scene(scene)  # what goes out is a scene /render accepts (up to its limits)
     return Response(json.dumps(scene), media_type="application/json",
                     headers=_score_warnings(warnings))
+
+
+@router.post(
+    "/score/labels",
+    description="The note labels of a score file as it plays (JAMS, as from `POST /scene/labels` "
+                "for the scene `POST /score/scene` gives), from the score itself: a whole song's "
+                "scene can be larger than a request body may be. " + _FORM_DOC,
+    responses={
+        200: {"description": "JAMS (JSON), as from POST /scene/labels; X-Score-Warnings and "
+                             "X-Score-Warnings-Summary as for POST /score/scene",
+              "content": {"application/json": {}}},
+        **{k: v for k, v in ERROR_RESPONSES.items() if k != 502},
+    },
+)
+async def score_labels(
+    request: Request,
+    file: Annotated[UploadFile, File(description="a score file (Guitar Pro, MusicXML or MIDI)")],
+    options: Annotated[str | None, Form(description="JSON object of options")] = None,
+) -> Response:
+    settings, pool = request.state.settings, request.state.pool
+    opts = parse_options(options)
+    data, name = await read_upload(file)
+    scene, warnings = await import_score(request, data, name, importer_options(opts))
+    apply_scene_options(scene, opts)
+    sc = validate_scene(scene)
+    _check_label_limits(sc, settings)
+    raw, _ = await pool.call("labels", {"scene": scene_payload(sc)},
+                             settings.score_import_time_limit_s)
+    return Response(raw, media_type="application/json", headers=_score_warnings(warnings))
 
 
 @router.post(
@@ -133,8 +165,13 @@ async def render_score(
 
 def _score_warnings(warnings: list[str]) -> dict[str, str]:
     """``X-Score-Warnings``: what the score asks for that the scene cannot play (each naming bar,
-    beat, track and effect), as a JSON array, shaped as ``X-Render-Warnings``."""
-    return warnings_header(warnings, "X-Score-Warnings")
+    beat, track and effect), as a JSON array, shaped as ``X-Render-Warnings``.
+    ``X-Score-Warnings-Summary``: the same grouped (``engine.score.warnings``: "track 'Lead' (1):
+    fade-in (volume swell) not playable, ignored: bars 9–12 (8 beats)")."""
+    if not warnings:
+        return {}
+    return {**warnings_header(warnings, "X-Score-Warnings"),
+            **warnings_header(group_warnings(warnings), "X-Score-Warnings-Summary")}
 
 
 def _ascii(text: str) -> str:
@@ -156,8 +193,23 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
     """The note labels of a scene (for example one from `POST /score/scene`): which note sounds on
     which string and fret, when, as JAMS (`jams.load` reads it)."""
     settings, pool = request.state.settings, request.state.pool
-    check_limits(scene, settings, max_events=settings.max_score_events)
+    _check_label_limits(scene, settings)
     raw, _ = await pool.call("labels", {"scene": scene_payload(scene)},
                              settings.score_import_time_limit_s)
     return Response(raw, media_type="application/json")
 
+
+
+def _check_label_limits(scene: engine.Scene, settings: Any) -> None:
+    """Labelling renders no audio, so a scene as long as a job may render is labelled (the demo
+    page shows the tab of a whole song before and while it renders); its events are bounded by
+    ``GUITAR_MAX_SCORE_EVENTS``."""
+    if scene.duration > settings.job_max_duration_s:
+        raise form_error("duration", f"Input should be less than or equal to "
+                         f"{settings.job_max_duration_s:g} (service limit "
+                         "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", scene.duration)
+    if scene.event_count() > settings.max_score_events:
+        raise form_error("tracks" if scene.tracks is not None else "events",
+                         f"List should have at most {settings.max_score_events} items (service "
+                         f"limit GUITAR_MAX_SCORE_EVENTS, counted over all tracks), not "
+                         f"{scene.event_count()}", "too_long", scene.event_count())

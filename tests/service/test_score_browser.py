@@ -97,7 +97,9 @@ def test_a_score_renders_on_the_waveguide(page: Any) -> None:
         window.fetch = (url, init) => { if (init && init.body instanceof FormData)
             window.sentOptions.push([url, init.body.get("options")]); return f(url, init); }; }""")
     before = page.evaluate("document.querySelector('#score-audio').src")
-    page.click("#score-render")
+    page.click("#score-render")  # the scene and labels first, then the audio
+    page.wait_for_function("window.sentOptions.some(([u]) => u === '/render/score')",
+                           timeout=60_000)
     sent = dict(page.evaluate("window.sentOptions"))
     assert json.loads(sent["/render/score"])["model"] == "waveguide"
     page.wait_for_function("""(before) => { const a = document.querySelector('#score-audio');

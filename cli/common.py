@@ -6,10 +6,10 @@ from __future__ import annotations
 import argparse
 from typing import Any, NoReturn
 
-from engine.score import SUFFIXES
+import engine
 
 SCENE_SUFFIXES = (".json",)
-SCORE_SUFFIXES = SUFFIXES  # every score format engine.score reads
+SCORE_SUFFIXES = engine.SCORE_SUFFIXES  # every score format the engine reads
 EXIT_BAD_INPUT = 2
 
 

@@ -79,6 +79,7 @@ _LAZY = {
     "score_to_scene": "score",
     "scene_labels": "score",
     "ScoreError": "score",
+    "SCORE_SUFFIXES": "score",
     "Session": "live",
     "LiveError": "live_events",
     "parse_live_open": "live_events",

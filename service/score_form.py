@@ -15,12 +15,11 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 import engine
 from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
-from engine.score import SUFFIXES
 
 from . import audio
 from .exceptions import RenderFailed, RenderTimeout
 
-SCORE_SUFFIXES = SUFFIXES  # every score format engine.score reads
+SCORE_SUFFIXES = engine.SCORE_SUFFIXES  # every score format the engine reads
 _OPTION_IN_MESSAGE = re.compile(r"^(options\.[a-z_]+): (.*)$", re.S)
 
 

@@ -30,6 +30,7 @@ _OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample
 FORMATS = ("gp", "gpx", "gp7", "musicxml", "midi")
 # the file names a score may have (the CLI, batches and the upload endpoints accept these)
 SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".musicxml", ".xml", ".mxl", ".mid", ".midi")
+SCORE_SUFFIXES = SUFFIXES  # as ``engine.SCORE_SUFFIXES``
 
 
 class ScoreScene(dict):

@@ -28,7 +28,7 @@ def main() -> None:
         name = os.path.basename(path)
         t0 = time.perf_counter()
         try:
-            scene = score_to_scene(path)
+            scene = score_to_scene(path, all_instruments=True)
         except ScoreError as exc:
             tot["refused"] += 1
             print(f"{name:<28} {'':>6} {'':>6} {'':>6} {'':>8} {time.perf_counter() - t0:>6.2f}  "

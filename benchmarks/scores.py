@@ -171,7 +171,7 @@ def read_mono(path: Path) -> np.ndarray:
 
 def speed(path: Path, quality: str, soundfont: str | None, core: int, tmp: Path) -> None:
     t0 = time.perf_counter()
-    scene = score.score_to_scene(path)
+    scene = score.score_to_scene(path, all_instruments=True)
     import_s = time.perf_counter() - t0
     scene["quality"] = quality
     tracks = scene["tracks"]
@@ -295,7 +295,7 @@ def accuracy(path: Path, quality: str, soundfont: str | None, core: int, tmp: Pa
     import librosa
     import mir_eval
 
-    scene = score.score_to_scene(path)
+    scene = score.score_to_scene(path, all_instruments=True)
     scene["quality"] = quality
     notes = label_notes(score.scene_labels(scene))
     lo, hi = min(n.pitch for n in notes), max(n.pitch for n in notes)

@@ -22,12 +22,19 @@ from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 import engine
-from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+from engine.scene import MAX_EVENTS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 
 from .. import audio
 from ..pool import RenderFailed, RenderTimeout
 from ..validation import StrictJSONRoute, check_limits
-from .render import _ERRORS, _realtime_factor, _seconds, _warnings, scene_payload
+from .render import (
+    _ERRORS,
+    _realtime_factor,
+    _seconds,
+    _warnings,
+    _while_connected,
+    scene_payload,
+)
 
 router = APIRouter(tags=["scores"])
 labels_router = APIRouter(route_class=StrictJSONRoute, tags=["scores"])
@@ -114,14 +121,18 @@ async def _upload(file: UploadFile) -> tuple[bytes, str]:
     return data, name
 
 
-async def _import(request: Request, data: bytes, name: str, options: dict[str, Any]
+async def _import(request: Request, data: bytes, name: str, options: dict[str, Any],
+                  max_events: int = MAX_EVENTS, max_events_setting: str = "the engine's limit"
                   ) -> tuple[dict[str, Any], list[str]]:
-    """The scene a score becomes and the importer's warnings, from a worker."""
+    """The scene a score becomes and the importer's warnings, from a worker.  A scene of more
+    than ``max_events`` events is refused by the worker in one line (``max_events_setting``
+    names the limit), so this process never parses or echoes a scene of megabytes."""
     settings, pool = request.state.settings, request.state.pool
     try:
-        raw, meta = await pool.call("score", {"data": data, "filename": name,
-                                              "options": options},
-                                    settings.score_import_time_limit_s)
+        raw, meta = await _while_connected(request, pool.call(
+            "score", {"data": data, "filename": name, "options": options,
+                      "max_events": max_events, "max_events_setting": max_events_setting},
+            settings.score_import_time_limit_s), settings.disconnect_poll_s)
     except RenderTimeout:
         raise RenderTimeout(f"importing the score took longer than its time limit of "
                             f"{settings.score_import_time_limit_s:g} s "
@@ -221,7 +232,8 @@ async def render_score(
                           f"{limit:g} (service limit GUITAR_MAX_DURATION_S)", "less_than_equal",
                           asked)
     importer["max_seconds"] = asked if asked is not None else limit + 0.5
-    scene, warnings = await _import(request, data, name, importer)
+    scene, warnings = await _import(request, data, name, importer, settings.max_score_events,
+                                    "GUITAR_MAX_SCORE_EVENTS")
     if scene["duration"] > limit:
         raise _form_error("options.max_seconds",
                           f"the score plays longer than this service's limit of {limit:g} s "
@@ -230,12 +242,15 @@ async def render_score(
     apply_scene_options(scene, opts)
     scene["output"] = {**scene.get("output", {}), **out_fields}
     sc = _validate(scene)
-    check_limits(sc, settings, max_events=settings.max_score_events)
-    out = await pool.render(
+    # admitted by its estimated cost as /render is: a heavy score takes a heavy slot, and its
+    # time limit follows the estimate; a client gone withdraws it (a heavy one running stops)
+    estimated_s = check_limits(sc, settings, max_events=settings.max_score_events)
+    out = await _while_connected(request, pool.render(
         {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
          "sample_rate": sc.sample_rate, "format": sc.output.format,
          "subtype": sc.output.subtype, "channels": sc.output.channels},
-        settings.time_limit_s(sc.duration))
+        settings.time_limit_s(sc.duration, estimated_s),
+        heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
     audio_s = out.frames / sc.sample_rate
     request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
     stem = PurePath(name).stem or "score"

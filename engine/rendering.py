@@ -90,19 +90,23 @@ class Blocks:
     ``warnings`` are known once the tracks are prepared, before the first block."""
 
     def __init__(self, scene: Scene | dict, block_frames: int = 4096,
-                 options: RenderOptions | None = None):
+                 options: RenderOptions | None = None, raw: bool = False):
         mix = prepare(parse_scene(scene), options)
         self.warnings: list[str] = advice(mix)
         self._blocks = mix.blocks(block_frames)
+        self._raw = raw
 
     def __iter__(self):
         return self
 
     def __next__(self) -> np.ndarray:
-        return next(self._blocks) * FIXED_GAIN
+        block = next(self._blocks)
+        return block if self._raw else block * FIXED_GAIN
 
 
 def blocks(scene: Scene | dict, block_frames: int = 4096,
-           options: RenderOptions | None = None) -> Blocks:
-    """An iterable of the scene's audio blocks at the fixed gain (``Blocks``)."""
-    return Blocks(scene, block_frames, options)
+           options: RenderOptions | None = None, raw: bool = False) -> Blocks:
+    """An iterable of the scene's audio blocks at the fixed gain (``Blocks``); ``raw``: the
+    pickup velocity itself (m/s), before any gain, for a caller that scales the whole signal as
+    ``render`` does (``to_output_scale``) once it has seen every block."""
+    return Blocks(scene, block_frames, options, raw)

@@ -105,6 +105,14 @@ class Settings(BaseSettings):
                                        "and other load; needs CAP_SYS_NICE, else ignored)")
     live_max_events_per_s: int = Field(200, ge=1, description="events a session may send per "
                                                               "second; more are refused")
+    live_max_messages_per_s: int = Field(
+        400, ge=1, description="messages of any kind (valid or not) a session may send in any "
+                               "second; more close it with 4429")
+
+    # Clients: who is asking, for per-client quotas and fair shares (service/clients.py)
+    api_keys: str = Field("", description="comma-separated API keys; a request whose X-API-Key "
+                                          "header holds one is that key's client, any other "
+                                          "is its peer address's")
 
     # Logging
     log_level: str = Field("INFO", description="level of the service's JSON logs")
@@ -122,12 +130,21 @@ class Settings(BaseSettings):
     max_jobs: int = Field(1000, ge=1, description="jobs kept; the oldest finished go first")
     job_max_attempts: int = Field(3, ge=1, le=100,
                                   description="runs of a job cut off by a restart or a dead worker")
+    job_max_render_s: float = Field(
+        600.0, gt=0.0, description="budget of one job: a scene estimated to take longer to "
+                                   "render is refused (422)")
+    job_max_per_client: int = Field(
+        100, ge=1, description="jobs one client may have queued or running; more get 429")
 
     @model_validator(mode="after")
     def _ranges(self) -> Settings:
         if self.min_sample_rate > self.max_sample_rate:
             raise ValueError("min_sample_rate must not exceed max_sample_rate")
         return self
+
+    @property
+    def api_key_set(self) -> frozenset[str]:
+        return frozenset(k.strip() for k in self.api_keys.split(",") if k.strip())
 
     @property
     def jobs_at_once(self) -> int:

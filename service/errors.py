@@ -92,9 +92,54 @@ def field_path(loc: tuple | list, msg: str) -> str:
     return path
 
 
+# A refusal stays short whatever it refuses: a client's or a converted score's value is echoed
+# only while it is small, and at most MAX_ERRORS errors are listed (then a count of the rest), so
+# that no request makes this process serialise megabytes on its event loop.
+MAX_ERRORS = 20
+MAX_INPUT_CHARS = 200
+
+
+def _too_big(value: Any, budget: int = MAX_INPUT_CHARS) -> bool:
+    """Whether ``value`` would take more than about ``budget`` characters as JSON; stops as soon
+    as it knows (a list of 20,000 events is not walked)."""
+    stack = [value]
+    while stack:
+        v = stack.pop()
+        if isinstance(v, str):
+            budget -= len(v) + 2
+        elif isinstance(v, dict):
+            budget -= 2 + 4 * len(v)
+            if budget >= 0:
+                stack.extend(v.keys())
+                stack.extend(v.values())
+        elif isinstance(v, list | tuple):
+            budget -= 2 + len(v)
+            if budget >= 0:
+                stack.extend(v)
+        else:
+            budget -= 8
+        if budget < 0:
+            return True
+    return False
+
+
+def _short_input(value: Any) -> Any:
+    """The echoed input of an error, or what it was when it is too big to echo."""
+    if not _too_big(value):
+        return value
+    if isinstance(value, str):
+        return value[:MAX_INPUT_CHARS - 3] + "..."
+    if isinstance(value, dict):
+        return f"(an object of {len(value)} keys, not echoed)"
+    if isinstance(value, list | tuple):
+        return f"(a list of {len(value)} items, not echoed)"
+    return f"(a {type(value).__name__}, not echoed)"
+
+
 def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
     out = []
-    for err in errors:
+    more = len(errors) - MAX_ERRORS
+    for err in errors[:MAX_ERRORS]:
         item = dict(err)
         msg = str(item.get("msg", ""))
         if item.get("type") == "json_invalid":
@@ -112,8 +157,16 @@ def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
         item["message"] = text if not field or text.startswith(field) else f"{field}: {text}"
         if tuple(item.get("loc", ())) == ("body",):
             item.pop("input", None)  # the whole scene: no need to echo it back
+        elif "input" in item:
+            item["input"] = _short_input(item["input"])
+        if "ctx" in item:
+            item["ctx"] = {k: _short_input(v) for k, v in dict(item["ctx"]).items()}
         item.pop("url", None)
         out.append(item)
+    if more > 0:
+        out.append({"type": "too_many_errors", "loc": ["body"], "field": "",
+                    "msg": f"and {more} more errors", "message": f"and {more} more errors like "
+                    f"these (the first {MAX_ERRORS} are listed)"})
     return safe_json(jsonable_encoder(out))
 
 

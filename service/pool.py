@@ -339,14 +339,17 @@ class WorkerPool:
 
     async def _dispatch(self, kind: str, payload: dict[str, Any], time_limit_s: float,
                         on_finish: Callable[[], None] | None = None,
-                        heavy: bool = False) -> _Job:
+                        heavy: bool = False, wait_for_heavy: bool = False) -> _Job:
         """Hand a job to an idle worker and arm its deadline.  A heavy job first waits for one
-        of the ``heavy_slots`` (fewer than the workers), so small renders always find one."""
+        of the ``heavy_slots`` (fewer than the workers), so small renders always find one; a
+        heavy render, a heavy job and a heavy score render share those slots.  A job of the
+        runner (``wait_for_heavy``) waits for its slot as long as it takes."""
         deadline = self.loop.time() + self.settings.queue_timeout_s
         if heavy:
             try:
                 await asyncio.wait_for(self._heavy_running.acquire(),
-                                       max(deadline - self.loop.time(), 0.0))
+                                       None if wait_for_heavy
+                                       else max(deadline - self.loop.time(), 0.0))
             except TimeoutError:
                 raise PoolBusy(f"no worker for heavy renders became free within "
                                f"{self.settings.queue_timeout_s:g} s") from None
@@ -453,19 +456,23 @@ class WorkerPool:
 
     # ---- jobs of service.jobs ---------------------------------------------------------------
 
-    async def job_stream(self, payload: dict[str, Any], time_limit_s: float) -> RenderStream:
+    async def job_stream(self, payload: dict[str, Any], time_limit_s: float,
+                         heavy: bool = False) -> RenderStream:
         """A streamed render for the job runner (``service.jobs``), whose blocks it writes to a
         file.  It takes no admission slot of ``/render``: the runner keeps its own queue (in
-        SQLite) and bounds how many jobs run at once, so that /render always has a worker.  It
-        waits for a free worker as long as it takes (a /render waiting at the same time is
-        served in turn: the idle queue is first come, first served)."""
+        SQLite) and bounds how many jobs run at once.  A heavy job (its estimate over
+        ``heavy_render_s``) takes one of the heavy slots that heavy renders use too, so jobs and
+        heavy renders together never hold every worker.  It waits for a worker (and a heavy
+        slot) as long as it takes (a /render waiting at the same time is served in turn: the
+        idle queue and the heavy slots are first come, first served)."""
         job: _Job | None = None
         try:
             while True:
                 if self._closing:
                     raise PoolClosed("the server is shutting down")
                 try:
-                    job = await self._dispatch("stream", payload, time_limit_s)
+                    job = await self._dispatch("stream", payload, time_limit_s, heavy=heavy,
+                                               wait_for_heavy=True)
                     break
                 except PoolBusy:
                     continue  # no worker free within queue_timeout_s: keep waiting

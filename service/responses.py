@@ -4,10 +4,16 @@ alike: the documented error responses, the scene as a worker receives it, and th
 
 from __future__ import annotations
 
+import asyncio
 import json
+from collections.abc import Awaitable
 from typing import Any
 
+from fastapi import Request
+
 import engine
+
+from .exceptions import ClientGone
 
 ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
     413: {"description": "request body too large"},
@@ -47,3 +53,24 @@ def warnings_header(warnings: list[str], name: str = "X-Render-Warnings") -> dic
         more = len(warnings) - MAX_HEADER_WARNINGS
         warnings = [*warnings[:MAX_HEADER_WARNINGS], f"and {more} more warnings like these"]
     return {name: json.dumps(warnings)} if warnings else {}
+
+
+async def while_connected(request: Request, work: Awaitable[Any], poll_s: float) -> Any:
+    """Await ``work`` (the pool's render or the start of a stream), checking every ``poll_s``
+    that the client is still there; if it has gone, cancel ``work`` (a queued render leaves the
+    queue, a stream is cancelled in its worker, a heavy render's worker is stopped)."""
+    task = asyncio.ensure_future(work)
+    try:
+        while True:
+            done, _ = await asyncio.wait({task}, timeout=poll_s)
+            if done:
+                return task.result()
+            if await request.is_disconnected():
+                raise ClientGone()
+    finally:
+        if not task.done():
+            task.cancel()
+            try:
+                await task
+            except BaseException:  # noqa: S110 - cancelled or failed: the client is gone anyway
+                pass

@@ -101,3 +101,7 @@ class Limits(BaseModel):
     formats: list[str]
     job_max_duration_s: float = Field(description="longest scene a job (POST /jobs) may render")
     job_max_events: int
+    job_max_render_s: float = Field(description="a job estimated to take longer is refused")
+    job_max_per_client: int = Field(description="jobs one client may have queued or running")
+    live_max_messages_per_s: int = Field(description="messages a live session may send in a "
+                                                     "second before it is closed (4429)")

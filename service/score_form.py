@@ -14,10 +14,11 @@ from fastapi.exceptions import RequestValidationError
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 import engine
-from engine.scene import SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
+from engine.scene import MAX_EVENTS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 
 from . import audio
 from .exceptions import RenderFailed, RenderTimeout
+from .responses import while_connected
 
 SCORE_SUFFIXES = engine.SCORE_SUFFIXES  # every score format the engine reads
 _OPTION_IN_MESSAGE = re.compile(r"^(options\.[a-z_]+): (.*)$", re.S)
@@ -104,14 +105,20 @@ async def read_upload(file: UploadFile) -> tuple[bytes, str]:
     return data, name
 
 
-async def import_score(request: Request, data: bytes, name: str, options: dict[str, Any]
-                  ) -> tuple[dict[str, Any], list[str]]:
-    """The scene a score becomes and the importer's warnings, from a worker."""
+async def import_score(request: Request, data: bytes, name: str, options: dict[str, Any],
+                       max_events: int = MAX_EVENTS,
+                       max_events_setting: str = "the engine's limit"
+                       ) -> tuple[dict[str, Any], list[str]]:
+    """The scene a score becomes and the importer's warnings, from a worker.  A scene of more
+    than ``max_events`` events is refused by the worker in one line (``max_events_setting``
+    names the limit), so this process never parses or echoes a scene of megabytes; a client
+    gone withdraws the import."""
     settings, pool = request.state.settings, request.state.pool
     try:
-        raw, meta = await pool.call("score", {"data": data, "filename": name,
-                                              "options": options},
-                                    settings.score_import_time_limit_s)
+        raw, meta = await while_connected(request, pool.call(
+            "score", {"data": data, "filename": name, "options": options,
+                      "max_events": max_events, "max_events_setting": max_events_setting},
+            settings.score_import_time_limit_s), settings.disconnect_poll_s)
     except RenderTimeout:
         raise RenderTimeout(f"importing the score took longer than its time limit of "
                             f"{settings.score_import_time_limit_s:g} s "

@@ -13,9 +13,12 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                                                                       one streamed block
                        ("end", job_id, meta) | ("cancelled", job_id)  stream finished / stopped
                        ("error", job_id, kind, message)               kind: non_finite|invalid|internal
-    parent -> worker   ("score", job_id, {"data": bytes, "filename": str, "options": dict})
+    parent -> worker   ("score", job_id, {"data": bytes, "filename": str, "options": dict,
+                                          "max_events": int | None, "max_events_setting": str})
     worker -> parent   ("done", job_id, scene_json_bytes, {"warnings": [...], "seconds": s})
     parent -> worker   ("labels", job_id, {"scene": dict})
+    a ``stream`` payload's ``subtype`` may be ``FLOAT64`` (raw float64 samples, for jobs) and
+    ``raw`` true (the pickup velocity before any gain: a job normalizes it as /render does)
     worker -> parent   ("done", job_id, jams_json_bytes, {"seconds": s})
 
 Everything sent is plain data (bytes, floats, lists, dicts) so the parent never unpickles engine
@@ -142,7 +145,18 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
         conn.send(("error", job_id, "invalid",
                    f"{name} could not be read as a score ({type(exc).__name__}: {exc})"))
         return
-    data = json.dumps(dict(result), allow_nan=False).encode()
+    scene = dict(result)
+    events = len(scene.get("events") or []) + sum(
+        len(t.get("events") or []) for t in scene.get("tracks") or [])
+    most = payload.get("max_events")
+    if most is not None and events > most:
+        # Refused here, in one line: the API process never parses (or echoes) megabytes of scene.
+        conn.send(("error", job_id, "invalid",
+                   f"the score becomes {events} events; at most {most} are rendered "
+                   f"({payload.get('max_events_setting', 'the limit')}): choose fewer tracks "
+                   "(options.tracks) or a shorter part (options.max_seconds)"))
+        return
+    data = json.dumps(scene, allow_nan=False).encode()
     conn.send(("done", job_id, data, {"warnings": list(getattr(result, "warnings", [])),
                                       "seconds": time.perf_counter() - t0}))
 
@@ -199,12 +213,21 @@ def _cancel_requested(conn: Connection, job_id: int) -> bool:
     return False
 
 
+def _sample_bytes(block: np.ndarray, subtype: str) -> bytes:
+    """A block for the client (``audio.pcm_bytes``), or, ``FLOAT64``, its float64 samples as
+    they are (no clipping), for a job that scales or converts the whole file afterwards."""
+    if subtype == "FLOAT64":
+        return np.ascontiguousarray(block, dtype="<f8").tobytes()
+    return audio.pcm_bytes(block, subtype)
+
+
 def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
             block_frames: int) -> None:
     t0 = time.perf_counter()
     frames, subtype, channels = payload["frames"], payload["subtype"], payload["channels"]
     sent = 0
-    blocks = engine.blocks(payload["scene"], block_frames=block_frames)
+    blocks = engine.blocks(payload["scene"], block_frames=block_frames,
+                           raw=payload.get("raw", False))
     warnings = blocks.warnings  # sent with the first block, before the response's headers
     for block in blocks:
         block = audio.as_frames(block, channels)
@@ -212,7 +235,7 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
         # The header announced ``frames``: never send more than that.
         block = block[: frames - sent]
         if len(block):
-            conn.send(("block", job_id, audio.pcm_bytes(block, subtype), time.perf_counter() - t0,
+            conn.send(("block", job_id, _sample_bytes(block, subtype), time.perf_counter() - t0,
                        warnings))
             sent += len(block)
             warnings = []
@@ -222,7 +245,7 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
     if sent < frames:
         # Keep the file valid if the blocks ever fall short of engine.frame_count (the header's).
         silence = audio.as_frames(np.zeros((frames - sent) * channels), channels)
-        conn.send(("block", job_id, audio.pcm_bytes(silence, subtype), time.perf_counter() - t0,
+        conn.send(("block", job_id, _sample_bytes(silence, subtype), time.perf_counter() - t0,
                    warnings))
     conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent,
                                "warnings": warnings}))

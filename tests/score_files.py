@@ -82,6 +82,18 @@ def midi_with_notes(n: int) -> bytes:
             + b"MTrk" + len(body).to_bytes(4, "big") + body)
 
 
+def dense_midi(n: int) -> bytes:
+    """A one-track MIDI file of ``n`` short notes one tick apart (480 ticks a beat, 120 bpm: about
+    a millisecond each) climbing through the guitar's range: 30,000 notes in 240 KB and 31 s."""
+    body = bytearray()
+    for i in range(n):
+        pitch = 40 + (i * 7) % 36
+        body += bytes((0, 0x90, pitch, 0x40, 1, 0x80, pitch, 0))
+    body += b"\x00\xff\x2f\x00"
+    return (b"MThd" + (6).to_bytes(4, "big") + b"\x00\x00\x00\x01\x01\xe0"
+            + b"MTrk" + len(body).to_bytes(4, "big") + bytes(body))
+
+
 def gp5_claiming_measures(count: int) -> bytes:
     """A valid small Guitar Pro 5 file whose header then claims ``count`` measures (the engine's
     score tests find where the count is stored)."""

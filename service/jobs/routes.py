@@ -18,6 +18,7 @@ from pydantic import BaseModel, Field, ValidationError
 import engine
 
 from .. import audio
+from ..clients import client_id
 from ..responses import scene_payload
 from ..score_form import (
     apply_scene_options,
@@ -110,13 +111,15 @@ async def _scene_from_score(request: Request) -> engine.Scene:
     # never import more than a job may render: a longer score is cut just past the limit and
     # refused by the duration check, unless the client asked for its beginning
     importer["max_seconds"] = asked if asked is not None else s.job_max_duration_s + 0.5
-    scene, _warnings = await import_score(request, data, name, importer)
+    scene, _warnings = await import_score(request, data, name, importer, s.job_max_events,
+                                          "GUITAR_JOB_MAX_EVENTS")
     apply_scene_options(scene, opts)
     scene["output"] = {**scene.get("output", {}), **out_fields}
     return validate_scene(scene)
 
 
-def _check_job_limits(scene: engine.Scene, request: Request) -> None:
+def _check_job_limits(scene: engine.Scene, request: Request) -> float:
+    """Raise a 422 for a scene outside the job limits; return its estimated render seconds."""
     s = request.state.settings
     if scene.duration > s.job_max_duration_s:
         raise _field_error("duration", "less_than_equal", f"duration: at most "
@@ -130,6 +133,16 @@ def _check_job_limits(scene: engine.Scene, request: Request) -> None:
         raise _field_error("sample_rate", "range", f"sample_rate: between {s.min_sample_rate} and "
                            f"{s.max_sample_rate} Hz (GUITAR_MIN_SAMPLE_RATE, "
                            "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate)
+    cost = engine.estimate_cost(scene)
+    seconds = s.estimated_seconds(cost.work)
+    if seconds > s.job_max_render_s:
+        most = s.job_max_render_s * s.work_per_second / cost.per_second
+        raise _field_error("duration", "render_cost", f"duration: this scene would take about "
+                           f"{seconds:.0f} s to render; a job may take at most "
+                           f"{s.job_max_render_s:g} s (GUITAR_JOB_MAX_RENDER_S): at these "
+                           f"settings the duration must be at most {most:.2f} s, or lower the "
+                           "quality, the sample rate or the strings played", scene.duration)
+    return seconds
 
 
 def _job_or_404(request: Request, job_id: str) -> dict[str, Any]:
@@ -171,6 +184,8 @@ _SCENE_BODY = {"requestBody": {"required": True, "content": {
 
 @router.post("/jobs", status_code=202, response_model=Job, openapi_extra=_SCENE_BODY,
              responses={422: {"description": "invalid scene or score, or outside the job limits"},
+                        429: {"description": "the client has GUITAR_JOB_MAX_PER_CLIENT jobs "
+                                             "queued or running"},
                         503: {"description": f"{'GUITAR_MAX_JOBS'} jobs stored, none finished "
                                               "to make room"}})
 async def create_job(request: Request) -> JSONResponse:
@@ -181,8 +196,14 @@ async def create_job(request: Request) -> JSONResponse:
         scene = await _scene_from_score(request)
     else:
         scene = await _scene_from_json(request)
-    _check_job_limits(scene, request)
+    estimated_s = _check_job_limits(scene, request)
     s = request.state.settings
+    client = client_id(request, s)
+    if jobs.store.unfinished(client) >= s.job_max_per_client:
+        return JSONResponse({"detail": f"this client has {s.job_max_per_client} jobs queued or "
+                                       "running (GUITAR_JOB_MAX_PER_CLIENT); wait for some to "
+                                       "finish, or cancel some (DELETE /jobs/{id})"},
+                            status_code=429, headers={"Retry-After": "60"})
     if jobs.store.total() >= s.max_jobs:
         jobs.cleanup()
         if jobs.store.total() >= s.max_jobs:
@@ -190,7 +211,8 @@ async def create_job(request: Request) -> JSONResponse:
                                            "deleted yet (GUITAR_MAX_JOBS); try again later"},
                                 status_code=503, headers={"Retry-After": "60"})
     # only the fields the client set, as /render sends them (responses.scene_payload)
-    job = jobs.store.create(scene_payload(scene), scene.output.format, scene.duration)
+    job = jobs.store.create(scene_payload(scene), scene.output.format, scene.duration,
+                            cost=estimated_s, client=client)
     jobs.wake()
     return JSONResponse(_public(job), status_code=202, headers={"Location": f"/jobs/{job['id']}"})
 

@@ -131,32 +131,38 @@ class JobRunner:
         out = scene.get("output") or {}
         subtype = out.get("subtype", "PCM_16")
         normalize = out.get("normalize", True)
-        # A file to be normalized or converted is streamed as float, then rewritten block-wise.
-        stream_subtype = "FLOAT" if normalize or job["format"] != "wav" else subtype
+        # A file to be normalized or converted is streamed as raw float64 samples (the pickup
+        # velocity when it is normalized), then scaled and encoded block by block as /render
+        # scales and encodes the whole signal: the same bytes.
+        rewrite = normalize or job["format"] != "wav"
+        stream_subtype = "FLOAT64" if rewrite else subtype
         channels = out.get("channels", 1)
         rate = scene.get("sample_rate", 44100)
         frames = round(job["duration"] * rate)
         folder = self.store.job_dir(job_id)
         folder.mkdir(parents=True, exist_ok=True)
         part = folder / "stream.wav.part"  # not audio.wav.part: that is where _finalize writes
-        total = audio.wav_size(frames, stream_subtype, channels)
+        header = b"" if rewrite else audio.wav_header(frames, rate, stream_subtype, channels)
+        total = len(header) + frames * channels * (
+            8 if rewrite else audio.BYTES_PER_SAMPLE[stream_subtype])
         payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
-                   "subtype": stream_subtype, "channels": channels}
-        limit = self.settings.time_limit_s(job["duration"])
+                   "subtype": stream_subtype, "channels": channels, "raw": normalize}
+        cost = job.get("cost")
+        limit = self.settings.time_limit_s(job["duration"], cost)
+        heavy = cost is None or cost > self.settings.heavy_render_s
         t0 = time.perf_counter()
         stream: RenderStream | None = None
         try:
-            stream = await self.pool.job_stream(payload, limit)
+            stream = await self.pool.job_stream(payload, limit, heavy=heavy)
             self._streams[job_id] = stream
             if self.store.get(job_id)["status"] != "running":  # cancelled while it waited
                 return
-            written = await self._write(job_id, stream, part, audio.wav_header(
-                frames, rate, stream_subtype, channels), total)
+            written = await self._write(job_id, stream, part, header, total)
             if written != total:
                 raise StreamAborted(f"the stream ended after {written} of {total} bytes")
             final = folder / f"audio.{job['format']}"
             await asyncio.to_thread(_finalize, part, final, job["format"], subtype, normalize,
-                                    normalize or job["format"] != "wav")
+                                    rewrite, rate, channels)
             labels_error = await self._labels(scene, self.store.labels_path(job_id))
             self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
                          render_seconds=time.perf_counter() - t0, warnings=stream.warnings,
@@ -232,31 +238,49 @@ PEAK_DBFS = -1.0  # as engine.output: a normalized file peaks here
 _BLOCK = 1 << 16
 
 
+def _raw_blocks(part: Path, channels: int):
+    """The float64 samples of a raw stream file, (frames,) or (frames, channels), in blocks."""
+    import numpy as np
+
+    data = np.memmap(part, dtype="<f8", mode="r")
+    data = data.reshape(-1, channels) if channels > 1 else data
+    for at in range(0, len(data), _BLOCK):
+        yield np.array(data[at:at + _BLOCK])
+
+
 def _finalize(part: Path, final: Path, fmt: str, subtype: str, normalize: bool,
-              rewrite: bool) -> None:
+              rewrite: bool, rate: int, channels: int) -> None:
     """The stream's WAV becomes the job's file by a rename; when it must be normalized or
-    converted (FLAC, Ogg, another WAV subtype) it is rewritten block by block first, so that a
-    ten-minute job never holds its audio in memory."""
+    converted (FLAC, Ogg, another WAV subtype) the raw float64 stream is scaled and encoded block
+    by block, with /render's arithmetic (``engine.output.to_output_scale``: the velocity times
+    the one gain that puts its peak at PEAK_DBFS) and encoder (``service.audio``), so the file
+    has /render's bytes and a ten-minute job never holds its audio in memory."""
     if not rewrite:
         os.replace(part, final)
         return
     import numpy as np
     import soundfile as sf
 
-    gain = 1.0
+    gain = None
     if normalize:
         peak = 0.0
-        for block in sf.blocks(str(part), blocksize=_BLOCK, dtype="float32"):
+        for block in _raw_blocks(part, channels):
             peak = max(peak, float(np.max(np.abs(block))) if block.size else 0.0)
-        gain = 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0 else 1.0
-    info = sf.info(str(part))
-    out_subtype = {"wav": subtype, "flac": "PCM_16" if subtype == "PCM_16" else "PCM_24",
-                   "ogg": "VORBIS"}[fmt]
+        gain = 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0 else None
     tmp = final.with_name(final.name + ".part")
-    with sf.SoundFile(str(tmp), "w", samplerate=info.samplerate, channels=info.channels,
-                      format=fmt.upper(), subtype=out_subtype) as f:
-        for block in sf.blocks(str(part), blocksize=_BLOCK, dtype="float64"):
-            f.write(np.clip(block * gain, -1.0, 1.0))
+    frames = os.path.getsize(part) // (8 * channels)
+    if fmt == "wav":
+        with open(tmp, "wb") as f:
+            f.write(audio.wav_header(frames, rate, subtype, channels))
+            for block in _raw_blocks(part, channels):
+                f.write(audio.pcm_bytes(block if gain is None else block * gain, subtype))
+    else:
+        out_subtype = {"flac": "PCM_16" if subtype == "PCM_16" else "PCM_24",
+                       "ogg": "VORBIS"}[fmt]
+        with sf.SoundFile(str(tmp), "w", samplerate=rate, channels=channels,
+                          format=fmt.upper(), subtype=out_subtype) as f:
+            for block in _raw_blocks(part, channels):
+                f.write(audio.clip(block if gain is None else block * gain))
     os.replace(tmp, final)
 
 

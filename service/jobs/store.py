@@ -45,6 +45,12 @@ CREATE TABLE IF NOT EXISTS jobs (
 );
 CREATE INDEX IF NOT EXISTS jobs_status_created ON jobs (status, created);
 """
+# Columns added after the first release: a database made before gets them at start-up.
+_ADDED = {"cost": "REAL", "client": "TEXT"}
+
+# Fair share: a queued job's turn is ordered by what its client has been served (the estimated
+# seconds of its jobs running now or started within this window) plus the job's own estimate.
+FAIR_WINDOW_S = 3600.0
 
 
 class Store:
@@ -60,6 +66,11 @@ class Store:
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.executescript(_SCHEMA)
+            have = {r[1] for r in self._db.execute("PRAGMA table_info(jobs)")}
+            for column, kind in _ADDED.items():
+                if column not in have:
+                    self._db.execute(f"ALTER TABLE jobs ADD COLUMN {column} {kind}")
+            self._db.execute("CREATE INDEX IF NOT EXISTS jobs_client ON jobs (client, started)")
 
     def close(self) -> None:
         with self._lock:
@@ -90,24 +101,42 @@ class Store:
 
     # ---- writing ------------------------------------------------------------------------------
 
-    def create(self, scene: dict[str, Any], fmt: str, duration: float) -> dict[str, Any]:
+    def create(self, scene: dict[str, Any], fmt: str, duration: float, cost: float | None = None,
+               client: str | None = None) -> dict[str, Any]:
+        """A queued job; ``cost`` is its estimated render seconds, ``client`` who asked for it."""
         job_id = uuid.uuid4().hex
         with self._lock:
             self._db.execute(
-                "INSERT INTO jobs (id, status, created, scene, format, duration) "
-                "VALUES (?, 'queued', ?, ?, ?, ?)",
-                (job_id, time.time(), json.dumps(scene), fmt, duration))
+                "INSERT INTO jobs (id, status, created, scene, format, duration, cost, client) "
+                "VALUES (?, 'queued', ?, ?, ?, ?, ?, ?)",
+                (job_id, time.time(), json.dumps(scene), fmt, duration, cost, client))
         job = self.get(job_id)
         assert job is not None
         return job
 
+    def unfinished(self, client: str | None) -> int:
+        """Jobs of ``client`` queued or running."""
+        with self._lock:
+            return self._db.execute(
+                "SELECT COUNT(*) FROM jobs WHERE client IS ? AND status IN ('queued', 'running')",
+                (client,)).fetchone()[0]
+
     def claim_next(self) -> dict[str, Any] | None:
-        """The oldest queued job, now ``running`` with one more attempt (atomically)."""
+        """The next queued job by fair share, now ``running`` with one more attempt
+        (atomically): the one whose client has been served least (the estimated seconds of its
+        jobs running or started within ``FAIR_WINDOW_S``) plus its own estimate, then the
+        oldest.  One client's many or long jobs thus wait while another's short ones run, and
+        every job's turn comes once the others have been served as much."""
+        now = time.time()
         with self._lock:
             row = self._db.execute(
                 "UPDATE jobs SET status = 'running', started = ?, progress = 0, "
-                "attempts = attempts + 1 WHERE id = (SELECT id FROM jobs WHERE status = 'queued' "
-                "ORDER BY created LIMIT 1) RETURNING *", (time.time(),)).fetchone()
+                "attempts = attempts + 1 WHERE id = ("
+                "  SELECT q.id FROM jobs q WHERE q.status = 'queued' ORDER BY"
+                "  (SELECT COALESCE(SUM(COALESCE(r.cost, 0)), 0) FROM jobs r"
+                "   WHERE r.client IS q.client AND r.id != q.id"
+                "   AND (r.status = 'running' OR r.started > ?)) + COALESCE(q.cost, 0),"
+                "  q.created LIMIT 1) RETURNING *", (now, now - FAIR_WINDOW_S)).fetchone()
         return dict(row) if row else None
 
     def set_progress(self, job_id: str, progress: float) -> None:

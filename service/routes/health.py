@@ -79,4 +79,7 @@ async def limits(request: Request) -> Limits:
         formats=["wav", "flac", "ogg"],
         job_max_duration_s=s.job_max_duration_s,
         job_max_events=s.job_max_events,
+        job_max_render_s=s.job_max_render_s,
+        job_max_per_client=s.job_max_per_client,
+        live_max_messages_per_s=s.live_max_messages_per_s,
     )

@@ -18,7 +18,8 @@ Protocol (docs/service.md, "Live play", has it with examples):
   or when no live worker is ready within ``GUITAR_LIVE_START_TIMEOUT_S`` (the first session of a
   server starts them and waits); 4408 after ``GUITAR_LIVE_IDLE_TIMEOUT_S`` without a message;
   1011 if the session's worker failed (it is replaced); 1008 if the client falls more than 2 s
-  behind reading the blocks.
+  behind reading the blocks; 4429 after more than ``GUITAR_LIVE_MAX_MESSAGES_PER_S`` messages
+  (of any kind, valid or not) within a second.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import asyncio
 import json
 import struct
 import time
+from collections import deque
 from typing import Any
 
 from fastapi import APIRouter, Request, WebSocket
@@ -42,6 +44,7 @@ CLOSE_BUSY = 1013
 CLOSE_IDLE = 4408
 CLOSE_FAILED = 1011
 CLOSE_SLOW = 1008
+CLOSE_FLOOD = 4429
 BACKLOG_S = 2.0  # a client that falls this far behind reading the blocks is closed (1008)
 MAX_MESSAGE_BYTES = 16 * 1024
 _HEADER = struct.Struct("<Q")
@@ -58,14 +61,45 @@ async def _error(ws: WebSocket, field: str, message: str, ident: Any = None) -> 
     await ws.send_json(body)
 
 
-async def _receive(ws: WebSocket, idle_s: float) -> dict | None:
-    """The next message as a JSON object; None after an error was answered; raises ``_Idle``."""
+class _Flood(Exception):
+    pass
+
+
+class _MessageRate:
+    """Messages of any kind in the last second; past ``per_s`` the session is closed (4429):
+    answering a flood with one error each would only feed it."""
+
+    def __init__(self, per_s: int):
+        self.per_s = per_s
+        self._times: deque[float] = deque()
+
+    def count(self) -> None:
+        now = time.monotonic()
+        while self._times and now - self._times[0] >= 1.0:
+            self._times.popleft()
+        self._times.append(now)
+        if len(self._times) > self.per_s:
+            raise _Flood(f"more than {self.per_s} messages in a second "
+                         "(GUITAR_LIVE_MAX_MESSAGES_PER_S)")
+
+
+def _reaped(task: asyncio.Task) -> asyncio.Task:
+    """``task``, whose exception (a disconnect it saw while the other task ended the session) is
+    retrieved when it ends: asyncio would otherwise log it with a traceback."""
+    task.add_done_callback(lambda t: t.cancelled() or t.exception())
+    return task
+
+
+async def _receive(ws: WebSocket, idle_s: float, rate: _MessageRate) -> dict | None:
+    """The next message as a JSON object; None after an error was answered; raises ``_Idle``,
+    ``_Flood`` or ``WebSocketDisconnect``."""
     try:
         msg = await asyncio.wait_for(ws.receive(), idle_s)
     except TimeoutError:
         raise _Idle from None
     if msg["type"] == "websocket.disconnect":
         raise WebSocketDisconnect(msg.get("code", 1000))
+    rate.count()
     text = msg.get("text")
     if text is None:
         await _error(ws, "message", "binary messages are not taken: send events as JSON text")
@@ -109,10 +143,11 @@ async def live(ws: WebSocket) -> None:
     idle_s = settings.live_idle_timeout_s
     await ws.accept()
     session: LiveSession | None = None
+    rate = _MessageRate(settings.live_max_messages_per_s)
     try:
         preset, block_frames = None, 0
         while session is None:  # until a valid open message
-            body = await _receive(ws, idle_s)
+            body = await _receive(ws, idle_s, rate)
             if body is None:
                 continue
             body.pop("id", None)
@@ -139,20 +174,22 @@ async def live(ws: WebSocket) -> None:
             preset = engine.Scene(duration=1.0, guitar=opened.scene_guitar()).preset()
             block_frames = opened.block_frames
         backlog = max(8, int(BACKLOG_S * opened.sample_rate / block_frames))
-        sender = asyncio.create_task(_send(ws, session, backlog))
+        sender = _reaped(asyncio.create_task(_send(ws, session, backlog)))
         try:
             await _events(ws, pool, session, preset, block_frames, idle_s,
-                          settings.live_max_events_per_s, sender)
+                          settings.live_max_events_per_s, sender, rate)
         finally:
             sender.cancel()
     except _Idle:
         await _close(ws, CLOSE_IDLE, f"idle: no message for {idle_s:g} s")
-    except WebSocketDisconnect:
+    except (WebSocketDisconnect, OSError):  # the client has gone (uvicorn: ClientDisconnected)
         pass
     except _Failed as exc:
         await _close(ws, CLOSE_FAILED, str(exc)[:120])
     except _SlowClient as exc:
         await _close(ws, CLOSE_SLOW, str(exc)[:120])
+    except _Flood as exc:
+        await _close(ws, CLOSE_FLOOD, str(exc)[:120])
     finally:
         if session is not None:
             pool.end(session)
@@ -176,10 +213,11 @@ async def _close(ws: WebSocket, code: int, reason: str) -> None:
 
 
 async def _events(ws: WebSocket, pool: LivePool, session: LiveSession, preset: Any,
-                  block_frames: int, idle_s: float, per_s: int, sender: asyncio.Task) -> None:
-    recent: list[float] = []
+                  block_frames: int, idle_s: float, per_s: int, sender: asyncio.Task,
+                  rate: _MessageRate) -> None:
+    recent: deque[float] = deque()
     while True:
-        receive = asyncio.ensure_future(_receive(ws, idle_s))
+        receive = _reaped(asyncio.ensure_future(_receive(ws, idle_s, rate)))
         done, _ = await asyncio.wait({receive, sender}, return_when=asyncio.FIRST_COMPLETED)
         if sender in done:  # the session ended on the worker's side
             receive.cancel()
@@ -198,7 +236,8 @@ async def _events(ws: WebSocket, pool: LivePool, session: LiveSession, preset: A
             await _error(ws, "type", "the session is already open", ident)
             continue
         now = time.monotonic()
-        recent = [t for t in recent if now - t < 1.0]
+        while recent and now - recent[0] >= 1.0:
+            recent.popleft()
         if len(recent) >= per_s:
             await _error(ws, "message", f"too many events: at most {per_s} per second", ident)
             continue

@@ -6,8 +6,7 @@ to the worker pool, turn the result into a response.  Status codes for failures:
 
 from __future__ import annotations
 
-import asyncio
-from collections.abc import AsyncIterator, Awaitable, Callable
+from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Request, Response
@@ -19,31 +18,17 @@ import engine
 
 from .. import audio
 from ..examples import scene_examples, stream_examples
-from ..exceptions import ClientGone
-from ..responses import ERROR_RESPONSES, realtime_factor, scene_payload, seconds, warnings_header
+from ..responses import (
+    ERROR_RESPONSES,
+    realtime_factor,
+    scene_payload,
+    seconds,
+    warnings_header,
+    while_connected,
+)
 from ..validation import StrictJSONRoute, check_limits, check_streamable
 
 router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
-
-async def _while_connected(request: Request, work: Awaitable[Any], poll_s: float) -> Any:
-    """Await ``work`` (the pool's render or the start of a stream), checking every ``poll_s``
-    that the client is still there; if it has gone, cancel ``work`` (a queued render leaves the
-    queue, a stream is cancelled in its worker, a heavy render's worker is stopped)."""
-    task = asyncio.ensure_future(work)
-    try:
-        while True:
-            done, _ = await asyncio.wait({task}, timeout=poll_s)
-            if done:
-                return task.result()
-            if await request.is_disconnected():
-                raise ClientGone()
-    finally:
-        if not task.done():
-            task.cancel()
-            try:
-                await task
-            except BaseException:  # noqa: S110 - cancelled or failed: the client is gone anyway
-                pass
 
 
 @router.post(
@@ -66,7 +51,7 @@ async def render(
     """Render a scene to a WAV, FLAC or Ogg Vorbis file."""
     settings, pool = request.state.settings, request.state.pool
     estimated_s = check_limits(scene, settings)
-    out = await _while_connected(request, pool.render(
+    out = await while_connected(request, pool.render(
         {
             "scene": scene_payload(scene),
             "diagnostics": scene.diagnostics,
@@ -138,7 +123,7 @@ async def render_stream(
     scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them
     # A client gone before the first block cancels the stream in its worker (or its place in
     # the queue); after, the response's on_close does.
-    stream = await _while_connected(request, pool.stream(
+    stream = await while_connected(request, pool.stream(
         {"scene": scene_json, "frames": frames, "subtype": subtype, "channels": channels},
         settings.time_limit_s(scene.duration, estimated_s),
         heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)

@@ -22,7 +22,14 @@ import engine
 from engine.score.warnings import group as group_warnings
 
 from .. import audio
-from ..responses import ERROR_RESPONSES, realtime_factor, scene_payload, seconds, warnings_header
+from ..responses import (
+    ERROR_RESPONSES,
+    realtime_factor,
+    scene_payload,
+    seconds,
+    warnings_header,
+    while_connected,
+)
 from ..score_form import (
     apply_scene_options,
     form_error,
@@ -133,7 +140,8 @@ async def render_score(
                           f"{limit:g} (service limit GUITAR_MAX_DURATION_S)", "less_than_equal",
                           asked)
     importer["max_seconds"] = asked if asked is not None else limit + 0.5
-    scene, warnings = await import_score(request, data, name, importer)
+    scene, warnings = await import_score(request, data, name, importer, settings.max_score_events,
+                                         "GUITAR_MAX_SCORE_EVENTS")
     if scene["duration"] > limit:
         raise form_error("options.max_seconds",
                           f"the score plays longer than this service's limit of {limit:g} s "
@@ -142,12 +150,15 @@ async def render_score(
     apply_scene_options(scene, opts)
     scene["output"] = {**scene.get("output", {}), **out_fields}
     sc = validate_scene(scene)
-    check_limits(sc, settings, max_events=settings.max_score_events)
-    out = await pool.render(
+    # admitted by its estimated cost as /render is: a heavy score takes a heavy slot, and its
+    # time limit follows the estimate; a client gone withdraws it (a heavy one running stops)
+    estimated_s = check_limits(sc, settings, max_events=settings.max_score_events)
+    out = await while_connected(request, pool.render(
         {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
          "sample_rate": sc.sample_rate, "format": sc.output.format,
          "subtype": sc.output.subtype, "channels": sc.output.channels},
-        settings.time_limit_s(sc.duration))
+        settings.time_limit_s(sc.duration, estimated_s),
+        heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
     audio_s = out.frames / sc.sample_rate
     request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
     stem = PurePath(name).stem or "score"

@@ -237,3 +237,42 @@ def test_idle_session_is_closed_with_4408(live_server):
     rcvd, waited = asyncio.run(play())
     assert rcvd.code == 4408 and "idle" in rcvd.reason
     assert IDLE_S - 0.2 < waited < IDLE_S + 3.0
+
+
+def test_a_message_flood_is_closed_with_4429(live_server):
+    """300k messages in 3 s were answered one error each and never closed: past
+    GUITAR_LIVE_MAX_MESSAGES_PER_S (400) messages in a second the session is closed, 4429."""
+    async def play():
+        async with websockets.connect(ws_url(live_server)) as ws:
+            await ws.send(json.dumps(OPEN))
+            assert (await _next_text(ws))["type"] == "opened"
+            t0 = time.monotonic()
+            with pytest.raises(websockets.ConnectionClosed) as closed:
+                for _ in range(3000):
+                    await ws.send("not json")
+                while True:
+                    await asyncio.wait_for(ws.recv(), 10.0)
+            return closed.value.rcvd, time.monotonic() - t0
+
+    rcvd, took = asyncio.run(play())
+    assert rcvd is not None and rcvd.code == 4429, rcvd
+    assert "GUITAR_LIVE_MAX_MESSAGES_PER_S" in rcvd.reason and took < IDLE_S
+
+
+def test_a_normal_close_logs_no_traceback(live_server):
+    """Closing while blocks are being sent logged "Task exception was never retrieved ...
+    WebSocketDisconnect" with a traceback."""
+    async def play():
+        for _ in range(6):
+            async with websockets.connect(ws_url(live_server)) as ws:
+                await ws.send(json.dumps(OPEN))
+                assert (await _next_text(ws))["type"] == "opened"
+                await ws.send(json.dumps({"type": "pluck", "string": 1}))
+                for _ in range(20):
+                    await asyncio.wait_for(ws.recv(), 10.0)
+            await asyncio.sleep(0.2)
+
+    asyncio.run(play())
+    time.sleep(1.0)  # a task's lost exception is logged when it is collected
+    log = "\n".join(live_server.log_lines())
+    assert "never retrieved" not in log and "Traceback" not in log, log[-3000:]

@@ -9,7 +9,7 @@ export NUMBA_CACHE_DIR ?= $(CURDIR)/.numba_cache
 APT_INSTALL = apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq
 IS_ROOT = [ "$$(id -u)" = 0 ]
 
-.PHONY: install venv-support serve test test-data lint browser docker-check docker-tools bench-tools bench \
+.PHONY: install venv-support serve test test-fast test-data lint browser docker-check docker-tools bench-tools bench \
         bench-service bench-live bench-batch clean
 
 install: $(VENV)/.installed
@@ -66,6 +66,10 @@ $(SCORE_CORPUS)/.done: scripts/score_corpus.py | install
 
 test: install browser lint test-data
 	$(BIN)/pytest -q
+
+# The loop a developer runs all day: everything but the tests marked slow, first failure stops it.
+test-fast: install test-data
+	$(BIN)/pytest -q -x -m "not slow"
 
 # Builds the Docker image without a Docker engine (podman/buildah, chroot isolation) and checks
 # /health and a render inside it; needs root.  See scripts/docker-check.

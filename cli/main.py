@@ -328,9 +328,9 @@ def validate(scene: dict[str, Any], source: str) -> Any:
 def _print_warnings(warnings: list[str], quiet: bool = False, mode: str = "summary") -> None:
     if quiet:
         return
-    from engine.score.warnings import select
+    import engine
 
-    warnings = select(warnings, mode)
+    warnings = engine.select_warnings(warnings, mode)
     for w in warnings[:MAX_WARNINGS_SHOWN]:
         print(f"warning: {w}", file=sys.stderr)
     if len(warnings) > MAX_WARNINGS_SHOWN:
@@ -374,16 +374,16 @@ def scene_models(sc: Any) -> set[str]:
 def prepare_kernels(sc: Any, quiet: bool) -> None:
     """Load the compiled kernels the scene's models need, or compile them (the first run on a
     machine, or after an upgrade), saying so, before the progress bar starts."""
-    from engine import precompile
+    import engine
 
     models = scene_models(sc)
-    if precompile.kernels_cached(models):
-        precompile.prepare_kernels(models)
+    if engine.kernels_cached(models):
+        engine.prepare_kernels(models)
         return
     if not quiet:
         print(f"compiling kernels ({', '.join(sorted(models))}), first run only: about half a "
               "minute ...", file=sys.stderr, flush=True)
-    seconds = precompile.prepare_kernels(models)
+    seconds = engine.prepare_kernels(models)
     if not quiet:
         print(f"compiled in {seconds:.1f} s (kept in the cache for the next runs)",
               file=sys.stderr, flush=True)

@@ -84,9 +84,7 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
 
     t0 = time.perf_counter()
     if warmup:
-        from engine import precompile
-
-        if not precompile.kernels_cached(precompile.KERNEL_SCENES):
+        if not engine.kernels_cached(engine.KERNEL_SCENES):
             conn.send(("warming", os.getpid(), "compiling kernels, first run only (one worker "
                        "compiles, the others wait and load them)"))
         engine.warmup()  # every numba kernel path, compiled or loaded from NUMBA_CACHE_DIR

@@ -85,7 +85,7 @@ def midi_with_notes(n: int) -> bytes:
 def dense_midi(n: int) -> bytes:
     """A one-track MIDI file of ``n`` short notes one tick apart (480 ticks a beat, 120 bpm: about
     a millisecond each) climbing through the guitar's range: 30,000 notes in 240 KB and 31 s."""
-    body = bytearray()
+    body = bytearray((0, 0xC0, 25))  # a steel-string guitar (GM program 26), as the importer plays
     for i in range(n):
         pitch = 40 + (i * 7) % 36
         body += bytes((0, 0x90, pitch, 0x40, 1, 0x80, pitch, 0))

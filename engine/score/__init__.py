@@ -22,8 +22,8 @@ from ..scene import MAX_DURATION_S, MAX_TRACKS
 from .common import MAX_SCORE_BYTES, ScoreError
 from .labels import scene_labels, scene_notes
 
-__all__ = ["FORMATS", "SUFFIXES", "ScoreError", "ScoreScene", "scene_labels", "scene_notes",
-           "score_to_scene"]
+__all__ = ["FORMATS", "SCORE_SUFFIXES", "SUFFIXES", "WARNING_MODES", "ScoreError", "ScoreScene",
+           "group_warnings", "scene_labels", "scene_notes", "score_to_scene", "select_warnings"]
 
 _OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate",
             "all_instruments"}
@@ -31,6 +31,9 @@ FORMATS = ("gp", "gpx", "gp7", "musicxml", "midi")
 # the file names a score may have (the CLI, batches and the upload endpoints accept these)
 SUFFIXES = (".gp3", ".gp4", ".gp5", ".gpx", ".gp", ".musicxml", ".xml", ".mxl", ".mid", ".midi")
 SCORE_SUFFIXES = SUFFIXES  # as ``engine.SCORE_SUFFIXES``
+from .warnings import MODES as WARNING_MODES  # noqa: E402
+from .warnings import group as group_warnings  # noqa: E402
+from .warnings import select as select_warnings  # noqa: E402
 
 
 class ScoreScene(dict):

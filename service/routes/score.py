@@ -19,7 +19,6 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Body, File, Form, Request, Response, UploadFile
 
 import engine
-from engine.score.warnings import group as group_warnings
 
 from .. import audio
 from ..responses import (
@@ -182,7 +181,7 @@ def _score_warnings(warnings: list[str]) -> dict[str, str]:
     if not warnings:
         return {}
     return {**warnings_header(warnings, "X-Score-Warnings"),
-            **warnings_header(group_warnings(warnings), "X-Score-Warnings-Summary")}
+            **warnings_header(engine.group_warnings(warnings), "X-Score-Warnings-Summary")}
 
 
 def _ascii(text: str) -> str:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import engine
-from engine import calibration_store, config
+from engine import calibration_store, config, statics
 from engine.fd import intonation
 from engine.fd.instrument import prepare
 from engine.scene import Scene
@@ -94,7 +94,7 @@ def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):
         calls.append(a)
         raise AssertionError("the held-note analysis ran")
 
-    monkeypatch.setattr(intonation, "held_note", analysis)
+    monkeypatch.setattr(statics, "held_note", analysis)
     assert fingering.finger_decay_db_s(preset, 2, 44100, 12) == computed  # an int rate: the same
     assert calls == []
     with pytest.raises(AssertionError):  # another rate is another calibration

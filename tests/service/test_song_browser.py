@@ -48,7 +48,7 @@ def test_a_whole_song_renders_plays_and_the_tab_follows(page: Any, tmp_path: Pat
     page.set_input_files("#score-file", str(SONG))
     page.wait_for_selector("#tab[data-drawn='1']", timeout=120_000)
     status = page.inner_text("#score-status")
-    assert "4 tracks" in status and "(91.0 s)" in status, status  # the drum track is left out
+    assert "3 tracks" in status and "(91.0 s)" in status, status  # drums and the choir left out
     # the grouped warnings: one line per message and track
     warnings = page.eval_on_selector_all("#score-warnings li", "els => els.map(e => e.textContent)")
     assert any("bars 22, 24, 46, 48 (6 beats)" in w for w in warnings), warnings

@@ -32,7 +32,7 @@ def test_gp_scores_render(name):
 def test_midi_scores_render(name, seconds):
     """1390.mid's first note is at 4.5 s: its excerpt is longer, so that it has notes."""
     path = next(p for p in corpus("midi", "*.mid") if os.path.basename(p) == name)
-    scene = score_to_scene(path, max_seconds=seconds)
+    scene = score_to_scene(path, max_seconds=seconds, all_instruments=True)  # piano files
     assert any(t["events"] for t in scene["tracks"])
     scene["quality"] = "draft"
     audio = engine.render(scene)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import engine
 from engine.fd.instrument import prepare
@@ -14,6 +15,7 @@ from engine.testing.measure import stream_peak
 from engine.testing.scenes import song
 
 
+@pytest.mark.slow  # a soak of random scenes or a long render; CI runs it
 def test_streaming_memory_does_not_grow_with_the_duration():
     engine.warmup()
     stream_peak(song(30.0))  # first use: imports (pedalboard) and caches are not the song's

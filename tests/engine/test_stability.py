@@ -60,6 +60,7 @@ def test_the_largest_nut_compensation_stays_finite_and_balanced(preset, setback)
 
 @settings(max_examples=25, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@pytest.mark.slow  # a soak of random scenes or a long render; CI runs it
 @given(sc=scenes(max_duration=0.15, max_events=8, qualities=("draft",)))
 def test_random_scenes_stay_finite_and_balanced(sc):
     """Random valid scenes (``engine.testing.random_scenes``, the generator of the stress test and

@@ -31,6 +31,7 @@ from engine.testing.stability import LIMITS, QUIET_S, PsiProbe, check, violation
 # derandomize: CI must be reproducible; the soak (benchmarks/soak.py) explores new cases
 @settings(max_examples=100, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@pytest.mark.slow  # a soak of random scenes or a long render; CI runs it
 @given(sc=scenes(max_duration=0.15, max_events=12, qualities=("draft", "draft", "standard")))
 def test_random_valid_scenes_are_stable(sc):
     """Any preset, any event type, extremes of every range, any sample rate: finite output, the

@@ -44,6 +44,7 @@ def _scenes(seed: int, count: int, **kw):
     return out
 
 
+@pytest.mark.slow  # a soak of random scenes or a long render; CI runs it
 def test_random_scenes_never_grow():
     """60 random valid scenes (every preset, overrides, rates 22.05-96 kHz, up to 12 events of
     every kind, forces up to the limits), 0.3-1.5 s: with the tension modulation off (it trades
@@ -58,6 +59,7 @@ def test_random_scenes_never_grow():
     assert above <= GROWTH, above
 
 
+@pytest.mark.slow  # a soak of random scenes or a long render; CI runs it
 def test_long_random_scenes_never_grow():
     """Ten 4 s scenes with up to 4 events: a long soak, the same checks."""
     for sc in _scenes(3, 10, max_duration=4.0, min_duration=4.0, max_events=4):

@@ -53,7 +53,7 @@ def test_a_whole_song_renders_plays_and_the_tab_follows(page: Any, tmp_path: Pat
     warnings = page.eval_on_selector_all("#score-warnings li", "els => els.map(e => e.textContent)")
     assert any("bars 22, 24, 46, 48 (6 beats)" in w for w in warnings), warnings
     assert page.eval_on_selector_all("#tab-track option", "os => os.map(o => o.textContent)") \
-        == ["Rhythm Guitar", "Solo Guitar", "Melody", "Bass"]
+        == ["Rhythm Guitar", "Solo Guitar", "Bass"]
 
     # "First seconds" changes the length the page says
     page.fill("#score-seconds", "20")

@@ -78,14 +78,11 @@ def padded_interpolant(p: int, w0: float, w1: float, n: int) -> np.ndarray:
 
 
 def finger_x(x0, x1, ms, me, step):
-    """The finger's place at a step: x0, then gliding to x1 over steps ms..me (a slide)."""
+    """The finger's place at a step: a straight glide from x0 at step ms to x1 at step me (a
+    slide), held before and after; a glide that takes no steps is a jump at ms."""
     if me <= ms:
-        return x0 if step < ms else x1
-    if step <= ms:
-        return x0
-    if step >= me:
-        return x1
-    return x0 + (x1 - x0) * (step - ms) / (me - ms)
+        return x1 if step >= ms else x0
+    return float(np.interp(step, (ms, me), (x0, x1)))
 
 
 def gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):

@@ -121,7 +121,7 @@ def waveguide_configurations(quality: str) -> list[dict]:
 
 def _totals(path: Path) -> int:
     for line in path.read_text().splitlines():
-        if line.startswith("totals:"):
+        if line.startswith(("totals:", "summary:")):
             return int(line.split()[1])
     raise ValueError(f"no totals line in {path}")
 
@@ -140,11 +140,16 @@ def callgrind_marked(argv: list[str], env: dict, n: int) -> list[int]:
         return [_totals(Path(f"{out}.{i + 2}")) for i in range(n)]
 
 
+def pinned_env() -> dict:
+    """The environment of a counted run: this tree, the pinned build's own numba cache and CPU."""
+    return {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(CACHE),
+            "NUMBA_CPU_NAME": CPU_NAME, "NUMBA_CPU_FEATURES": CPU_FEATURES,
+            "PYTHONHASHSEED": "0"}
+
+
 def count(configs: list[dict]) -> list[int]:
     """Instructions of each configuration's render."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(CACHE),
-           "NUMBA_CPU_NAME": CPU_NAME, "NUMBA_CPU_FEATURES": CPU_FEATURES,
-           "PYTHONHASHSEED": "0"}
+    env = pinned_env()
     argv = [sys.executable, "-c", CHILD, json.dumps(configs)]
     native = subprocess.run(argv, env=env, capture_output=True, text=True)  # warms the cache
     if native.returncode != 0:

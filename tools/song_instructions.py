@@ -30,13 +30,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-from tools.instructions import CACHE, CPU_FEATURES, CPU_NAME, ROOT
+from tools.instructions import CPU_NAME, callgrind_marked, pinned_env
 
 CHILD = r"""
 import json, os, sys
@@ -80,39 +78,18 @@ for sc in scenes:
 print("SONGINFO " + json.dumps(info))
 """
 
-def _env() -> dict:
-    return {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(CACHE),
-            "NUMBA_CPU_NAME": CPU_NAME, "NUMBA_CPU_FEATURES": CPU_FEATURES,
-            "PYTHONHASHSEED": "0"}
-
-
-def _totals(path: Path) -> int:
-    for line in path.read_text().splitlines():
-        if line.startswith("totals:") or line.startswith("summary:"):
-            return int(line.split()[1])
-    raise ValueError(f"no totals line in {path}")
-
-
 def measure(jobs: list[dict]) -> tuple[list[int], list[dict]]:
     """(instructions of each job's render, its scene's facts)."""
-    env = _env()
+    env = pinned_env()
     argv = [sys.executable, "-c", CHILD, json.dumps(jobs)]
     native = subprocess.run(argv, env={**env, "SONG_COUNT_STEPS": "1"}, capture_output=True,
                             text=True)
     if native.returncode != 0:
         sys.exit(f"the native run failed:\n{native.stderr[-3000:]}")
     info = json.loads(native.stdout.split("SONGINFO ", 1)[1])
-    with tempfile.TemporaryDirectory(prefix="guitar-callgrind-") as tmp:
-        out = Path(tmp) / "cg.out"
-        run = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
-                              "--dump-before=getppid", *argv], env=env, capture_output=True,
-                             text=True)
-        if run.returncode != 0:
-            sys.exit(f"the run under valgrind failed:\n{run.stderr[-3000:]}")
-        # a dump is written before each marker: per job, the stretch before its render (dump
-        # 2i + 1) and its render (dump 2i + 2)
-        dumps = [Path(f"{out}.{2 * i + 2}") for i in range(len(jobs))]
-        counts = [_totals(p) for p in dumps]
+    # a marker before and after each job's render: the stretches alternate between the set-up
+    # before a render and the render itself, whose counts are every other one
+    counts = callgrind_marked(argv, env, 2 * len(jobs) - 1)[::2]
     return counts, info
 
 

@@ -279,7 +279,7 @@ def gather(inputs: list[str], options: dict) -> Plan:
             names = [(p, p.stem)]
         else:
             raise BadInput(f"{text}: unknown input type {p.suffix or '(no suffix)'!r}: give "
-                           "scene .json, Guitar Pro, MIDI or dataset spec (.yaml) files or "
+                           "scene .json, Guitar Pro, MusicXML, MIDI or dataset spec (.yaml) files or "
                            "folders")
         for f, name in names:
             kind = "scene" if f.suffix.lower() in SCENE_SUFFIXES else "score"
@@ -415,7 +415,7 @@ def connect(scheduler: str | None, workers: int | None):
 def build_parser(prog: str = "guitar-synth batch") -> argparse.ArgumentParser:
     p = OneLineParser(prog=prog, description=__doc__.split("\n\n")[0])
     p.add_argument("inputs", nargs="+", metavar="INPUT",
-                   help="scene .json, Guitar Pro, MIDI, dataset spec (.yaml) files or folders")
+                   help="scene .json, Guitar Pro, MusicXML, MIDI, dataset spec (.yaml) files or folders")
     p.add_argument("-o", "--output", required=True, metavar="OUT_DIR",
                    help="folder of audio/, labels/ and the manifest (created if missing)")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -469,7 +469,7 @@ def run(args: argparse.Namespace) -> int:
                "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {}}
     plan = gather(args.inputs, options)
     if not plan.total:
-        raise BadInput("no inputs found (scene .json, Guitar Pro, MIDI files or specs)")
+        raise BadInput("no inputs found (scene .json, Guitar Pro, MusicXML, MIDI files or specs)")
     _prepare_output(out)
     old = read_manifest(out, args.manifest)
     rows: dict[str, dict[str, Any]] = {}

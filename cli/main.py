@@ -35,6 +35,7 @@ from cli.common import (
 
 AUDIO_FORMATS = {".wav": "wav", ".flac": "flac", ".ogg": "ogg"}
 MAX_WARNINGS_SHOWN = 10
+INPUT_HELP = f"scene .json or a score ({', '.join(SCORE_SUFFIXES)})"
 WARNING_MODES = ("summary", "all", "none")  # engine.score.warnings.MODES (imported when needed)
 EXIT_INTERNAL = 1
 
@@ -61,7 +62,7 @@ def _track_list(text: str) -> list[int | str]:
 
 
 def _add_score_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("scores (Guitar Pro and MIDI input)")
+    g = p.add_argument_group("scores (Guitar Pro, MusicXML and MIDI input)")
     g.add_argument("--tracks", type=_track_list, metavar="LIST",
                    help="the score's tracks to play, by number as the score numbers them (from "
                         "1) or by name, comma-separated (default: every pitched track)")
@@ -100,10 +101,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
 
     r = sub.add_parser("render", help="render a scene or a score to an audio file",
-                       description="Render a scene (.json), a Guitar Pro file (.gp3-.gp5, .gpx, .gp) "
-                                   "or a MIDI file (.mid/.midi) to WAV, FLAC or Ogg Vorbis, with "
-                                   "a progress bar on stderr.")
-    r.add_argument("input", metavar="INPUT", help="scene .json, .gp3/.gp4/.gp5/.gpx/.gp or .mid/.midi")
+                       description="Render a scene (.json) or a score (Guitar Pro, MusicXML or "
+                                   "MIDI) to WAV, FLAC or Ogg Vorbis, with a progress bar on "
+                                   "stderr.")
+    r.add_argument("input", metavar="INPUT", help=INPUT_HELP)
     r.add_argument("-o", "--output", required=True, metavar="OUTPUT",
                    help="audio file; its suffix picks the format: .wav, .flac or .ogg")
     r.add_argument("--labels", metavar="LABELS.jams",
@@ -124,10 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
                                  "a manifest (guitar-synth batch --help)", add_help=False)
 
     s = sub.add_parser("scene", help="write the scene a score becomes, as JSON",
-                       description="Turn a Guitar Pro or MIDI file into a scene (JSON): to read, "
-                                   "edit, render or send to POST /render. A scene .json is "
+                       description="Turn a Guitar Pro, MusicXML or MIDI file into a scene (JSON): "
+                                   "to read, edit, render or send to POST /render. A scene .json is "
                                    "checked and written back with its overrides applied.")
-    s.add_argument("input", metavar="INPUT", help=".gp3/.gp4/.gp5/.gpx/.gp, .mid/.midi or a scene .json")
+    s.add_argument("input", metavar="INPUT", help=INPUT_HELP)
     s.add_argument("-o", "--output", required=True, metavar="SCENE.json",
                    help="where to write the scene ('-' for standard output)")
     _add_score_options(s)
@@ -262,13 +263,12 @@ def load_input(args: argparse.Namespace) -> tuple[dict[str, Any], list[str]]:
             truncate(scene, args.max_seconds)
         for flag, value in (("--tracks", args.tracks), ("--tempo-scale", args.tempo_scale)):
             if value is not None:
-                raise BadInput(f"{flag} applies to scores (Guitar Pro, MIDI), not to a scene "
+                raise BadInput(f"{flag} applies to scores (Guitar Pro, MusicXML, MIDI), not to a scene "
                                f".json like {p}")
     elif suffix in SCORE_SUFFIXES:
         scene, warnings = _read_score(p, args)
     else:
-        raise BadInput(f"{p}: unknown input type {suffix or '(no suffix)'!r}: give a scene "
-                       ".json, a Guitar Pro .gp3/.gp4/.gp5/.gpx/.gp or a MIDI .mid/.midi file")
+        raise BadInput(f"{p}: unknown input type {suffix or '(no suffix)'!r}: give a {INPUT_HELP}")
     _overrides(scene, args)
     return scene, warnings
 

@@ -27,7 +27,7 @@ reads every module's imports, inside functions too):
     options      quality levels and render switches (plain data: names, no kernel constants)
     fd.grid      the finite-difference stability bound (plain arithmetic)
     cost         what a scene will cost to render, before anything is built
-    score/       scores in (Guitar Pro 3-5, MIDI) -> scenes, fingering, JAMS labels of any
+    score/       scores in (Guitar Pro 3-8, MusicXML, MIDI) -> scenes, fingering, JAMS labels of any
                  scene (knows only the schema, the presets and performance)
     calibration_store  calibrations kept on disk across processes
     output       decimation, pickups, pan, body, output scale

@@ -1,2 +1,2 @@
 """One router per resource: pages (the demo), health (and limits), presets, render, score
-(Guitar Pro and MIDI in, labels out)."""
+(Guitar Pro, MusicXML and MIDI in, labels out)."""

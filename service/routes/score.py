@@ -1,4 +1,4 @@
-"""Scores in over HTTP: ``POST /score/scene`` (a Guitar Pro or MIDI upload -> the scene JSON),
+"""Scores in over HTTP: ``POST /score/scene`` (a Guitar Pro, MusicXML or MIDI upload -> the scene JSON),
 ``POST /render/score`` (the same upload -> audio, like ``/render``) and ``POST /scene/labels`` (a
 scene -> its note labels as JAMS JSON).
 
@@ -51,8 +51,8 @@ _FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.gpx/.gp/.musicxml/.
 
 @router.post(
     "/score/scene",
-    description="A Guitar Pro or MIDI file as a scene: to read, edit, or send to `POST /render`. "
-                + _FORM_DOC,
+    description="A Guitar Pro, MusicXML or MIDI file as a scene: to read, edit, or send to "
+                "`POST /render`. " + _FORM_DOC,
     responses={
         200: {"description": "the scene (JSON) the score becomes; X-Score-Warnings: a JSON array "
                              "of what could not be played (absent when nothing); "
@@ -63,7 +63,7 @@ _FORM_DOC = ("multipart/form-data: `file` (a .gp3/.gp4/.gp5/.gpx/.gp/.musicxml/.
 )
 async def score_scene(
     request: Request,
-    file: Annotated[UploadFile, File(description="Guitar Pro 3/4/5 or Standard MIDI file")],
+    file: Annotated[UploadFile, File(description="a score file (Guitar Pro, MusicXML or MIDI)")],
     options: Annotated[str | None, Form(description="JSON object of options")] = None,
 ) -> Response:
     opts = parse_options(options)
@@ -106,8 +106,8 @@ async def score_labels(
 
 @router.post(
     "/render/score",
-    description="Render a Guitar Pro or MIDI file, like `POST /render` renders a scene. The score "
-                "may play at most the service's `max_duration_s` (`GET /limits`): "
+    description="Render a Guitar Pro, MusicXML or MIDI file, like `POST /render` renders a "
+                "scene. The score may play at most the service's `max_duration_s` (`GET /limits`): "
                 "`options.max_seconds` renders the beginning of a longer one. " + _FORM_DOC
                 + ", `output` (the scene's output object as JSON, or a format name)",
     response_class=Response,
@@ -120,7 +120,7 @@ async def score_labels(
 )
 async def render_score(
     request: Request,
-    file: Annotated[UploadFile, File(description="Guitar Pro 3/4/5 or Standard MIDI file")],
+    file: Annotated[UploadFile, File(description="a score file (Guitar Pro, MusicXML or MIDI)")],
     options: Annotated[str | None, Form(description="JSON object of options")] = None,
     output: Annotated[str | None, Form(description="the scene's output object as JSON, or "
                                                    "a format name: wav, flac, ogg")] = None,

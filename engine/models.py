@@ -10,10 +10,13 @@ the two share: ``waveguide.options_from``).
 from __future__ import annotations
 
 from . import waveguide
+from .fd import kernels as fd_kernels
 from .fd.instrument import prepare as prepare_fd
 from .instrument import Instrument
 from .options import RenderOptions
+from .output import fir_decimate
 from .scene import Scene
+from .waveguide import kernel as wg_kernel
 
 
 def _waveguide(scene: Scene, options: RenderOptions | None) -> Instrument:
@@ -30,13 +33,6 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Instrument:
     return PREPARE[scene.model](scene, options)
 
 
-def entry_points(model: str) -> list:
-    """The compiled functions a render of ``model`` calls from Python (``engine.precompile`` loads
-    or compiles just these)."""
-    if model not in PREPARE:
-        raise KeyError(model)
-    from .fd import kernels
-    from .output import fir_decimate
-    from .waveguide import kernel
-
-    return {"fdtd": [kernels.step_block, fir_decimate], "waveguide": [kernel.run_block]}[model]
+# The compiled functions a render of each model calls from Python: ``engine.precompile`` loads or
+# compiles just these for the models a scene uses.
+ENTRY_POINTS = {"fdtd": (fd_kernels.step_block, fir_decimate), "waveguide": (wg_kernel.run_block,)}

@@ -89,7 +89,7 @@ def _dispatchers(model: str) -> list:
     """The compiled functions a render of ``model`` calls from Python."""
     from . import models
 
-    return models.entry_points(model)
+    return list(models.ENTRY_POINTS[model])
 
 
 def kernels_cached(models) -> bool:

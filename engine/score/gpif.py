@@ -165,28 +165,37 @@ def unpack(data: bytes) -> bytes:
     if head == b"BCFS":
         return _bcfs(data[4:])
     if head == b"PK\x03\x04":
-        try:
-            zf = zipfile.ZipFile(io.BytesIO(data))
-            info = next((i for i in zf.infolist() if i.filename.lower() == "content/score.gpif"),
-                        None)
-            if info is None:
-                raise ScoreError("a zip archive without Content/score.gpif: not a Guitar Pro 7/8 "
-                                 "file")
-            if info.file_size > MAX_GPIF_BYTES:
-                raise ScoreError(f"Guitar Pro 7 file declares a {info.file_size}-byte score "
-                                 f"(the limit is {MAX_GPIF_BYTES})")
-            with zf.open(info) as f:
-                xml = f.read(MAX_GPIF_BYTES + 1)
-        except ScoreError:
-            raise
-        except Exception as exc:  # BadZipFile, zlib.error, NotImplementedError (method), EOF
-            msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ScoreError(f"Guitar Pro 7 file (zip) is truncated or corrupt: {msg}"[:300]) \
-                from None
-        if len(xml) > MAX_GPIF_BYTES:
-            raise ScoreError(f"Guitar Pro 7 score unpacks to more than {MAX_GPIF_BYTES} bytes")
-        return xml
+        return zip_member(data, _gpif_member, "Guitar Pro 7 file")
     raise ScoreError(f"not a Guitar Pro 6/7/8 file (unknown header {head!r})")
+
+
+def _gpif_member(zf: zipfile.ZipFile) -> zipfile.ZipInfo:
+    info = next((i for i in zf.infolist() if i.filename.lower() == "content/score.gpif"), None)
+    if info is None:
+        raise ScoreError("a zip archive without Content/score.gpif: not a Guitar Pro 7/8 file")
+    return info
+
+
+def zip_member(data: bytes, choose, what: str) -> bytes:
+    """The member of a zip archive that ``choose(zipfile)`` picks (it raises ``ScoreError`` when
+    there is none), read with both its declared and its real size bounded by ``MAX_GPIF_BYTES``
+    (a zip bomb stops there); ``what`` names the file in each refusal."""
+    try:
+        zf = zipfile.ZipFile(io.BytesIO(data))
+        info = choose(zf)
+        if info.file_size > MAX_GPIF_BYTES:
+            raise ScoreError(f"{what} declares a {info.file_size}-byte score (the limit is "
+                             f"{MAX_GPIF_BYTES})")
+        with zf.open(info) as f:
+            xml = f.read(MAX_GPIF_BYTES + 1)
+    except ScoreError:
+        raise
+    except Exception as exc:  # BadZipFile, zlib.error, NotImplementedError (method), EOF
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise ScoreError(f"{what} (zip) is truncated or corrupt: {msg}"[:300]) from None
+    if len(xml) > MAX_GPIF_BYTES:
+        raise ScoreError(f"{what}: its score unpacks to more than {MAX_GPIF_BYTES} bytes")
+    return xml
 
 
 def parse_xml(xml: bytes, what: str, allow_doctype: bool = False):

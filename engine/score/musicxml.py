@@ -20,14 +20,13 @@ song model, which ``gp.convert`` maps to a scene as it does every Guitar Pro fil
 
 from __future__ import annotations
 
-import io
 import zipfile
 from fractions import Fraction
 
 from . import common as C
 from . import fingering
 from .common import ScoreError
-from .gpif import MAX_GPIF_BYTES, parse_xml
+from .gpif import MAX_GPIF_BYTES, parse_xml, zip_member
 
 _STEPS = {"C": 0, "D": 2, "E": 4, "F": 5, "G": 7, "A": 9, "B": 11}
 GUITAR = [64, 59, 55, 50, 45, 40]
@@ -47,37 +46,28 @@ def unpack(data: bytes) -> bytes:
     """The MusicXML document of a .musicxml/.xml file or of a compressed .mxl (zip)."""
     if data[:4] != b"PK\x03\x04":
         return data
-    try:
-        zf = zipfile.ZipFile(io.BytesIO(data))
-        name = None
-        if "META-INF/container.xml" in zf.namelist():
-            info = zf.getinfo("META-INF/container.xml")
-            if info.file_size > 1 << 20:
-                raise ScoreError("MusicXML archive's META-INF/container.xml is too large")
-            root = parse_xml(zf.read(info), "MusicXML container.xml", allow_doctype=True)
-            for el in root.iter():
-                if el.tag.endswith("rootfile") and el.get("full-path"):
-                    name = el.get("full-path")
-                    break
-        if name is None:
-            name = next((n for n in zf.namelist() if n.lower().endswith((".musicxml", ".xml"))
-                         and not n.startswith("META-INF")), None)
-        if name is None:
-            raise ScoreError("a zip archive without a MusicXML score: not a .mxl file")
-        info = zf.getinfo(name)
-        if info.file_size > MAX_GPIF_BYTES:
-            raise ScoreError(f"MusicXML archive declares a {info.file_size}-byte score (the limit "
-                             f"is {MAX_GPIF_BYTES})")
-        with zf.open(info) as f:
-            xml = f.read(MAX_GPIF_BYTES + 1)
-    except ScoreError:
-        raise
-    except Exception as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ScoreError(f"MusicXML archive (.mxl) is truncated or corrupt: {msg}"[:300]) from None
-    if len(xml) > MAX_GPIF_BYTES:
-        raise ScoreError(f"MusicXML score unpacks to more than {MAX_GPIF_BYTES} bytes")
-    return xml
+    return zip_member(data, _score_member, "MusicXML archive (.mxl)")
+
+
+def _score_member(zf: zipfile.ZipFile) -> zipfile.ZipInfo:
+    """The score an .mxl holds: the rootfile its container.xml names, else its first .musicxml or
+    .xml outside META-INF."""
+    name = None
+    if "META-INF/container.xml" in zf.namelist():
+        info = zf.getinfo("META-INF/container.xml")
+        if info.file_size > 1 << 20:
+            raise ScoreError("MusicXML archive's META-INF/container.xml is too large")
+        root = parse_xml(zf.read(info), "MusicXML container.xml", allow_doctype=True)
+        for el in root.iter():
+            if el.tag.endswith("rootfile") and el.get("full-path"):
+                name = el.get("full-path")
+                break
+    if name is None:
+        name = next((n for n in zf.namelist() if n.lower().endswith((".musicxml", ".xml"))
+                     and not n.startswith("META-INF")), None)
+    if name is None:
+        raise ScoreError("a zip archive without a MusicXML score: not a .mxl file")
+    return zf.getinfo(name)
 
 
 def _t(el, path, default=""):

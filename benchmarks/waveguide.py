@@ -28,16 +28,16 @@ frets 1, 5 and 12; 1-12 with ``--full``), and the fretted six-string C major str
 ``fd`` with fretted pitch within 3 cents).  ``--intonation`` adds the waveguide's fretted pitch
 with ``intonation="physical"`` (``engine.waveguide.fingering``).
 
-Where each model is better (as ``--intonation`` printed on a shared two-core virtual machine,
-AMD EPYC, nothing else running; the cost columns move with the machine's speed, which on such a
-machine varies by tens of per cent from minute to minute, hence the strum's rounds):
+Where each model is better (as the script printed on a shared two-core virtual machine, AMD EPYC,
+with a callgrind count running beside it; the cost columns move with the machine's speed, which
+on such a machine varies by tens of per cent from minute to minute, hence the strum's rounds):
 
-* cost: the waveguide.  Single notes 281-654x real time against the finite-difference model's
-  15.8-88.4x at ``standard`` (median 512 against 18.5); the fretted C/G strum 175x against 5.9x
-  real time, 26.2x cheaper (the median of seven rounds' ratios, which ranged 20.0-33.6x).
+* cost: the waveguide.  Single notes at a median 313x real time against the finite-difference
+  model's 19.7x at ``standard``; the fretted C/G strum 109x against 5.0x real time, 21.1x cheaper
+  (the median of seven rounds' ratios, which ranged 15.2-30.6x).
   ``python -m tools.instructions --waveguide`` counts the strum's instructions, which do not move
-  with the machine: 41.9 million per second of audio against 1000.0 million at ``standard``,
-  23.9x fewer.  What is left of the waveguide's cost is the loop's own work per
+  with the machine: 59.6 million per second of audio against 1000.1 million at ``standard``,
+  16.8x fewer.  What is left of the waveguide's cost is the loop's own work per
   sample (the termination's Lagrange read, loss and allpass sections, the bridge, a pickup), the
   general steps while a pluck's junction leaks what it put on the string (64 ms a pluck), the
   checks of the collision points a fretted string's vibration keeps within reach for its first

@@ -118,6 +118,7 @@ class TabView {
     g.textAlign = "center";
     g.textBaseline = "middle";
     const end = this.first(t1);
+    const right = {}; // per string: where the last fret number drawn ends (px)
     for (let i = this.first(t0 - this.longest); i < end; i++) {
       const n = this.notes[i];
       if (n.time + n.duration < t0 || n.string === undefined) continue;
@@ -129,6 +130,13 @@ class TabView {
       g.fillRect(nx, ny - 1, Math.max(1, n.duration * pps), 3);
       const label = TabView.label(n);
       const w = g.measureText(label).width + 4;
+      if (!sounding && nx - w / 2 < (right[n.string] ?? -Infinity)) {
+        // too close to the previous number to read at this zoom: a tick marks the attack
+        g.fillStyle = "#f1e7da";
+        g.fillRect(nx, ny - 4, 1, 8);
+        continue;
+      }
+      right[n.string] = nx + w / 2;
       g.fillStyle = sounding ? "#e0a15e" : "#14120f";
       g.fillRect(nx - w / 2, ny - 7, w, 14);
       g.fillStyle = sounding ? "#14120f" : "#f1e7da";

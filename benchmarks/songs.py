@@ -12,7 +12,9 @@ pinned to one core, and is charged the CPU time of that whole process (user + sy
 ``wait4``; children included): CPU time moves far less than wall time when other processes share
 the machine.
 
-* ``fdtd``: ``python -m cli.main render SONG -o out.wav --model fdtd --quality standard``;
+* ``fdtd``: ``python -m cli.main render SONG -o out.wav --model fdtd --quality standard
+  --all-instruments`` (every pitched track played, the orchestral MIDI files' too, as FluidSynth
+  plays the same notes);
 * ``waveguide``: the same with ``--model waveguide``;
 * FluidSynth: the labels of the scene the score becomes (``engine.score.scene_labels``: the notes
   the models play, on the strings' pitches) written as a MIDI file on the General MIDI guitar
@@ -114,7 +116,7 @@ def engine_env(numba_cache: Path | None = None, calibrations: Path | None = None
 def cli_render(source: Path, out: Path, model: str, env: dict, core: int | None,
                max_seconds: float | None = None) -> Run:
     argv = [sys.executable, "-m", "cli.main", "render", str(source), "-o", str(out), "-q",
-            "--model", model, "--quality", QUALITY]
+            "--model", model, "--quality", QUALITY, "--all-instruments"]
     if max_seconds is not None:
         argv += ["--max-seconds", f"{max_seconds:g}"]
     return run_process(argv, env, core)
@@ -149,7 +151,7 @@ class Song:
 def song(name: str, max_seconds: float | None, soundfont: str | None, core: int | None,
          repeat: int, tmp: Path) -> Song:
     path = corpus_file(name)
-    opts = {"max_seconds": max_seconds} if max_seconds else {}
+    opts = {"all_instruments": True, **({"max_seconds": max_seconds} if max_seconds else {})}
     scene = score.score_to_scene(path, **opts)
     presets = [t["guitar"]["preset"] for t in scene["tracks"]]
     notes = label_notes(score.scene_labels(scene))

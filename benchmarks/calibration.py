@@ -29,6 +29,7 @@ from engine.scene import MODELS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 CHILD = r"""
 import sys, time
 from engine import waveguide
+from engine.models import PRESSED_STRING
 from engine.scene import Scene
 from engine.fd.instrument import prepare
 from engine.options import RenderOptions
@@ -38,7 +39,7 @@ sc = Scene.model_validate({"duration": 0.1, "sample_rate": rate, "events": [],
 opts = RenderOptions(live_grid=True, skip_silent=False)
 t = time.perf_counter()
 if model == "waveguide":
-    waveguide.prepare(sc, waveguide.options_from(opts))
+    waveguide.prepare(sc, waveguide.options_from(opts), statics=PRESSED_STRING)
 else:
     prepare(sc, opts)
 print(time.perf_counter() - t)

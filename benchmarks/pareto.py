@@ -63,11 +63,11 @@ import engine
 import engine.fd.instrument
 import engine.fd.kernels
 import engine.fd.string
+import engine.models
 import engine.waveguide
 from benchmarks.accuracy import ENERGY_SCENES
 from benchmarks.intonation import FRETS, worst
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
-from engine.fd.instrument import prepare
 from engine.fd.voice import string_model
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import PRESETS, get_preset
@@ -252,14 +252,10 @@ class Study:
 
 
 def prepare_for(st: Study, cfg: Config, sc: dict, **kw):
-    """The scene's guitar on the configuration's model: ``engine.fd.instrument.prepare``, or
-    ``engine.waveguide.prepare`` with the options the two models share
-    (``engine.waveguide.options_from``)."""
-    options = st.options(cfg, **kw)
-    if cfg.model == "waveguide":
-        return engine.waveguide.prepare(Scene.model_validate({**sc, "model": "waveguide"}),
-                                        engine.waveguide.options_from(options))
-    return prepare(Scene.model_validate(sc), options)
+    """The scene's guitar on the configuration's model (``engine.models.prepare``; the waveguide
+    reads the options the two models share, ``engine.waveguide.options_from``)."""
+    scene = Scene.model_validate({**sc, "model": cfg.model})
+    return engine.models.prepare(scene, st.options(cfg, **kw))
 
 
 def render(st: Study, cfg: Config, sc: dict, probe=None, diagnostics: bool = False):

@@ -5,6 +5,11 @@
 ``"fdtd"``: the finite-difference guitar (``engine.fd``); ``"waveguide"``: the digital waveguide
 (``engine.waveguide``).  Both take the engine's ``RenderOptions`` (the waveguide reads the switches
 the two share: ``waveguide.options_from``).
+
+The one thing one model takes from the other is joined here too: the waveguide is handed the
+pressed string's statics computed on the finite-difference grid (``PRESSED_STRING``: which notes a
+finger seats, a held note's decay by the finger), so the two agree on dead notes and held decays
+while neither model's package imports the other's.
 """
 
 from __future__ import annotations
@@ -12,15 +17,19 @@ from __future__ import annotations
 from . import waveguide
 from .fd import kernels as fd_kernels
 from .fd.instrument import prepare as prepare_fd
+from .fd.statics import GRID_STATICS
 from .instrument import Instrument
 from .options import RenderOptions
 from .output import fir_decimate
 from .scene import Scene
 from .waveguide import kernel as wg_kernel
 
+# ``engine.statics.PressedString`` for the waveguide: the finite-difference string's analyses
+PRESSED_STRING = GRID_STATICS
+
 
 def _waveguide(scene: Scene, options: RenderOptions | None) -> Instrument:
-    return waveguide.prepare(scene, waveguide.options_from(options))
+    return waveguide.prepare(scene, waveguide.options_from(options), statics=PRESSED_STRING)
 
 
 # ``engine.scene.MODELS`` -> how its instrument is prepared (tests/engine/test_public_api.py: one

@@ -698,7 +698,7 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                    if c.name != "standard" and dominates(rows[c.name], std, 0.0)]
         notes.append("configurations cheaper than standard by any amount and more accurate "
                      f"(5 m/s taps excluded): {', '.join(cheaper) if cheaper else 'none'}.")
-    for c in configs:
+    for c in configs if not brief else []:  # the docs' copy leaves out who dominates whom
         by = [d.name for d in configs
               if d.name != c.name and dominates(rows[d.name], rows[c.name], margin)]
         if by:

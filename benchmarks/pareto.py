@@ -362,7 +362,7 @@ def job_spectral(name: str, key: str, st: Study):
 
 
 def job_energy(name: str, st: Study):
-    if BY_NAME[name].model == "waveguide":  # no discrete energy balance (WaveguideInstrument)
+    if not engine.models.TRAITS[BY_NAME[name].model].energy_balance:
         return ("energy", name, None), math.nan
     r = engine.render(st.energy, diagnostics=True, options=st.options(BY_NAME[name]))
     return ("energy", name, None), r.energy_error
@@ -778,7 +778,7 @@ def grids(configs: list[Config], rates=(22050, 32000, 44100, 48000, 88200, 96000
     """Each configuration's oversampling factor for every string with a finger on it, on every
     preset at each rate, plain and on the live grid: where two configurations' rows are equal,
     they render the same samples (no scene of the study bends a string).  No rendering."""
-    configs = [c for c in configs if c.model == "fdtd"]  # the waveguide has no grid factor
+    configs = [c for c in configs if engine.models.TRAITS[c.model].grid]  # a grid factor
     head = ["preset", "sample rate", "grid", *[c.name for c in configs], "same"]
     body = []
     for preset in sorted(PRESETS):

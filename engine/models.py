@@ -14,6 +14,8 @@ while neither model's package imports the other's.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from . import waveguide
 from .fd import kernels as fd_kernels
 from .fd.instrument import prepare as prepare_fd
@@ -40,6 +42,18 @@ PREPARE = {"fdtd": prepare_fd, "waveguide": _waveguide}
 def prepare(scene: Scene, options: RenderOptions | None = None) -> Instrument:
     """The instrument of the model ``scene.model`` names, prepared for ``scene`` (one track)."""
     return PREPARE[scene.model](scene, options)
+
+
+@dataclass(frozen=True)
+class Traits:
+    """What code above the models may ask of one without its instrument, instead of its name."""
+
+    energy_balance: bool  # a discrete energy balance (``Instrument.energy_error``, diagnostics)
+    grid: bool  # strings on a grid oversampled per quality level (``options.Quality``)
+
+
+TRAITS = {"fdtd": Traits(energy_balance=True, grid=True),
+          "waveguide": Traits(energy_balance=False, grid=False)}
 
 
 # The compiled functions a render of each model calls from Python: ``engine.precompile`` loads or

@@ -130,6 +130,24 @@ def test_neither_model_reaches_the_other():
     assert not bad, bad
 
 
+def test_no_model_is_told_apart_by_its_name_outside_models():
+    """Code in the engine, the service and the CLI never compares a model's name: what differs
+    between models is asked of ``engine.models`` (an instrument, ``TRAITS``) or of a table keyed
+    by every name of ``engine.scene.MODELS``."""
+    names = {"fdtd", "waveguide"}
+    bad = []
+    for path in [*ENGINE.rglob("*.py"), *(ROOT / "service").rglob("*.py"),
+                 *(ROOT / "cli").rglob("*.py")]:
+        if path == ENGINE / "models.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Compare) and any(
+                    isinstance(c, ast.Constant) and c.value in names
+                    for c in [node.left, *node.comparators]):
+                bad.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, bad
+
+
 def test_kernels_know_nothing_above_them():
     for path in (ENGINE / "fd" / "kernels").glob("*.py"):
         assert {_layer(d) for d in _engine_imports(path)} <= {"fd.kernels", "config"}, path

@@ -677,7 +677,11 @@ def _harmonic(p: Planned, h, tr, s, fret, w, warnings):
         warnings.append(f"{w}: {kind} not playable, played as a plain note")
 
 
-def _bend(p: Planned, points, t0, t1, w, warnings, what):
+def _bend(p: Planned, points, t0, t1, w, warnings, what, tied: bool = False):
+    """The bend curve ``points`` of the beat t0..t1 as ``bend`` events of note ``p``; a pre-bend
+    (a curve that starts bent) is put on just before t0, and raises the pitch ``p`` is attacked
+    at, unless the beat is ``tied``: a tie continues a note already sounding, whose attack it
+    does not change."""
     humps, approx = _bend_humps(points)
     if approx:
         warnings.append(f"{w}: {what} curve with a partial release or re-bend approximated by "
@@ -700,7 +704,7 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
         rel = t0 + fall * dur if fall is not None else t1 - rise
         rel = max(min(rel, t1 - rise), bt + rise)
         p.bends.append((bt, round(peak, 4), rise, rel))
-        if pre and p.attack in ("pluck", "strum"):
+        if pre and not tied and p.attack in ("pluck", "strum"):
             p.pitch += peak
     if humps and "bend" not in p.articulations:
         p.articulations.append("bend" if not humps[0][4] else "prebend")
@@ -708,7 +712,7 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
 
 def _continuation_effects(prev: Planned, eff, be, t0, t1, w, warnings):
     if eff.isBend:
-        _bend(prev, eff.bend.points, t0, t1, w, warnings, "bend")
+        _bend(prev, eff.bend.points, t0, t1, w, warnings, "bend", tied=True)
     if eff.vibrato or be.vibrato:
         if prev.vibrato is None:
             prev.vibrato = (20.0, 5.5, t0, t1 - t0)
@@ -781,11 +785,18 @@ def _grace(p: Planned, g, tr, s, spt, w, warnings, planned) -> Planned | None:
         return None
     gd = spt * g.durationTime
     gd = min(gd, 0.5 * max(p.end - p.time, 1e-3), 0.12)
+    old = p.time
     if g.isOnBeat or p.time < gd:  # (before the first beat there is no time to steal)
         gt = p.time
         p.time = p.time + gd
     else:
         gt = p.time - gd
+    # the main note's pre-bend is put on after the grace note is struck, before its own attack
+    for k, (bt, peak, rise, rel) in enumerate(p.bends):
+        if bt < old - 1e-9:
+            bt = max(p.time - (old - bt), 0.5 * (gt + p.time))
+            rise = max(min(rise, p.time - bt), 1e-3)
+            p.bends[k] = (bt, peak, rise, max(rel, bt + rise))
     force = C.force_for_velocity(g.velocity)
     gn = Planned(p.track, s, fret, gt, p.time, force, float(tr.tuning[s - 1] + fret),
                  style=p.style, where=w, articulations=["grace"])

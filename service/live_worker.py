@@ -14,6 +14,9 @@ applied in the next block computed for its session.
                        ("ack", sid, id, frame)                 an event with an ``id`` acts at frame
                        ("error", sid, field, message, id)      an event refused (the session goes on)
                        ("failed", sid, message)                the session could not go on
+                       ("late", sid, seconds)                  a block was finished after its
+                                                               play time (an underrun the server
+                                                               caused: it had no CPU in time)
 
 Everything sent is plain data.  An exception in one session ends that session only (``failed``),
 never the process or its other sessions.
@@ -102,6 +105,7 @@ class _Live:
     def __init__(self, session: Any, lead_s: float):
         self.session = session
         self.block_s = session.block_frames / session.sample_rate
+        self.lead_s = lead_s
         self.t0 = time.monotonic() - lead_s  # block k is due at t0 + k * block_s
         self.k = 0
         self.acks: list[tuple[Any, int]] = []
@@ -109,6 +113,11 @@ class _Live:
     @property
     def due(self) -> float:
         return self.t0 + self.k * self.block_s
+
+    @property
+    def plays(self) -> float:
+        """When the block being computed plays: ``lead`` after it is due."""
+        return self.due + self.lead_s
 
 
 def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
@@ -262,4 +271,7 @@ def _block(conn: Connection, sessions: dict[int, _Live], sid: int) -> None:
         conn.send(("ack", sid, ident, at))
     live.acks.clear()
     conn.send(("block", sid, frame, x.astype("<f4").tobytes()))
+    late = time.monotonic() - live.plays
+    if late > 0:
+        conn.send(("late", sid, late))
     live.k += 1

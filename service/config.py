@@ -39,7 +39,10 @@ class Settings(BaseSettings):
     # Time limit of one render (seconds of wall time): the smaller of
     #   base + per_audio_second * duration   and   base + per_estimated * estimated seconds
     time_limit_base_s: float = Field(10.0, gt=0.0)
-    time_limit_per_audio_s: float = Field(5.0, ge=0.0)
+    # 20: the costliest scene admitted (six fingered strings at 96 kHz, quality high) takes about
+    # 4 s per second of audio on an idle core, so a cap of 5 killed it as soon as the machine was
+    # busy; the estimate's limit (4 times it) is the tighter one for most scenes
+    time_limit_per_audio_s: float = Field(20.0, ge=0.0)
     time_limit_per_estimated_s: float = Field(
         4.0, ge=1.0, description="time limit per second of the render's cost estimate")
 

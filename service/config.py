@@ -35,6 +35,9 @@ class Settings(BaseSettings):
                                            "(engine.warmup: every kernel compiled or loaded)")
     mp_context: str = Field("spawn", pattern="^(spawn|forkserver)$",
                             description="multiprocessing start method of the workers")
+    worker_nice: int = Field(0, ge=0, le=19,
+                             description="added to the render workers' niceness: renders run "
+                                         "behind the API process and the live workers")
 
     # Time limit of one render (seconds of wall time): the smaller of
     #   base + per_audio_second * duration   and   base + per_estimated * estimated seconds

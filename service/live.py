@@ -176,7 +176,7 @@ class LivePool:
                 "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
             return
         if msg[0] == "late":
-            self.late_blocks += 1
+            self.late_blocks += msg[2]
             return
         s = w.sessions.get(msg[1])
         if s is not None:

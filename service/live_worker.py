@@ -14,9 +14,10 @@ applied in the next block computed for its session.
                        ("ack", sid, id, frame)                 an event with an ``id`` acts at frame
                        ("error", sid, field, message, id)      an event refused (the session goes on)
                        ("failed", sid, message)                the session could not go on
-                       ("late", sid, seconds)                  a block was finished after its
-                                                               play time (an underrun the server
-                                                               caused: it had no CPU in time)
+                       ("late", sid, n)                        n blocks were finished after
+                                                               their play time since the last
+                                                               such report (underruns the server
+                                                               caused); at most one a second
 
 Everything sent is plain data.  An exception in one session ends that session only (``failed``),
 never the process or its other sessions.
@@ -109,6 +110,8 @@ class _Live:
         self.t0 = time.monotonic() - lead_s  # block k is due at t0 + k * block_s
         self.k = 0
         self.acks: list[tuple[Any, int]] = []
+        self.late = 0  # blocks finished after their play time, not yet reported
+        self.late_sent = 0.0
 
     @property
     def due(self) -> float:
@@ -271,7 +274,10 @@ def _block(conn: Connection, sessions: dict[int, _Live], sid: int) -> None:
         conn.send(("ack", sid, ident, at))
     live.acks.clear()
     conn.send(("block", sid, frame, x.astype("<f4").tobytes()))
-    late = time.monotonic() - live.plays
-    if late > 0:
-        conn.send(("late", sid, late))
+    now = time.monotonic()
+    if now > live.plays:
+        live.late += 1
+    if live.late and now - live.late_sent >= 1.0:  # counted, not one message each: a worker
+        conn.send(("late", sid, live.late))        # behind is not slowed down further
+        live.late, live.late_sent = 0, now
     live.k += 1

@@ -18,11 +18,16 @@ server (``late_blocks`` of ``GET /live/status``: blocks its live worker finished
 time).  The same sessions first play alone for ``--baseline-seconds``: what the machine's other load
 costs them, against which the mixed phase shows what other clients' work costs them.
 
-Printed: one table: small renders' p50/p99, live underruns (client and server) in both phases,
-status counts per kind (a 5xx other than 503 with Retry-After counts as an error), jobs done,
-and the RSS of the server and of every process below it, before and after.
+The server runs at niceness ``--server-nice`` (default -10; its live workers inherit it) with its
+render workers put back at 0 (``GUITAR_WORKER_NICE``): the API process, which relays every live
+block, and the live workers run ahead of renders.  ``--server-nice 0`` runs them all at 0.
 
-    python -m benchmarks.mixed_load [--seconds 180] [--clients 48] [--live 3]
+Printed: one table: small renders' p50/p99, live underruns (client and server) in both phases,
+how long ``GET /health/live`` takes (the API process's event loop), status counts per kind (a 5xx
+other than 503 with Retry-After counts as an error), jobs done, and the RSS of the server and of
+every process below it before and after, with the CPU each used.
+
+    python -m benchmarks.mixed_load [--seconds 180] [--clients 16] [--live 2] [--server-nice 0]
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ import sys
 import tempfile
 import time
 from collections import Counter
+from pathlib import Path
 
 import httpx
 
@@ -140,6 +146,22 @@ def live_result(proc: subprocess.Popen, timeout: float) -> dict:
     out, _ = proc.communicate(timeout=timeout)
     lines = [ln for ln in out.splitlines() if ln.startswith("{")]
     return json.loads(lines[-1]) if lines else {"blocks": 0, "late": 0, "failed": ["no output"]}
+
+
+def cpu_seconds(pids) -> dict[int, float]:
+    """CPU time (user + system) each process has used so far."""
+    out = {}
+    for pid in pids:
+        try:
+            f = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+            out[pid] = (int(f[11]) + int(f[12])) / os.sysconf("SC_CLK_TCK")
+        except (OSError, IndexError, ValueError):
+            pass
+    return out
+
+
+def _pids(mem: dict[str, int]) -> list[int]:
+    return [int(k.split()[-1]) for k in mem]
 
 
 def late_blocks(url: str) -> int | None:
@@ -347,6 +369,8 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
 
     songs = asyncio.run(songs_())
     before = memory(proc.pid)
+    live_pids = set(httpx.get(url + "/live/status", timeout=10).json()["pids"])
+    cpu0, t_cpu0 = cpu_seconds(_pids(before)), time.monotonic()
     rows: list[tuple[str, str]] = []
 
     late0 = late_blocks(url)
@@ -367,6 +391,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
             break
         time.sleep(0.5)
     after = memory(proc.pid)
+    cpu1, span = cpu_seconds(_pids(before) + _pids(after)), time.monotonic() - t_cpu0
     health = httpx.get(url + "/health", timeout=10).json()["pool"]
     load1 = os.getloadavg()
 
@@ -411,10 +436,15 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     print("| --- | --- |")
     for key, n in sorted(st.status.items()):
         print(f"| {key} | {n} |")
-    print("\n| RSS, MiB | before | after |")
-    print("| --- | --- | --- |")
+    print(f"\n| process | RSS before, MiB | RSS after, MiB | CPU s per s over the {span:.0f} s "
+          "of both phases |")
+    print("| --- | --- | --- | --- |")
     for key in sorted(set(before) | set(after)):
-        print(f"| {key} | {before.get(key, '-')} | {after.get(key, '-')} |")
+        pid = int(key.split()[-1])
+        used = cpu1.get(pid, 0.0) - cpu0.get(pid, 0.0) if pid in cpu1 else None
+        name = key.replace("worker", "live worker") if pid in live_pids else key
+        print(f"| {name} | {before.get(key, '-')} | {after.get(key, '-')} | "
+              f"{'-' if used is None else f'{used / span:.2f}'} |")
     if mixed_live.get("failed"):
         print("live sessions failed:", mixed_live["failed"])
 

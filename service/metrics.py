@@ -93,6 +93,9 @@ class _StateCollector(Collector):
                                   "(killed at a time limit, crashed)", value=s["replaced"])
         yield CounterMetricFamily("guitar_jobs_requeued", "job runs cut off by a dead worker "
                                   "and queued again", value=s["jobs_requeued"])
+        yield CounterMetricFamily("guitar_live_late_blocks", "live blocks finished after their "
+                                  "play time (underruns the server caused)",
+                                  value=s["live_late_blocks"])
 
 
 class MetricsMiddleware:

@@ -73,10 +73,14 @@ def _heartbeat(pipe: _Pipe, period_s: float) -> None:
         time.sleep(period_s)
 
 
-def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float = 1.0) -> None:
-    """Entry point of a worker process."""
+def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float = 1.0,
+         nice: int = 0) -> None:
+    """Entry point of a worker process; ``nice`` is added to its niceness (GUITAR_WORKER_NICE:
+    renders behind the API process and the live workers, which need the CPU on time)."""
     # Ctrl-C reaches the whole process group; the parent decides when workers stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if nice:
+        os.nice(nice)  # lowering one's own priority needs no privilege
     conn = _Pipe(conn)  # type: ignore[assignment]
     threading.Thread(target=_heartbeat, args=(conn, heartbeat_s), name="heartbeat",
                      daemon=True).start()

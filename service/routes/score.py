@@ -17,6 +17,7 @@ from pathlib import PurePath
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, File, Form, Request, Response, UploadFile
+from fastapi.exceptions import RequestValidationError
 
 import engine
 
@@ -151,7 +152,10 @@ async def render_score(
     sc = validate_scene(scene)
     # admitted by its estimated cost as /render is: a heavy score takes a heavy slot, and its
     # time limit follows the estimate; a client gone withdraws it (a heavy one running stops)
-    estimated_s = check_limits(sc, settings, max_events=settings.max_score_events)
+    try:
+        estimated_s = check_limits(sc, settings, max_events=settings.max_score_events)
+    except RequestValidationError as exc:
+        raise _as_score_option(exc) from None
     out = await while_connected(request, pool.render(
         {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
          "sample_rate": sc.sample_rate, "format": sc.output.format,
@@ -171,6 +175,18 @@ async def render_score(
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)
     return Response(out.data, media_type=audio.MEDIA_TYPES[sc.output.format], headers=headers)
+
+
+def _as_score_option(exc: RequestValidationError) -> RequestValidationError:
+    """A score's scene over the cost budget was refused at ``duration``, a field its client never
+    sent: its way out is ``options.max_seconds`` (the longest that fits is the same number)."""
+    errors = []
+    for e in exc.errors():
+        if e.get("type") == "render_cost":
+            e = {**e, "loc": ("body", "options", "max_seconds"),
+                 "msg": e["msg"].replace("the duration must be", "options.max_seconds must be")}
+        errors.append(e)
+    return RequestValidationError(errors)
 
 
 def _score_warnings(warnings: list[str]) -> dict[str, str]:

@@ -89,7 +89,7 @@ class _Worker(PipedProcess):
         self.jobs_done = 0
         s = pool.settings
         super().__init__(pool, ctx, number, worker_module.main,
-                         (s.warmup, s.stream_block_frames, s.heartbeat_s),
+                         (s.warmup, s.stream_block_frames, s.heartbeat_s, s.render_threads),
                          f"render-worker-{number}")
         self.last_seen = self.started
 

@@ -407,6 +407,11 @@ def prepare_kernels(sc: Any, quiet: bool) -> None:
               file=sys.stderr, flush=True)
 
 
+# what the bar says while the calibration store computes a kind it does not hold yet
+# (``engine.calibration_store.on_compute``); the others calibrate frets
+CALIBRATING = {"decimation_taps": "designing the decimation filter",
+               "dispersion_filter": "designing the strings' dispersion filters"}
+
 # frames per block of a command-line render: blocks as long as this (0.37 s at 44.1 kHz) keep the
 # threads busy between the blocks' joins (a string's share of a block varies less), and the bar
 # moves often enough
@@ -430,8 +435,7 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1) -> tuple[Any, float]:
     prepare_kernels(sc, quiet)
     with _progress(frames / rate, quiet) as bar:
         def calibrating(kind: str) -> None:
-            what = ("designing the decimation filter" if kind == "decimation_taps"
-                    else "calibrating frets")
+            what = CALIBRATING.get(kind, "calibrating frets")
             bar.set_description(f"{what} (first use of this guitar and quality)")
 
         calibration_store.on_compute(calibrating)

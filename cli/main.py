@@ -53,6 +53,21 @@ def _positive_float(text: str) -> float:
     return x
 
 
+def _cores() -> int:
+    """The cores this process may run on (a container's cpuset, ``taskset``), not the host's."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _jobs(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"at least 1 thread, not {n}")
+    return n
+
+
 def _track_list(text: str) -> list[int | str]:
     """``1,3`` or ``Lead,Bass``: score track numbers (from 1) or names."""
     items = [t.strip() for t in text.split(",") if t.strip()]
@@ -117,6 +132,9 @@ def build_parser() -> argparse.ArgumentParser:
     norm.add_argument("--no-normalize", dest="normalize", action="store_false",
                       help="the fixed gain: loudness follows force")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    r.add_argument("-j", "--jobs", type=_jobs, metavar="N",
+                   help="threads to compute the strings on (default: the cores this process may "
+                        "use); the samples are the same for any number")
     _add_score_options(r)
     _add_render_options(r)
     r.set_defaults(func=cmd_render)
@@ -389,10 +407,21 @@ def prepare_kernels(sc: Any, quiet: bool) -> None:
               file=sys.stderr, flush=True)
 
 
-def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
+# what the bar says while the calibration store computes a kind it does not hold yet
+# (``engine.calibration_store.on_compute``); the others calibrate frets
+CALIBRATING = {"decimation_taps": "designing the decimation filter",
+               "dispersion_filter": "designing the strings' dispersion filters"}
+
+# frames per block of a command-line render: blocks as long as this (0.37 s at 44.1 kHz) keep the
+# threads busy between the blocks' joins (a string's share of a block varies less), and the bar
+# moves often enough
+BLOCK_FRAMES = 16384
+
+
+def render_audio(sc: Any, quiet: bool, jobs: int = 1) -> tuple[Any, float]:
     """The scene's audio (frames,) or (frames, 2), scaled as its ``output`` asks, rendered
-    block by block with a progress bar; and the wall time of the render (kernels loaded or
-    compiled first, the preparation included)."""
+    block by block on ``jobs`` threads with a progress bar; and the wall time of the render
+    (kernels loaded or compiled first, the preparation included)."""
     import numpy as np
 
     import engine
@@ -406,13 +435,13 @@ def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
     prepare_kernels(sc, quiet)
     with _progress(frames / rate, quiet) as bar:
         def calibrating(kind: str) -> None:
-            what = ("designing the decimation filter" if kind == "decimation_taps"
-                    else "calibrating frets")
+            what = CALIBRATING.get(kind, "calibrating frets")
             bar.set_description(f"{what} (first use of this guitar and quality)")
 
         calibration_store.on_compute(calibrating)
         try:
-            blocks = engine.blocks(sc)  # prepares the instruments: the bar says "preparing"
+            # prepares the instruments: the bar says "preparing"
+            blocks = engine.blocks(sc, BLOCK_FRAMES, jobs=jobs)
         finally:
             calibration_store.on_compute(None)
         _print_warnings(blocks.warnings, quiet)
@@ -460,7 +489,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     sc = validate(scene, args.input)
     _print_warnings(warnings, args.quiet, args.warnings)
     try:
-        audio, seconds = render_audio(sc, args.quiet)
+        audio, seconds = render_audio(sc, args.quiet, args.jobs or _cores())
     except FloatingPointError as e:
         raise BadInput(f"{args.input}: the simulation became unstable ({e}); lower the forces or "
                        "use --quality high") from None

@@ -5,7 +5,8 @@ guitar per track, ``engine.fd.instrument.prepare``: a voice per string that need
 the mix's blocks into the output array; ``blocks`` yields them as they are computed, at the fixed
 gain a stream needs, and holds nothing but the current block (a song of any length streams in
 bounded memory).  Every front end (Python, the HTTP
-service's workers, a command line) goes through these two functions.
+service's workers, a command line) goes through these two functions.  ``jobs``: the threads a render
+computes its strings on (``engine.mix``); the samples are the same for any number.
 """
 
 from __future__ import annotations
@@ -37,31 +38,32 @@ class RenderResult:
 
 
 def render(scene: Scene | dict, diagnostics: bool | None = None,
-           options: RenderOptions | None = None, impulse_response: np.ndarray | None = None):
+           options: RenderOptions | None = None, impulse_response: np.ndarray | None = None,
+           jobs: int = 1):
     """Render a scene. Returns the audio array, shape (frames,) for mono or (frames, 2) for
     stereo, or a ``RenderResult`` when diagnostics are asked for (by the argument or by the
     scene's ``diagnostics`` field when the argument is omitted).
 
     ``impulse_response``: a body or room response (samples at the scene's rate) convolved with the
-    output instead of the built-in body (scipy FFT convolution).
+    output instead of the built-in body (scipy FFT convolution).  ``jobs``: threads (``Mix``).
     """
     sc = parse_scene(scene)
     diag = sc.diagnostics if diagnostics is None else diagnostics
     if diag != sc.diagnostics:
         sc = sc.model_copy(update={"diagnostics": diag})
-    result = render_result(sc, options, impulse_response)
+    result = render_result(sc, options, impulse_response, jobs)
     return result if diag else result.audio
 
 
 def render_result(scene: Scene | dict, options: RenderOptions | None = None,
-                  impulse_response: np.ndarray | None = None) -> RenderResult:
+                  impulse_response: np.ndarray | None = None, jobs: int = 1) -> RenderResult:
     """Render a scene and return the audio with what is known of the render: its warnings, wall
     time and oversampling, and the energy balance when the scene asks for diagnostics."""
     sc = parse_scene(scene)
     t0 = time.perf_counter()
     if impulse_response is not None:
         sc = sc.model_copy(update={"output": sc.output.model_copy(update={"body": "none"})})
-    mix = prepare(sc, options)
+    mix = prepare(sc, options, jobs)
     # the blocks are written into the output as they come: no more than the output is held
     vel = np.zeros((mix.frames, 2) if sc.output.channels == 2 else mix.frames)
     for blk in mix.blocks():
@@ -90,8 +92,8 @@ class Blocks:
     ``warnings`` are known once the tracks are prepared, before the first block."""
 
     def __init__(self, scene: Scene | dict, block_frames: int = 4096,
-                 options: RenderOptions | None = None, raw: bool = False):
-        mix = prepare(parse_scene(scene), options)
+                 options: RenderOptions | None = None, raw: bool = False, jobs: int = 1):
+        mix = prepare(parse_scene(scene), options, jobs)
         self.warnings: list[str] = advice(mix)
         self._blocks = mix.blocks(block_frames)
         self._raw = raw
@@ -105,8 +107,9 @@ class Blocks:
 
 
 def blocks(scene: Scene | dict, block_frames: int = 4096,
-           options: RenderOptions | None = None, raw: bool = False) -> Blocks:
+           options: RenderOptions | None = None, raw: bool = False, jobs: int = 1) -> Blocks:
     """An iterable of the scene's audio blocks at the fixed gain (``Blocks``); ``raw``: the
     pickup velocity itself (m/s), before any gain, for a caller that scales the whole signal as
-    ``render`` does (``to_output_scale``) once it has seen every block."""
-    return Blocks(scene, block_frames, options, raw)
+    ``render`` does (``to_output_scale``) once it has seen every block.  ``jobs``: threads
+    (``engine.mix``)."""
+    return Blocks(scene, block_frames, options, raw, jobs)

@@ -85,6 +85,13 @@ class Settings(BaseSettings):
     min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
 
+    render_threads: int = Field(
+        1, ge=1, le=64,
+        description="threads each render (HTTP or job) computes its strings on; the samples are "
+                    "the same for any number. Keep workers x render_threads at the cores: 1 with a "
+                    "worker per core, the cores with a single worker (one long song at a time, "
+                    "fast)")
+
     # Streaming
     # a multiple of 1024: the waveguide model's blocks then give the samples of a whole render
     # (engine/waveguide/voice.py, BLOCK_MULTIPLE)

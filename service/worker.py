@@ -74,9 +74,10 @@ def _heartbeat(pipe: _Pipe, period_s: float) -> None:
 
 
 def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float = 1.0,
-         nice: int = 0) -> None:
+         nice: int = 0, threads: int = 1) -> None:
     """Entry point of a worker process; ``nice`` is added to its niceness (GUITAR_WORKER_NICE:
-    renders behind the API process and the live workers, which need the CPU on time)."""
+    renders behind the API process and the live workers, which need the CPU on time); each render
+    on ``threads`` threads (``engine.mix``)."""
     # Ctrl-C reaches the whole process group; the parent decides when workers stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if nice:
@@ -96,12 +97,12 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
             audio.encode(np.zeros(64), 44100, fmt)
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0))
-        _serve(conn, engine, block_frames)
+        _serve(conn, engine, block_frames, threads)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass  # the parent has gone away
 
 
-def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
+def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -> None:
     while True:
         msg = conn.recv()
         if msg is None:
@@ -111,9 +112,9 @@ def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
             continue  # the job it meant already finished
         try:
             if kind == "render":
-                _render(conn, engine, job_id, msg[2])
+                _render(conn, engine, job_id, msg[2], threads)
             elif kind == "stream":
-                _stream(conn, engine, job_id, msg[2], block_frames)
+                _stream(conn, engine, job_id, msg[2], block_frames, threads)
             elif kind == "score":
                 _score(conn, job_id, msg[2])
             elif kind == "labels":
@@ -188,9 +189,10 @@ def _check_finite(x: np.ndarray) -> None:
         raise FloatingPointError("the rendered audio contains non-finite samples")
 
 
-def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any]) -> None:
+def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
+            threads: int = 1) -> None:
     t0 = time.perf_counter()
-    result = engine.render_result(payload["scene"])
+    result = engine.render_result(payload["scene"], jobs=threads)
     seconds = time.perf_counter() - t0
     samples = result.audio
     _check_finite(samples)
@@ -224,12 +226,12 @@ def _sample_bytes(block: np.ndarray, subtype: str) -> bytes:
 
 
 def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
-            block_frames: int) -> None:
+            block_frames: int, threads: int = 1) -> None:
     t0 = time.perf_counter()
     frames, subtype, channels = payload["frames"], payload["subtype"], payload["channels"]
     sent = 0
     blocks = engine.blocks(payload["scene"], block_frames=block_frames,
-                           raw=payload.get("raw", False))
+                           raw=payload.get("raw", False), jobs=threads)
     warnings = blocks.warnings  # sent with the first block, before the response's headers
     for block in blocks:
         block = audio.as_frames(block, channels)

@@ -16,6 +16,7 @@ from engine.models import PRESSED_STRING
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck, scene
 from engine.waveguide import fingering
+from engine.waveguide import string as wg_string
 
 SCENE = scene([fret(2, 7), pluck(2, time=0.01, force=2.0)], 0.1)
 WAVEGUIDE = {**scene([fret(2, 7), fret(5, 3), pluck(2, time=0.01, force=2.0),
@@ -28,6 +29,7 @@ def _forget() -> None:
     intonation.fret_calibration.cache_clear()
     intonation._stored_shift.cache_clear()
     fingering.finger_decay_db_s.cache_clear()
+    wg_string.dispersion_filter.cache_clear()
 
 
 @pytest.fixture
@@ -163,3 +165,22 @@ def test_on_compute_is_told_of_a_computation_only(store):
         calibration_store.on_compute(None)
     calibration_store.recall("test_kind", (2, 2.5), lambda: (4.0,))  # no callback any more
     assert kinds == ["test_kind"]
+
+
+def test_a_stored_dispersion_filter_is_the_fitted_one(store):
+    """The waveguide's dispersion allpass of a loop, fitted once and read back to the bit; a loop
+    not in the store is fitted (the CLI says so: ``on_compute``)."""
+    args = (round(1.3e-4, 12), round(44100.0 / 146.83, 9), round(280.5, 6))
+    kinds = []
+    calibration_store.on_compute(kinds.append)
+    try:
+        wg_string.dispersion_filter.cache_clear()
+        first = wg_string.dispersion_filter(*args)
+        wg_string.dispersion_filter.cache_clear()
+        again = wg_string.dispersion_filter(*args)
+    finally:
+        calibration_store.on_compute(None)
+        wg_string.dispersion_filter.cache_clear()
+    assert kinds == ["dispersion_filter"]
+    assert first == again == wg_string._fit_dispersion(*args)
+    assert first[1] >= 1 and isinstance(again[1], int)

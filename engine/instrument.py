@@ -86,12 +86,20 @@ class Instrument:
             m = min(bf, self.frames - self.frame)
             yield self.render_frames(m)
 
-    def render_frames(self, m: int) -> np.ndarray:
-        """The next ``m`` frames: every voice's, panned and summed, through the body."""
+    def render_frames(self, m: int, strings: np.ndarray | None = None) -> np.ndarray:
+        """The next ``m`` frames: every voice's, panned and summed, through the body.
+
+        ``strings``, an (m, n_strings) array of zeros: each string's own samples are written into
+        it as they are mixed, before pan and body (its stem), column ``k`` the string
+        ``n_strings - k`` (the lowest first, as the labels order a track's strings); a string
+        with no voice stays zero."""
         mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
         end = self.frame + m
         for v in self.voices:
-            add_to_mix(mix, self.voice_frames(v, end), self.pans[v.index])
+            y = self.voice_frames(v, end)
+            if strings is not None:
+                strings[:, self.preset.n_strings - v.index] = y
+            add_to_mix(mix, y, self.pans[v.index])
         self.frame = end
         return self.body(mix) if self.body is not None else mix
 

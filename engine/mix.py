@@ -15,6 +15,11 @@ instrument renders its pickup velocity (through its body), then, in this order:
 and the tracks are summed.  A scene with top-level ``guitar``/``events`` is the one-track case and
 renders exactly (bit for bit) as its instrument alone.  Nothing here grows with the scene's duration:
 each block is computed from the voices' states and the effects' states and handed on.
+
+Stems (``Mix.stems``, ``blocks(stems=True)``): each string of each track on its own, its pickup
+velocity before pan, body and effects, times its track's ``gain_db``; their sum is the **dry mix**,
+the scene's mix with every body, pan and effect left out (mono).  Columns in the labels' order:
+track by track, within a track from the lowest string to the highest (``Stem``).
 """
 
 from __future__ import annotations
@@ -31,6 +36,21 @@ from .output import pan_gains
 from .scene import Scene, frame_count
 
 
+@dataclass(frozen=True)
+class Stem:
+    """One column of a render's stems: ``track`` (0-based, in the scene's order), its ``name``
+    (``""`` when unnamed) and the ``string`` (1 = highest, as the scene numbers strings)."""
+
+    track: int
+    name: str
+    string: int
+
+    @property
+    def label(self) -> str:
+        """``t1-s6``: the file name of a stem without its suffix (the front ends')."""
+        return f"t{self.track + 1}-s{self.string}"
+
+
 @dataclass
 class Track:
     """One track prepared: its instrument, stereo place, effects and linear gain."""
@@ -41,8 +61,12 @@ class Track:
     chain: Chain | None
     gain: float
 
-    def render_frames(self, m: int) -> np.ndarray:
-        y = self.instrument.render_frames(m)
+    def render_frames(self, m: int, strings: np.ndarray | None = None) -> np.ndarray:
+        """The track's next ``m`` frames; ``strings``: its stems (``Instrument.render_frames``),
+        times its gain."""
+        y = self.instrument.render_frames(m, strings)
+        if strings is not None and self.gain != 1.0:
+            strings *= self.gain
         if self.pan is not None:
             y = np.stack((self.pan[0] * y, self.pan[1] * y), axis=1)
         if self.chain is not None:
@@ -61,20 +85,39 @@ class Mix:
     frames: int
     frame: int = 0
 
-    def blocks(self, block_frames: int | None = None):
-        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block."""
+    def blocks(self, block_frames: int | None = None, stems: bool = False):
+        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block; with
+        ``stems``, (mix, stems) pairs, stems of shape (m, len(self.stems())) in m/s."""
         bf = block_frames or self.tracks[0].instrument.options.block_frames
+        width = len(self.stems()) if stems else 0
         while self.frame < self.frames:
             m = min(bf, self.frames - self.frame)
-            yield self.render_frames(m)
+            if stems:
+                s = np.zeros((m, width))
+                yield self.render_frames(m, s), s
+            else:
+                yield self.render_frames(m)
 
-    def render_frames(self, m: int) -> np.ndarray:
+    def render_frames(self, m: int, stems: np.ndarray | None = None) -> np.ndarray:
+        """The next ``m`` frames of the mix; ``stems``, (m, len(self.stems())) zeros: filled
+        with the stems."""
         mix = None
+        at = 0
         for t in self.tracks:
-            y = t.render_frames(m)
+            n = t.instrument.preset.n_strings
+            y = t.render_frames(m, None if stems is None else stems[:, at:at + n])
+            at += n
             mix = y if mix is None else mix + y
         self.frame += m
         return mix
+
+    def stems(self) -> list[Stem]:
+        """What each column of the stems holds: every string of every track (a silent string's
+        column is zeros), track by track, the lowest string first."""
+        return [Stem(i, track.name, t.instrument.preset.n_strings - k)
+                for i, (track, t) in enumerate(zip(self.scene.instruments(), self.tracks,
+                                                   strict=True))
+                for k in range(t.instrument.preset.n_strings)]
 
     @property
     def voices(self):

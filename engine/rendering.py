@@ -4,8 +4,9 @@
 guitar per track, ``engine.fd.instrument.prepare``: a voice per string that needs simulating) and writes
 the mix's blocks into the output array; ``blocks`` yields them as they are computed, at the fixed
 gain a stream needs, and holds nothing but the current block (a song of any length streams in
-bounded memory).  Every front end (Python, the HTTP
-service's workers, a command line) goes through these two functions.
+bounded memory).  Every front end (Python, the HTTP service's workers, a command line) goes
+through these two functions.  With ``stems`` both also give each string's own signal
+(``engine.mix``: before pan, body and effects, at the mix's gain; summed, the dry mix).
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .mix import Mix, prepare
+from .mix import Mix, Stem, prepare
 from .options import RenderOptions
-from .output import FIXED_GAIN, convolve_ir, to_output_scale
+from .output import FIXED_GAIN, convolve_ir, output_gain, to_output_scale
 from .scene import Scene, parse_scene
 
 log = logging.getLogger("engine")
@@ -34,6 +35,10 @@ class RenderResult:
     seconds: float  # wall time of the simulation
     oversample: dict[int, int]  # string -> internal oversampling factor (largest over tracks)
     warnings: list[str] = field(default_factory=list)  # ``engine.fd.playability.scene_warnings``
+    # with ``stems``: (frames, len(stem_layout)) at the audio's gain, and what each column is
+    stems: np.ndarray | None = None
+    stem_layout: list[Stem] = field(default_factory=list)
+    gain: float = 1.0  # samples per m/s of pickup velocity: the audio's (and the stems') scale
 
 
 def render(scene: Scene | dict, diagnostics: bool | None = None,
@@ -54,24 +59,38 @@ def render(scene: Scene | dict, diagnostics: bool | None = None,
 
 
 def render_result(scene: Scene | dict, options: RenderOptions | None = None,
-                  impulse_response: np.ndarray | None = None) -> RenderResult:
+                  impulse_response: np.ndarray | None = None,
+                  stems: bool | None = None) -> RenderResult:
     """Render a scene and return the audio with what is known of the render: its warnings, wall
-    time and oversampling, and the energy balance when the scene asks for diagnostics."""
+    time and oversampling, and the energy balance when the scene asks for diagnostics.
+    ``stems`` (default: the scene's ``output.stems``): each string's signal too, scaled by the
+    audio's gain (``RenderResult.stems``; a user ``impulse_response``, like the body, acts on the
+    mix only)."""
     sc = parse_scene(scene)
+    with_stems = sc.output.stems if stems is None else stems
     t0 = time.perf_counter()
     if impulse_response is not None:
         sc = sc.model_copy(update={"output": sc.output.model_copy(update={"body": "none"})})
     mix = prepare(sc, options)
+    layout = mix.stems() if with_stems else []
     # the blocks are written into the output as they come: no more than the output is held
     vel = np.zeros((mix.frames, 2) if sc.output.channels == 2 else mix.frames)
-    for blk in mix.blocks():
-        vel[mix.frame - len(blk):mix.frame] = blk
+    strings = np.zeros((mix.frames, len(layout))) if with_stems else None
+    for item in mix.blocks(stems=with_stems):
+        blk, string_blk = item if with_stems else (item, None)
+        at = mix.frame - len(blk)
+        vel[at:mix.frame] = blk
+        if strings is not None:
+            strings[at:mix.frame] = string_blk
     if impulse_response is not None:
         vel = convolve_ir(vel, impulse_response)
     seconds = time.perf_counter() - t0
+    gain = output_gain(float(np.max(np.abs(vel))) if vel.size else 0.0, sc.output.normalize)
     audio = to_output_scale(vel, sc.output.normalize, in_place=True)
+    if strings is not None:
+        strings *= gain
     return RenderResult(audio, mix.energy_error() if sc.diagnostics else None, sc.sample_rate,
-                        seconds, mix.oversample(), advice(mix))
+                        seconds, mix.oversample(), advice(mix), strings, layout, gain)
 
 
 def advice(mix: Mix) -> list[str]:
@@ -87,26 +106,36 @@ def advice(mix: Mix) -> list[str]:
 class Blocks:
     """The scene's audio block by block at the fixed gain (what a stream can send: it cannot know
     the peak in advance); concatenated, equal to ``render`` with ``normalize: false``.
-    ``warnings`` are known once the tracks are prepared, before the first block."""
+    ``warnings`` are known once the tracks are prepared, before the first block.  With
+    ``stems``, each item is a pair (mix block, stems block), the stems at the same gain, and
+    ``stem_layout`` says what their columns are (``engine.mix.Stem``)."""
 
     def __init__(self, scene: Scene | dict, block_frames: int = 4096,
-                 options: RenderOptions | None = None, raw: bool = False):
+                 options: RenderOptions | None = None, raw: bool = False, stems: bool = False):
         mix = prepare(parse_scene(scene), options)
         self.warnings: list[str] = advice(mix)
-        self._blocks = mix.blocks(block_frames)
+        self.stem_layout: list[Stem] = mix.stems() if stems else []
+        self._blocks = mix.blocks(block_frames, stems)
         self._raw = raw
+        self._stems = stems
 
     def __iter__(self):
         return self
 
-    def __next__(self) -> np.ndarray:
-        block = next(self._blocks)
-        return block if self._raw else block * FIXED_GAIN
+    def __next__(self):
+        item = next(self._blocks)
+        if self._raw:
+            return item
+        if self._stems:
+            return item[0] * FIXED_GAIN, item[1] * FIXED_GAIN
+        return item * FIXED_GAIN
 
 
 def blocks(scene: Scene | dict, block_frames: int = 4096,
-           options: RenderOptions | None = None, raw: bool = False) -> Blocks:
+           options: RenderOptions | None = None, raw: bool = False,
+           stems: bool = False) -> Blocks:
     """An iterable of the scene's audio blocks at the fixed gain (``Blocks``); ``raw``: the
     pickup velocity itself (m/s), before any gain, for a caller that scales the whole signal as
-    ``render`` does (``to_output_scale``) once it has seen every block."""
-    return Blocks(scene, block_frames, options, raw)
+    ``render`` does (``to_output_scale``) once it has seen every block; ``stems``: (mix, stems)
+    pairs."""
+    return Blocks(scene, block_frames, options, raw, stems)

@@ -386,6 +386,9 @@ class Output(_Model):
     body: Literal["none", "acoustic", "classical"] | None = Field(
         None, description="body response (default: the preset's)"
     )
+    stems: bool = Field(
+        False, description="also each string's signal before body, pan, effects and mix, at the "
+                           "mix's gain (summed: the dry mix); docs/service.md says how it comes")
 
     @field_validator("pan")
     @classmethod

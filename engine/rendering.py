@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,14 +61,17 @@ def render(scene: Scene | dict, diagnostics: bool | None = None,
 
 def render_result(scene: Scene | dict, options: RenderOptions | None = None,
                   impulse_response: np.ndarray | None = None,
-                  stems: bool | None = None) -> RenderResult:
+                  stems: bool | None = None,
+                  on_stems: Callable[[np.ndarray], None] | None = None) -> RenderResult:
     """Render a scene and return the audio with what is known of the render: its warnings, wall
     time and oversampling, and the energy balance when the scene asks for diagnostics.
     ``stems`` (default: the scene's ``output.stems``): each string's signal too, scaled by the
     audio's gain (``RenderResult.stems``; a user ``impulse_response``, like the body, acts on the
-    mix only)."""
+    mix only).  ``on_stems``: instead of holding them, hand each block of stems (m/s, before the
+    output gain: times ``RenderResult.gain`` they are the held ones) to this function as it is
+    computed (a long song's stems written to files in bounded memory)."""
     sc = parse_scene(scene)
-    with_stems = sc.output.stems if stems is None else stems
+    with_stems = on_stems is not None or (sc.output.stems if stems is None else stems)
     t0 = time.perf_counter()
     if impulse_response is not None:
         sc = sc.model_copy(update={"output": sc.output.model_copy(update={"body": "none"})})
@@ -75,12 +79,14 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     layout = mix.stems() if with_stems else []
     # the blocks are written into the output as they come: no more than the output is held
     vel = np.zeros((mix.frames, 2) if sc.output.channels == 2 else mix.frames)
-    strings = np.zeros((mix.frames, len(layout))) if with_stems else None
+    strings = np.zeros((mix.frames, len(layout))) if with_stems and on_stems is None else None
     for item in mix.blocks(stems=with_stems):
         blk, string_blk = item if with_stems else (item, None)
         at = mix.frame - len(blk)
         vel[at:mix.frame] = blk
-        if strings is not None:
+        if on_stems is not None:
+            on_stems(string_blk)
+        elif strings is not None:
             strings[at:mix.frame] = string_blk
     if impulse_response is not None:
         vel = convolve_ir(vel, impulse_response)

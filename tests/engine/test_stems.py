@@ -146,3 +146,13 @@ def test_an_onset_in_a_stem_is_where_the_labels_put_it(model):
         if not ann.data:
             assert not np.any(col)
     assert onsets == 5
+
+
+def test_stems_handed_on_block_by_block_are_the_held_ones():
+    sc = scene("waveguide", normalize=True)
+    held = engine.render_result(sc, stems=True)
+    parts: list[np.ndarray] = []
+    res = engine.render_result(sc, on_stems=parts.append)
+    assert res.stems is None and res.stem_layout == held.stem_layout and res.gain == held.gain
+    assert len(parts) > 1
+    assert (np.concatenate(parts) * res.gain).tobytes() == held.stems.tobytes()

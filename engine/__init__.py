@@ -61,6 +61,7 @@ from .scene import MODELS, ModelName, QualityName, Scene, frame_count, parse_sce
 _LAZY = {
     "FIXED_GAIN": "output",
     "to_output_scale": "output",
+    "output_gain": "output",
     "Stem": "mix",
     "QUALITY": "options",
     "Quality": "options",

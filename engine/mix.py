@@ -33,22 +33,7 @@ from .effects import Chain
 from .instrument import Instrument
 from .options import RenderOptions
 from .output import pan_gains
-from .scene import Scene, frame_count
-
-
-@dataclass(frozen=True)
-class Stem:
-    """One column of a render's stems: ``track`` (0-based, in the scene's order), its ``name``
-    (``""`` when unnamed) and the ``string`` (1 = highest, as the scene numbers strings)."""
-
-    track: int
-    name: str
-    string: int
-
-    @property
-    def label(self) -> str:
-        """``t1-s6``: the file name of a stem without its suffix (the front ends')."""
-        return f"t{self.track + 1}-s{self.string}"
+from .scene import Scene, Stem, frame_count
 
 
 @dataclass
@@ -112,12 +97,9 @@ class Mix:
         return mix
 
     def stems(self) -> list[Stem]:
-        """What each column of the stems holds: every string of every track (a silent string's
-        column is zeros), track by track, the lowest string first."""
-        return [Stem(i, track.name, t.instrument.preset.n_strings - k)
-                for i, (track, t) in enumerate(zip(self.scene.instruments(), self.tracks,
-                                                   strict=True))
-                for k in range(t.instrument.preset.n_strings)]
+        """What each column of the stems holds (``Scene.stems``; a silent string's column is
+        zeros)."""
+        return self.scene.stems()
 
     @property
     def voices(self):

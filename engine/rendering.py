@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .mix import Mix, Stem, prepare
+from .mix import Mix, prepare
 from .options import RenderOptions
 from .output import FIXED_GAIN, convolve_ir, output_gain, to_output_scale
-from .scene import Scene, parse_scene
+from .scene import Scene, Stem, parse_scene
 
 log = logging.getLogger("engine")
 
@@ -67,9 +67,12 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     time and oversampling, and the energy balance when the scene asks for diagnostics.
     ``stems`` (default: the scene's ``output.stems``): each string's signal too, scaled by the
     audio's gain (``RenderResult.stems``; a user ``impulse_response``, like the body, acts on the
-    mix only).  ``on_stems``: instead of holding them, hand each block of stems (m/s, before the
-    output gain: times ``RenderResult.gain`` they are the held ones) to this function as it is
-    computed (a long song's stems written to files in bounded memory)."""
+    mix only).  Under ``normalize`` that one gain puts the loudest of the mix and the stems at
+    ``PEAK_DBFS``, so that no stem clips (a string can peak above a mix its body, pan or
+    effects soften): with stems the mix may come quieter than without.  ``on_stems``: instead
+    of holding them, hand each block of stems (m/s, before the output gain: times
+    ``RenderResult.gain`` they are the held ones) to this function as it is computed (a long
+    song's stems written to files in bounded memory)."""
     sc = parse_scene(scene)
     with_stems = on_stems is not None or (sc.output.stems if stems is None else stems)
     t0 = time.perf_counter()
@@ -80,10 +83,13 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     # the blocks are written into the output as they come: no more than the output is held
     vel = np.zeros((mix.frames, 2) if sc.output.channels == 2 else mix.frames)
     strings = np.zeros((mix.frames, len(layout))) if with_stems and on_stems is None else None
+    stems_peak = 0.0
     for item in mix.blocks(stems=with_stems):
         blk, string_blk = item if with_stems else (item, None)
         at = mix.frame - len(blk)
         vel[at:mix.frame] = blk
+        if string_blk is not None and string_blk.size:
+            stems_peak = max(stems_peak, float(np.max(np.abs(string_blk))))
         if on_stems is not None:
             on_stems(string_blk)
         elif strings is not None:
@@ -91,8 +97,13 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     if impulse_response is not None:
         vel = convolve_ir(vel, impulse_response)
     seconds = time.perf_counter() - t0
-    gain = output_gain(float(np.max(np.abs(vel))) if vel.size else 0.0, sc.output.normalize)
-    audio = to_output_scale(vel, sc.output.normalize, in_place=True)
+    peak = float(np.max(np.abs(vel))) if vel.size else 0.0
+    if stems_peak > peak:  # the loudest stem sets the gain (``to_output_scale``'s arithmetic)
+        gain = output_gain(stems_peak, sc.output.normalize)
+        audio = np.multiply(vel, gain, out=vel)
+    else:
+        gain = output_gain(peak, sc.output.normalize)
+        audio = to_output_scale(vel, sc.output.normalize, in_place=True)
     if strings is not None:
         strings *= gain
     return RenderResult(audio, mix.energy_error() if sc.diagnostics else None, sc.sample_rate,
@@ -114,7 +125,7 @@ class Blocks:
     the peak in advance); concatenated, equal to ``render`` with ``normalize: false``.
     ``warnings`` are known once the tracks are prepared, before the first block.  With
     ``stems``, each item is a pair (mix block, stems block), the stems at the same gain, and
-    ``stem_layout`` says what their columns are (``engine.mix.Stem``)."""
+    ``stem_layout`` says what their columns are (``engine.Stem``)."""
 
     def __init__(self, scene: Scene | dict, block_frames: int = 4096,
                  options: RenderOptions | None = None, raw: bool = False, stems: bool = False):

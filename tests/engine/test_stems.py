@@ -156,3 +156,22 @@ def test_stems_handed_on_block_by_block_are_the_held_ones():
     assert res.stems is None and res.stem_layout == held.stem_layout and res.gain == held.gain
     assert len(parts) > 1
     assert (np.concatenate(parts) * res.gain).tobytes() == held.stems.tobytes()
+
+
+@pytest.mark.parametrize("model", MODELS)
+def test_normalized_stems_never_clip(model):
+    """Under ``normalize`` the one gain puts the loudest of the mix and the stems at -1 dBFS:
+    here a string (the acoustic's A) peaks above the mix its body and pan soften, so the stems
+    set the gain, and the mix is that much quieter than without stems."""
+    sc = {"duration": 0.25, "model": model, "output": {"channels": 2},
+          "tracks": [{"pan": -0.3, "events": [{"type": "pluck", "time": 0.01, "string": 3},
+                                             {"type": "pluck", "time": 0.03, "string": 5}]}]}
+    top = 10.0 ** (-1.0 / 20.0)
+    res = engine.render_result(sc, stems=True)
+    alone = engine.render_result(sc)
+    loudest = max(np.max(np.abs(res.audio)), np.max(np.abs(res.stems)))
+    assert loudest == pytest.approx(top, rel=1e-12)
+    assert np.max(np.abs(res.stems)) > np.max(np.abs(res.audio))  # the case this is about
+    assert np.max(np.abs(alone.audio)) == pytest.approx(top, rel=1e-12)
+    np.testing.assert_allclose(res.audio, alone.audio * res.gain / alone.gain, rtol=0,
+                               atol=1e-12)

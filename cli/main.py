@@ -441,10 +441,19 @@ def render_audio(sc: Any, quiet: bool, stems: Any = None) -> tuple[Any, float]:
             elapsed = time.perf_counter() - t1
             bar.set_postfix_str(f"{done / rate / elapsed:.2f}x real time" if elapsed else "")
             bar.update(round(done / rate, 3) - bar.n)
-    if stems is not None:  # scaled into place with the mix's gain, known now
-        stems.close(stem_gain(audio, sc.output.normalize))
+    if stems is not None and sc.output.normalize:
+        # one gain for the mix and its stems, which puts the loudest at -1 dBFS (as engine.render
+        # with stems): the stems are scaled into place with it
+        velocity = audio / engine.FIXED_GAIN
+        peak = max(float(np.max(np.abs(velocity))) if velocity.size else 0.0,
+                   stems.peak / engine.FIXED_GAIN)
+        gain = engine.output_gain(peak, True)
+        stems.close(gain / engine.FIXED_GAIN)
+        audio = np.multiply(velocity, gain, out=velocity)
+    elif stems is not None:
+        stems.close()  # written at the fixed gain as they came
     seconds = time.perf_counter() - t0
-    if sc.output.normalize:  # blocks come at the fixed gain; normalize as engine.render does
+    if sc.output.normalize and stems is None:  # blocks come at the fixed gain; as engine.render
         audio = engine.to_output_scale(audio / engine.FIXED_GAIN, True)
     return audio, seconds
 
@@ -464,19 +473,6 @@ def write_labels(path: str, sc: Any, title: str = "") -> None:
     import engine
 
     engine.scene_labels(sc, title=title).save(path)
-
-
-def stem_gain(audio: Any, normalize: bool) -> float:
-    """What stems written at the fixed gain are multiplied by to share the mix's final gain
-    (``audio``: the mix at the fixed gain): 1, or the normalization's factor."""
-    import numpy as np
-
-    import engine
-
-    if not normalize:
-        return 1.0
-    peak = float(np.max(np.abs(audio))) / engine.FIXED_GAIN if audio.size else 0.0
-    return engine.output_gain(peak, True) / engine.FIXED_GAIN
 
 
 def cmd_render(args: argparse.Namespace) -> int:

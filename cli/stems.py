@@ -10,10 +10,11 @@ of a track has a file, a silent one too, so a track's files are its hexaphonic p
 annotation's index in the JAMS file), with the ``gain`` they share with the mix.
 
 A stem is the string's pickup velocity before pan, body and effects, times its track's fader, at
-the mix's gain (``engine.mix``): the stems sum to the dry mix.  Under ``normalize`` that gain is
-known only when the whole mix has been seen, so the stems are kept as float64 in a spill file
-beside their folder until then, and scaled into place block by block: a song's stems are never
-held in memory.  Samples beyond full scale are clipped, as the mix's are; ``clipped`` counts them.
+the mix's gain (``engine.mix``): the stems sum to the dry mix.  Under ``normalize`` that gain (the
+one that puts the loudest of the mix and the stems at -1 dBFS) is known only when all is seen,
+so the stems are kept as float64 in a spill file beside their folder until then, and scaled into
+place block by block: a song's stems are never held in memory.  At the fixed gain, samples beyond
+full scale are clipped, as the mix's are; ``clipped`` counts them.
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ class StemWriter:
         self.rate = rate
         self.fmt = fmt
         self.clipped = 0
+        self.peak = 0.0  # the largest magnitude written, in the blocks' unit
         self.layout: list[Any] = []
         self.paths: list[Path] = []
         self._gain = gain
@@ -81,6 +83,8 @@ class StemWriter:
                            for p in self.paths]
 
     def write(self, block: np.ndarray) -> None:
+        if block.size:
+            self.peak = max(self.peak, float(np.max(np.abs(block))))
         if self._spill is not None:
             self._spill.write(np.ascontiguousarray(block, dtype="<f8").tobytes())
         else:
@@ -97,6 +101,8 @@ class StemWriter:
         """Finish the files (scaled by ``gain`` when it was not known at the start; ignored when
         it was), rename them into place, write ``stems.json``; the files written."""
         import soundfile as sf
+
+        import engine
 
         if self._spill is not None:
             if gain is None:
@@ -120,9 +126,9 @@ class StemWriter:
         for p in self.paths:
             os.replace(_part(p), p)
         index = self.folder / "stems.json"
-        index.write_text(json.dumps(describe(self.layout, self.paths, self.rate,
-                                             self.input_scale * (self._gain or 0.0)),
-                                    indent=1) + "\n", encoding="utf-8")
+        info = engine.stems_index(self.layout, self.fmt, self.rate,
+                                  self.input_scale * (self._gain or 0.0), self.clipped)
+        index.write_text(json.dumps(info, indent=1) + "\n", encoding="utf-8")
         return [*self.paths, index]
 
     def abort(self) -> None:
@@ -134,19 +140,6 @@ class StemWriter:
             f.close()
         for p in self.paths:
             _part(p).unlink(missing_ok=True)
-
-
-def describe(layout: list[Any], paths: list[Path], rate: int, gain: float) -> dict:
-    """``stems.json``: the files in the labels' order, with the gain they share with the mix."""
-    return {
-        "sample_rate": rate,
-        "gain": gain,
-        "about": "each string's pickup velocity before pan, body and effects, times its track's "
-                 "gain_db, times gain (samples per m/s, the mix's): summed, the dry mix",
-        "stems": [{"file": p.name, "track": s.track, "track_name": s.name or f"track {s.track + 1}",
-                   "string": s.string, "annotation": k}
-                  for k, (s, p) in enumerate(zip(layout, paths, strict=True))],
-    }
 
 
 def _part(p: Path) -> Path:

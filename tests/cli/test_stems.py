@@ -84,3 +84,43 @@ def test_a_stems_path_that_is_a_file_is_one_line(tmp_path):
     src.write_text(json.dumps(SCENE))
     r = run("render", src, "-o", tmp_path / "song.wav", "--stems")
     assert "--stems" in one_error_line(r) and "not a folder" in r.stderr
+
+
+def test_batch_writes_stems_per_item_and_lists_them_in_the_manifest(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    import pyarrow.parquet as pq
+
+    from .helpers import ROOT
+
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    (inputs / "song.json").write_text(json.dumps(
+        {**SCENE, "output": {**SCENE["output"], "subtype": "FLOAT"}}))
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p)}
+
+    def batch() -> dict:
+        r = subprocess.run([sys.executable, "-m", "cli.main", "batch", str(inputs), "-o",
+                            str(out), "--workers", "1", "--stems", "-q"], capture_output=True,
+                           text=True, timeout=600, env=env, cwd=ROOT)
+        assert r.returncode == 0, r.stderr[-3000:]
+        (row,) = pq.read_table(out / "manifest.parquet").to_pylist()
+        return row
+
+    row = batch()
+    assert row["status"] == "done" and row["stems"] == "stems/song"
+    index = json.loads((out / "stems/song/stems.json").read_text())
+    assert len(index["stems"]) == 10
+    assert index["gain"] == pytest.approx(engine.render_result(SCENE, stems=True).gain,
+                                          rel=1e-12)
+    dry = engine.render(DRY) / engine.FIXED_GAIN * index["gain"]
+    assert np.max(np.abs(summed(out / "stems/song", index) - dry)) < TOL
+    mix = sf.read(out / row["audio"])[0]
+    assert sf.info(out / "stems/song/t1-s2.wav").frames == len(mix)
+    stamp = (out / "stems/song/t1-s2.wav").stat().st_mtime_ns
+    assert batch()["stems"] == "stems/song"  # run again: done, nothing rewritten
+    assert (out / "stems/song/t1-s2.wav").stat().st_mtime_ns == stamp

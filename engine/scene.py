@@ -557,8 +557,10 @@ class Scene(_Model):
 
     def stems(self) -> list[Stem]:
         """What each column of a render's stems holds (``engine.mix``): every string of every
-        track, track by track, the lowest string first (the labels' order)."""
-        return [Stem(i, track.name, n - k) for i, track in enumerate(self.instruments())
+        track, track by track, the lowest string first (the labels' order, and their name of a
+        lone guitar)."""
+        return [Stem(i, track.name if self.tracks is not None else "guitar", n - k)
+                for i, track in enumerate(self.instruments())
                 for n in (track.preset().n_strings,) for k in range(n)]
 
     def event_count(self) -> int:

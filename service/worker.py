@@ -30,6 +30,7 @@ and with the first streamed block (an empty list with the later ones).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -191,7 +192,7 @@ def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any])
     the stems kept in a temporary file while the render runs rather than in memory."""
     t0 = time.perf_counter()
     stems = bool((payload["scene"].get("output") or {}).get("stems"))
-    with tempfile.TemporaryFile() as spill:
+    with tempfile.TemporaryFile() if stems else contextlib.nullcontext() as spill:
         if stems:
             result = engine.render_result(payload["scene"], on_stems=lambda b: spill.write(
                 np.ascontiguousarray(b, dtype="<f8").tobytes()))

@@ -136,8 +136,10 @@ def test_an_onset_in_a_stem_is_where_the_labels_put_it(model):
     assert len(notes) == len(res.stem_layout) == 10
     rate = res.sample_rate
     onsets = 0
-    for ann, stem, col in zip(notes, res.stem_layout, res.stems.T, strict=True):
+    index = engine.stems_index(res.stem_layout, "wav", rate, res.gain)["stems"]
+    for ann, stem, col, info in zip(notes, res.stem_layout, res.stems.T, index, strict=True):
         assert (ann.sandbox.track, ann.sandbox.string) == (stem.track, stem.string)
+        assert info["track_name"] == ann.sandbox.track_name
         for obs in ann.data:
             onsets += 1
             peak = np.max(np.abs(col))
@@ -175,3 +177,11 @@ def test_normalized_stems_never_clip(model):
     assert np.max(np.abs(alone.audio)) == pytest.approx(top, rel=1e-12)
     np.testing.assert_allclose(res.audio, alone.audio * res.gain / alone.gain, rtol=0,
                                atol=1e-12)
+
+
+def test_a_lone_guitar_s_stems_are_named_as_its_labels():
+    sc = {"duration": 0.1, "events": [{"type": "pluck", "time": 0.0, "string": 1}]}
+    ann = engine.scene_labels(sc).annotations[0]
+    (first, *_) = engine.stems_index(engine.parse_scene(sc).stems(), "wav", 44100, 1.0)["stems"]
+    assert (first["track"], first["track_name"], first["string"]) == (
+        ann.sandbox.track, ann.sandbox.track_name, ann.sandbox.string)

@@ -464,6 +464,50 @@ def stems_index(layout: list[Stem], suffix: str, sample_rate: int, gain: float,
     }
 
 
+# --- What a converted score says beyond its events (the labels read it; rendering ignores it).
+
+MAX_SCORE_MARKS = 100_000  # bars, beats, tempo changes, keys or chords of one scene
+
+
+class TempoMark(_Model):
+    time: Time
+    bpm: float = Field(gt=0.0, le=20000.0, description="quarter notes per minute, as played")
+
+
+class LabelMark(_Model):
+    time: Time
+    value: str = Field(max_length=40, description="key as 'E:minor'; chord as 'A:min7' (JAMS)")
+
+
+class ScoreInfo(_Model):
+    """The score a scene was converted from (``engine.score_to_scene`` writes it): its title, and
+    its bars and beats in seconds as played (repeats unfolded, the tempo map and tempo scale
+    applied, cut where the scene is).  ``bars[i]`` starts the score's bar ``bar_numbers[i]``;
+    ``beat_positions[i]`` is beat ``beats[i]``'s place in its bar, 1 = the downbeat (a dotted
+    beat in 6/8, 9/8, 12/8).  The labels' ``beat``, ``tempo``, ``key_mode`` and ``chord``
+    annotations come from here; the renderer ignores it."""
+
+    title: str = Field("", max_length=300)
+    artist: str = Field("", max_length=300)
+    source: str = Field("", max_length=300, description="the score file's name")
+    format: str = Field("", max_length=16, description="gp, gpx, gp7, musicxml or midi")
+    bars: list[Time] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    bar_numbers: list[int] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    beats: list[Time] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    beat_positions: list[int] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    tempo: list[TempoMark] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    keys: list[LabelMark] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    chords: list[LabelMark] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+
+    @model_validator(mode="after")
+    def _parallel(self) -> ScoreInfo:
+        if len(self.bar_numbers) != len(self.bars):
+            raise ValueError("score.bar_numbers: one per bar")
+        if len(self.beat_positions) != len(self.beats):
+            raise ValueError("score.beat_positions: one per beat")
+        return self
+
+
 class Scene(_Model):
     duration: float = Field(gt=0.0, le=MAX_DURATION_S, description="seconds")
     sample_rate: int = Field(44100, ge=SAMPLE_RATE_MIN, le=SAMPLE_RATE_MAX, description="Hz")
@@ -481,6 +525,9 @@ class Scene(_Model):
                     "same events (engine/waveguide)",
     )
     diagnostics: bool = False
+    score: ScoreInfo | None = Field(
+        None, description="the score the scene was converted from: title, bars, beats, tempo, "
+                          "keys and chords in seconds (labels read it; rendering ignores it)")
 
     model_config = ConfigDict(
         json_schema_extra={

@@ -377,7 +377,52 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
         raise ScoreError("the score has no pitched track to play" if want is None else
                          f"options.tracks: none of {sorted(map(str, want))} is a pitched track "
                          "of this score")
-    return _assemble(scene_tracks, tracks, planned, strums, warnings), planned
+    scene = _assemble(scene_tracks, tracks, planned, strums, warnings)
+    scene["score"] = {"title": song.title or "", "artist": song.artist or "",
+                      **timing(song.measureHeaders, order, clock)}
+    return scene, planned
+
+
+def beat_unit(numerator: int, denominator: int) -> tuple[int, float]:
+    """(beats in a bar, quarter notes per beat) of a time signature: the denominator's note,
+    or a dotted one in compound meters (6/8, 9/8, 12/8 ...: a numerator > 3 divisible by 3), as
+    pretty_midi counts the beats of a MIDI file."""
+    quarters = 4.0 / denominator
+    if numerator > 3 and numerator % 3 == 0:
+        return numerator // 3, 3 * quarters
+    return numerator, quarters
+
+
+def timing(headers, order, clock) -> dict:
+    """Bars and beats in seconds as played (``ScoreInfo`` of ``engine.scene``): each played
+    bar's start and number, each beat's time and place in its bar, and the tempo map (quarter
+    notes per minute, the tempo scale applied)."""
+    bars, numbers, beats, positions = [], [], [], []
+    for k, m in enumerate(order):
+        h = headers[m]
+        start = clock.starts[k]
+        bars.append(_r6(clock.seconds(start)))
+        numbers.append(m + 1)
+        count, quarters = beat_unit(h.timeSignature.numerator, h.timeSignature.denominator.value)
+        step = quarters * clock.quarter
+        for j in range(count):
+            if j * step >= h.length:
+                break
+            beats.append(_r6(clock.seconds(start + j * step)))
+            positions.append(j + 1)
+    tempo: list[dict] = []
+    for tick, bpm in zip(clock.seg_ticks, clock.seg_bpm, strict=True):
+        t, q = _r6(clock.seconds(tick)), round(bpm * clock.scale, 4)
+        if tempo and tempo[-1]["time"] == t:
+            tempo.pop()
+        if not tempo or tempo[-1]["bpm"] != q:
+            tempo.append({"time": t, "bpm": q})
+    return {"bars": bars, "bar_numbers": numbers, "beats": beats, "beat_positions": positions,
+            "tempo": tempo}
+
+
+def _r6(x: float) -> float:
+    return round(float(x), 6)
 
 
 def _assemble(scene_tracks, tracks, planned, strums, warnings) -> dict:

@@ -321,4 +321,35 @@ def scene_labels(scene, title: str = ""):
                            open_pitch=per["open_pitch"], notes=per["notes"],
                            unpitched=per["unpitched"])
         jam.annotations.append(ann)
+    _score_annotations(jam, scene.get("score"), float(scene["duration"]))
     return jam
+
+
+def _score_annotations(jam, info: dict | None, duration: float) -> None:
+    """``beat`` (value: the beat's place in its bar, 1 = downbeat, as GuitarSet) and ``tempo``
+    (quarter notes per minute over each stretch of constant tempo, confidence 1) of a converted
+    score's bars and beats (``engine.scene.ScoreInfo``); nothing for a scene written by hand."""
+    import jams
+
+    if not info:
+        return
+    tool = "guitar-synth engine.score.labels"
+    beats = [(t, p) for t, p in zip(info.get("beats") or [], info.get("beat_positions") or [],
+                                     strict=False) if t < duration]
+    if beats:
+        ann = jams.Annotation(namespace="beat", time=0.0, duration=duration)
+        ann.annotation_metadata.annotation_tools = tool
+        ann.annotation_metadata.data_source = "score"
+        for t, p in beats:
+            ann.append(time=float(t), duration=0.0, value=int(p), confidence=None)
+        jam.annotations.append(ann)
+    tempo = [m for m in info.get("tempo") or [] if m["time"] < duration]
+    if tempo:
+        ann = jams.Annotation(namespace="tempo", time=0.0, duration=duration)
+        ann.annotation_metadata.annotation_tools = tool
+        ann.annotation_metadata.data_source = "score"
+        for k, m in enumerate(tempo):
+            end = tempo[k + 1]["time"] if k + 1 < len(tempo) else duration
+            ann.append(time=float(m["time"]), duration=max(float(end - m["time"]), 0.0),
+                       value=float(m["bpm"]), confidence=1.0)
+        jam.annotations.append(ann)

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 import engine
-from engine import calibration_store, config, statics
-from engine.fd import intonation
+from engine import calibration_store, config
+from engine.fd import intonation, statics
 from engine.fd.instrument import prepare
+from engine.models import PRESSED_STRING
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck, scene
 from engine.waveguide import fingering
@@ -84,7 +85,7 @@ def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):
     """The waveguide's finger damping of a held note (``fingering.finger_decay_db_s``), read back
     in a process that has not computed it, without the held-note analysis."""
     preset = engine.get_preset("steel-acoustic")
-    computed = fingering.finger_decay_db_s(preset, 2, 44100.0, 12)
+    computed = fingering.finger_decay_db_s(PRESSED_STRING, preset, 2, 44100.0, 12)
     assert computed < 0.0
     fingering.finger_decay_db_s.cache_clear()
     calibration_store.reset()
@@ -95,13 +96,14 @@ def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):
         raise AssertionError("the held-note analysis ran")
 
     monkeypatch.setattr(statics, "held_note", analysis)
-    assert fingering.finger_decay_db_s(preset, 2, 44100, 12) == computed  # an int rate: the same
+    # an int rate: the same
+    assert fingering.finger_decay_db_s(PRESSED_STRING, preset, 2, 44100, 12) == computed
     assert calls == []
     with pytest.raises(AssertionError):  # another rate is another calibration
-        fingering.finger_decay_db_s(preset, 2, 48000.0, 12)
+        fingering.finger_decay_db_s(PRESSED_STRING, preset, 2, 48000.0, 12)
     # the finger damping's key holds its own module's code, and is not a fret calibration's
     k = calibration_store.key("finger_decay_db_s", preset, 2, 44100.0, 12,
-                              sources=fingering.SOURCES)
+                              sources=fingering.SOURCES + PRESSED_STRING.sources)
     assert k != calibration_store.key("finger_decay_db_s", preset, 2, 44100.0, 12)
 
 

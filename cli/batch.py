@@ -7,9 +7,10 @@
 INPUTS are scene ``.json`` files, Guitar Pro ``.gp3``-``.gp5``, ``.gpx``, ``.gp`` and MIDI files,
 folders (searched recursively for those), and dataset specs (``cli.dataset``: YAML, or JSON with a
 top-level ``dataset``), each of which stands for ``count`` drawn scenes.  OUT_DIR receives
-``audio/ID.wav`` (or ``.flac``), ``labels/ID.jams`` and ``manifest.parquet`` (or ``.csv``): one row
-per item with its input, seed, outputs, audio seconds, render seconds, energy error, status and
-error.
+``audio/ID.wav`` (or ``.flac``), ``labels/ID.jams``, with ``--stems`` ``stems/ID/`` (each string's
+file and ``stems.json``, as ``render --stems``: ``cli.stems``) and ``manifest.parquet`` (or ``.csv``):
+one row per item with its input, seed, outputs, audio seconds, render seconds, energy error, status
+and error.
 
 Each item is one Dask task that renders a whole scene or song (``render_item``).  A task writes its
 files as ``NAME.part`` and renames them into place, then returns its manifest row; only the client
@@ -47,7 +48,7 @@ SPEC_SUFFIXES = (".yaml", ".yml")
 MANIFEST_INTERVAL_S = 5.0
 COLUMNS = ("id", "input", "seed", "input_hash", "audio", "labels", "audio_seconds",
            "render_seconds", "energy_error", "status", "error", "warnings", "content", "preset",
-           "model", "quality", "tuning", "duration", "notes", "articulations", "files")
+           "model", "quality", "tuning", "duration", "notes", "articulations", "files", "stems")
 LIST_COLUMNS = ("articulations", "files")  # lists in parquet; joined by ";" in CSV
 CONTENT = {"scene": "scene", "score": "score", "drawn": "dataset"}
 
@@ -152,6 +153,7 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
     labels_path = out / "labels" / f"{item.id}.jams"
     tmp_audio = audio_path.with_name(audio_path.name + ".part")
     tmp_labels = labels_path.with_name(labels_path.name + ".part")
+    stems = None
     try:
         warnings: list[str] = []
         if item.kind == "score":
@@ -178,8 +180,15 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
         if max_s and scene.get("duration", 0) > max_s:
             engine.truncate(scene, max_s)
         sc = engine.parse_scene(scene)
+        if options.get("stems"):
+            from cli.stems import StemWriter
+
+            # written as they come (at the fixed gain) or spilled until the gain is known
+            stems = StemWriter(out / "stems" / item.id, sc.sample_rate, fmt, sc.output.subtype,
+                               None if sc.output.normalize else engine.FIXED_GAIN)
+            stems.start(sc.stems())
         t0 = time.perf_counter()
-        result = engine.render_result(sc)
+        result = engine.render_result(sc, on_stems=None if stems is None else stems.write)
         seconds = time.perf_counter() - t0
         x = np.asarray(result.audio)
         if not np.all(np.isfinite(x)):
@@ -198,6 +207,11 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
             _replace_into(tmp_labels, labels_path)
             row["labels"] = str(labels_path.relative_to(out))
             row["files"].append(row["labels"])
+        if stems is not None:
+            stems.close(result.gain)
+            row["stems"] = str(stems.folder.relative_to(out))
+            row["files"].append(f"{row['stems']}/stems.json")
+            stems = None
         _replace_into(tmp_audio, audio_path)
         row["files"].insert(0, str(audio_path.relative_to(out)))
         row.update(status="done", audio=str(audio_path.relative_to(out)),
@@ -211,6 +225,8 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
     except Exception as exc:  # recorded in the manifest; the batch goes on
         row["error"] = _one_line(exc)
     finally:
+        if stems is not None:  # the render failed: no stems half written
+            stems.abort()
         for tmp in (tmp_audio, tmp_labels):
             try:
                 tmp.unlink()
@@ -275,7 +291,8 @@ def gather(inputs: list[str], options: dict) -> Plan:
     opts_hash = json.dumps({**{k: options.get(k) for k in (
         "quality", "diagnostics", "max_seconds", "format", "labels", "score_options")},
         # only when given: the items of a batch run before there was --model keep their ids
-        **({"model": options["model"]} if options.get("model") else {})},
+        **({"model": options["model"]} if options.get("model") else {}),
+        **({"stems": True} if options.get("stems") else {})},
         sort_keys=True).encode()
     for text in inputs:
         p = Path(text)
@@ -468,6 +485,9 @@ def build_parser(prog: str = "guitar-synth batch") -> argparse.ArgumentParser:
     p.add_argument("--diagnostics", action="store_true",
                    help="energy-balance figures in the manifest (slower renders)")
     p.add_argument("--no-labels", dest="labels", action="store_false", help="no JAMS labels")
+    p.add_argument("--stems", action="store_true",
+                   help="also each string's signal before body, pan, effects and mix: "
+                        "stems/ID/t1-s6.wav ... and stems.json (the manifest's stems column)")
     p.add_argument("--retries", type=int, default=2, metavar="N",
                    help="extra tries of an item whose task raised (default 2); an item whose "
                         "worker died is retried by the scheduler as well")
@@ -499,7 +519,8 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.output)
     options = {"format": args.format, "quality": args.quality, "model": args.model,
                "max_seconds": args.max_seconds,
-               "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {}}
+               "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {},
+               "stems": args.stems}
     plan = gather(args.inputs, options)
     if not plan.total:
         raise BadInput("no inputs found (scene .json, Guitar Pro, MusicXML, MIDI files or specs)")

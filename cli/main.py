@@ -1,6 +1,7 @@
 """guitar-synth: render scenes and scores to audio, turn scores into scenes, serve HTTP.
 
     guitar-synth render song.gp5 -o song.flac --labels song.jams --tracks 1,3
+    guitar-synth render song.gp5 -o song.wav --stems      (each string in song.stems/)
     guitar-synth scene tune.mid -o tune.json
     guitar-synth serve --port 8000
     guitar-synth batch songs/ dataset.yaml -o out/ [--scheduler tcp://host:8786]
@@ -131,6 +132,11 @@ def build_parser() -> argparse.ArgumentParser:
                       help="scale the peak to -1 dBFS (the default)")
     norm.add_argument("--no-normalize", dest="normalize", action="store_false",
                       help="the fixed gain: loudness follows force")
+    r.add_argument("--stems", action="store_true",
+                   help="also each string's signal before body, pan, effects and mix, one file "
+                        "per string in OUTPUT's name with .stems (song.stems/t1-s6.wav ...; "
+                        "stems.json lists them), at the mix's format and gain: they sum to the "
+                        "dry mix")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
     r.add_argument("-j", "--jobs", type=_jobs, metavar="N",
                    help="threads to compute the strings on (default: the cores this process may "
@@ -418,10 +424,11 @@ CALIBRATING = {"decimation_taps": "designing the decimation filter",
 BLOCK_FRAMES = 16384
 
 
-def render_audio(sc: Any, quiet: bool, jobs: int = 1) -> tuple[Any, float]:
+def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tuple[Any, float]:
     """The scene's audio (frames,) or (frames, 2), scaled as its ``output`` asks, rendered
     block by block on ``jobs`` threads with a progress bar; and the wall time of the render
-    (kernels loaded or compiled first, the preparation included)."""
+    (kernels loaded or compiled first, the preparation included).  ``stems``: a
+    ``cli.stems.StemWriter`` given each block of stems at the fixed gain as it comes."""
     import numpy as np
 
     import engine
@@ -441,7 +448,7 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1) -> tuple[Any, float]:
         calibration_store.on_compute(calibrating)
         try:
             # prepares the instruments: the bar says "preparing"
-            blocks = engine.blocks(sc, BLOCK_FRAMES, jobs=jobs)
+            blocks = engine.blocks(sc, BLOCK_FRAMES, jobs=jobs, stems=stems is not None)
         finally:
             calibration_store.on_compute(None)
         _print_warnings(blocks.warnings, quiet)
@@ -449,7 +456,12 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1) -> tuple[Any, float]:
         bar.reset(total=round(frames / rate, 3))  # the rate and time left count from here
         t1 = time.perf_counter()
         done = 0
+        if stems is not None:
+            stems.start(blocks.stem_layout)
         for block in blocks:
+            if stems is not None:
+                block, strings = block
+                stems.write(strings)
             if not np.all(np.isfinite(block)):
                 raise FloatingPointError("the audio holds non-finite samples")
             audio[done:done + len(block)] = block
@@ -457,8 +469,19 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1) -> tuple[Any, float]:
             elapsed = time.perf_counter() - t1
             bar.set_postfix_str(f"{done / rate / elapsed:.2f}x real time" if elapsed else "")
             bar.update(round(done / rate, 3) - bar.n)
+    if stems is not None and sc.output.normalize:
+        # one gain for the mix and its stems, which puts the loudest at -1 dBFS (as engine.render
+        # with stems): the stems are scaled into place with it
+        velocity = audio / engine.FIXED_GAIN
+        peak = max(float(np.max(np.abs(velocity))) if velocity.size else 0.0,
+                   stems.peak / engine.FIXED_GAIN)
+        gain = engine.output_gain(peak, True)
+        stems.close(gain / engine.FIXED_GAIN)
+        audio = np.multiply(velocity, gain, out=velocity)
+    elif stems is not None:
+        stems.close()  # written at the fixed gain as they came
     seconds = time.perf_counter() - t0
-    if sc.output.normalize:  # blocks come at the fixed gain; normalize as engine.render does
+    if sc.output.normalize and stems is None:  # blocks come at the fixed gain; as engine.render
         audio = engine.to_output_scale(audio / engine.FIXED_GAIN, True)
     return audio, seconds
 
@@ -488,11 +511,26 @@ def cmd_render(args: argparse.Namespace) -> int:
     scene, warnings = load_input(args)
     sc = validate(scene, args.input)
     _print_warnings(warnings, args.quiet, args.warnings)
+    stems = None
+    if args.stems:
+        import engine
+        from cli.stems import StemWriter, stems_folder
+
+        folder = stems_folder(args.output)
+        if folder.exists() and not folder.is_dir():
+            raise BadInput(f"--stems: {folder} exists and is not a folder")
+        # known now at the fixed gain; under normalize only once the whole mix is seen
+        stems = StemWriter(folder, sc.sample_rate, fmt, sc.output.subtype,
+                           None if sc.output.normalize else 1.0, engine.FIXED_GAIN)
     try:
-        audio, seconds = render_audio(sc, args.quiet, args.jobs or _cores())
+        audio, seconds = render_audio(sc, args.quiet, args.jobs or _cores(), stems)
     except FloatingPointError as e:
         raise BadInput(f"{args.input}: the simulation became unstable ({e}); lower the forces or "
                        "use --quality high") from None
+    except BaseException:
+        if stems is not None:
+            stems.abort()
+        raise
     write_audio(args.output, audio, sc.sample_rate, fmt, sc.output.subtype)
     if args.labels:
         write_labels(args.labels, sc, Path(args.input).stem, {"input": Path(args.input).name})
@@ -502,6 +540,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         labels = f" and {args.labels}" if args.labels else ""
         print(f"wrote {args.output}{labels}: {audio_s:.2f} s of audio in {seconds:.2f} s"
               f"{speed}", file=sys.stderr)
+        if stems is not None:
+            clipped = (f"; {stems.clipped} samples clipped at full scale (--no-normalize "
+                       "or a lower force keeps them whole)") if stems.clipped else ""
+            print(f"wrote {len(stems.paths)} stems in {stems.folder}{clipped}", file=sys.stderr)
     return 0
 
 

@@ -21,12 +21,18 @@ the kernels release the GIL, so with ``jobs`` > 1 each block's voices (of all tr
 computed on a pool of that many threads, most costly first (by their cost in the block before), and
 then summed, bodies, effects and faders applied on the calling thread in the same order as with one:
 the samples are the same, bit for bit, whatever ``jobs`` is.
+
+Stems (``Mix.stems``, ``blocks(stems=True)``): each string of each track on its own, its pickup
+velocity before pan, body and effects, times its track's ``gain_db``; their sum is the **dry mix**,
+the scene's mix with every body, pan and effect left out (mono).  Columns in the labels' order:
+track by track, within a track from the lowest string to the highest (``Stem``).
 """
 
 from __future__ import annotations
 
 import time
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,7 +42,7 @@ from .effects import Chain
 from .instrument import Instrument
 from .options import RenderOptions
 from .output import pan_gains
-from .scene import Scene, frame_count
+from .scene import Scene, Stem, frame_count
 
 
 @dataclass
@@ -49,8 +55,14 @@ class Track:
     chain: Chain | None
     gain: float
 
-    def render_frames(self, m: int, voice_frames: list[np.ndarray] | None = None) -> np.ndarray:
-        y = self.instrument.render_frames(m, voice_frames)
+    def render_frames(self, m: int, voice_frames: list[np.ndarray] | None = None,
+                      strings: np.ndarray | None = None) -> np.ndarray:
+        """The track's next ``m`` frames; ``voice_frames``: its voices' frames computed already
+        (``Mix._voice_frames``); ``strings``: its stems (``Instrument.render_frames``), times its
+        gain."""
+        y = self.instrument.render_frames(m, voice_frames, strings)
+        if strings is not None and self.gain != 1.0:
+            strings *= self.gain
         if self.pan is not None:
             y = np.stack((self.pan[0] * y, self.pan[1] * y), axis=1)
         if self.chain is not None:
@@ -73,25 +85,34 @@ class Mix:
     # seconds each voice (in ``voices`` order) took in the block before: the pool's order
     _cost: list[float] = field(default_factory=list, repr=False)
 
-    def blocks(self, block_frames: int | None = None):
-        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block."""
+    def blocks(self, block_frames: int | None = None, stems: bool = False):
+        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block; with
+        ``stems``, (mix, stems) pairs, stems of shape (m, len(self.stems())) in m/s."""
         bf = block_frames or self.tracks[0].instrument.options.block_frames
+        width = len(self.stems()) if stems else 0
         threads = min(self.jobs, len(self.voices))
-        if threads < 2:
+        executor = (ThreadPoolExecutor(threads, thread_name_prefix="guitar-render") if threads >= 2
+                else nullcontext())
+        with executor as pool:
             while self.frame < self.frames:
-                yield self.render_frames(min(bf, self.frames - self.frame))
-            return
-        with ThreadPoolExecutor(threads, thread_name_prefix="guitar-render") as pool:
-            while self.frame < self.frames:
-                yield self.render_frames(min(bf, self.frames - self.frame), pool)
+                m = min(bf, self.frames - self.frame)
+                if stems:
+                    s = np.zeros((m, width))
+                    yield self.render_frames(m, pool, s), s
+                else:
+                    yield self.render_frames(m, pool)
 
-    def render_frames(self, m: int, pool: ThreadPoolExecutor | None = None) -> np.ndarray:
+    def render_frames(self, m: int, pool: ThreadPoolExecutor | None = None,
+                      stems: np.ndarray | None = None) -> np.ndarray:
         """The next ``m`` frames of the mix; with a ``pool``, every voice's frames computed on its
-        threads first."""
+        threads first; ``stems``, (m, len(self.stems())) zeros: filled with the stems."""
         per_track = self._voice_frames(m, pool) if pool is not None else [None] * len(self.tracks)
         mix = None
+        at = 0
         for t, frames in zip(self.tracks, per_track, strict=True):
-            y = t.render_frames(m, frames)
+            n = t.instrument.preset.n_strings
+            y = t.render_frames(m, frames, None if stems is None else stems[:, at:at + n])
+            at += n
             mix = y if mix is None else mix + y
         self.frame += m
         return mix
@@ -115,6 +136,11 @@ class Mix:
             per_track.append(out[k:k + n])
             k += n
         return per_track
+
+    def stems(self) -> list[Stem]:
+        """What each column of the stems holds (``Scene.stems``; a silent string's column is
+        zeros)."""
+        return self.scene.stems()
 
     @property
     def voices(self):

@@ -7,6 +7,7 @@ Every limit below is a documented range, and every violation is reported with th
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -386,6 +387,9 @@ class Output(_Model):
     body: Literal["none", "acoustic", "classical"] | None = Field(
         None, description="body response (default: the preset's)"
     )
+    stems: bool = Field(
+        False, description="also each string's signal before body, pan, effects and mix, at the "
+                           "mix's gain (summed: the dry mix); docs/service.md says how it comes")
 
     @field_validator("pan")
     @classmethod
@@ -426,6 +430,38 @@ class Track(_Model):
     def preset(self) -> Preset:
         """The track's preset with its overrides (and extra strings) applied."""
         return apply_overrides(get_preset(self.guitar.preset), self.guitar)
+
+
+@dataclass(frozen=True)
+class Stem:
+    """One column of a render's stems: ``track`` (0-based, in the scene's order), its ``name``
+    (``""`` when unnamed) and the ``string`` (1 = highest, as the scene numbers strings)."""
+
+    track: int
+    name: str
+    string: int
+
+    @property
+    def label(self) -> str:
+        """``t1-s6``: a stem's file name without its suffix (the front ends')."""
+        return f"t{self.track + 1}-s{self.string}"
+
+
+def stems_index(layout: list[Stem], suffix: str, sample_rate: int, gain: float,
+                clipped: int = 0) -> dict:
+    """``stems.json`` of the front ends: the stems' files in the labels' order (``annotation``:
+    the index of the string's ``note_midi`` annotation in the scene's labels) and the ``gain``
+    (samples per m/s) they share with the mix."""
+    return {
+        "sample_rate": sample_rate,
+        "gain": gain,
+        "clipped_samples": clipped,
+        "about": "each string's pickup velocity before pan, body and effects, times its track's "
+                 "gain_db and this gain (the mix's): summed, the dry mix",
+        "stems": [{"file": f"{s.label}.{suffix}", "track": s.track,
+                   "track_name": s.name or f"track {s.track + 1}", "string": s.string,
+                   "annotation": k} for k, s in enumerate(layout)],
+    }
 
 
 # --- What a converted score says beyond its events (the labels read it; rendering ignores it).
@@ -565,6 +601,14 @@ class Scene(_Model):
             return ""
         name = self.tracks[i].name
         return f"track {i + 1}" + (f" {name!r}" if name else "")
+
+    def stems(self) -> list[Stem]:
+        """What each column of a render's stems holds (``engine.mix``): every string of every
+        track, track by track, the lowest string first (the labels' order, and their name of a
+        lone guitar)."""
+        return [Stem(i, track.name if self.tracks is not None else "guitar", n - k)
+                for i, track in enumerate(self.instruments())
+                for n in (track.preset().n_strings,) for k in range(n)]
 
     def event_count(self) -> int:
         """Events over all tracks (what ``MAX_EVENTS`` and a server's limit count)."""

@@ -506,6 +506,7 @@ class RenderStream:
         self.first_block_seconds = self.render_seconds
         # the engine's warnings come with the first block (or the end of a stream of none)
         self.warnings: list[str] = first[4] if first[0] == "block" else first[2]["warnings"]
+        self.scale: float | None = None  # the samples per m/s, told at the end
 
     async def chunks(self) -> AsyncIterator[bytes]:
         msg = self._first
@@ -516,6 +517,7 @@ class RenderStream:
                 yield msg[2]
             elif kind == "end":
                 self.render_seconds = msg[2]["render_seconds"]
+                self.scale = msg[2].get("scale")
                 return
             else:
                 try:

@@ -159,7 +159,8 @@ async def render_score(
     out = await while_connected(request, pool.render(
         {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
          "sample_rate": sc.sample_rate, "format": sc.output.format,
-         "subtype": sc.output.subtype, "channels": sc.output.channels},
+         "subtype": sc.output.subtype, "channels": sc.output.channels,
+         "name": _ascii(PurePath(name).stem or "score")},
         settings.time_limit_s(sc.duration, estimated_s),
         heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
     audio_s = out.frames / sc.sample_rate
@@ -168,13 +169,15 @@ async def render_score(
     headers = {
         "X-Render-Seconds": seconds(out.render_seconds),
         "X-Realtime-Factor": realtime_factor(audio_s, out.render_seconds),
-        "Content-Disposition": f'inline; filename="{_ascii(stem)}.{sc.output.format}"',
+        "Content-Disposition": 'inline; filename="'
+                               f'{_ascii(stem)}.{"zip" if sc.output.stems else sc.output.format}"',
         **warnings_header(out.warnings),
         **_score_warnings(warnings),
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)
-    return Response(out.data, media_type=audio.MEDIA_TYPES[sc.output.format], headers=headers)
+    return Response(out.data, media_type=audio.media_type(sc.output.format, sc.output.stems),
+                    headers=headers)
 
 
 def _as_score_option(exc: RequestValidationError) -> RequestValidationError:

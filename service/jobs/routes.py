@@ -1,4 +1,4 @@
-"""POST /jobs, GET /jobs/{id}, GET /jobs/{id}/audio, /labels and /stems, DELETE /jobs/{id}.
+"""POST /jobs, GET /jobs/{id}, GET /jobs/{id}/audio, /stream, /labels and /stems, DELETE /jobs/{id}.
 
 A job is a render that outlives its request: the scene (JSON, or a score uploaded as a multipart
 form) is checked and stored at once (202 with a ``Location``), rendered by ``JobRunner`` when a
@@ -7,12 +7,15 @@ worker is free, and its results kept until ``GUITAR_JOB_RETENTION_S`` has passed
 
 from __future__ import annotations
 
+import asyncio
 import json
+import re
+from collections.abc import AsyncIterator
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
 from pydantic import BaseModel, Field, ValidationError
 
 import engine
@@ -244,6 +247,104 @@ async def get_audio(job_id: str, request: Request) -> FileResponse:
     return FileResponse(request.state.jobs.store.audio_path(job),
                         media_type=audio.MEDIA_TYPES[job["format"]],
                         filename=f"{job_id}.{job['format']}")
+
+
+# How often a stream waiting for the render to write more bytes looks at the file again.
+STREAM_POLL_S = 0.1
+_RANGE = re.compile(r"bytes=(\d*)-(\d*)$")
+
+
+def _stream_layout(job: dict[str, Any]) -> tuple[int, str] | None:
+    """(size of the WAV file the job writes as it renders, its subtype), or None when the job's
+    file is rewritten at its end (normalized or converted: ``runner._finalize``)."""
+    scene = json.loads(job["scene"])
+    out = scene.get("output") or {}
+    if job["format"] != "wav" or out.get("normalize", True):
+        return None
+    subtype, channels = out.get("subtype", "PCM_16"), out.get("channels", 1)
+    frames = round(job["duration"] * scene.get("sample_rate", 44100))
+    return audio.wav_size(frames, subtype, channels), subtype
+
+
+@router.get("/jobs/{job_id}/stream", response_class=StreamingResponse, responses={
+    200: {"content": {"audio/wav": {}}, "description": "the whole WAV file, as it is written"},
+    206: {"description": "the bytes a Range header asks for, as they are written"},
+    404: {"description": "no such job"},
+    409: {"description": "the job's file is not written as it renders (normalized or not WAV), "
+                         "or the job failed or was cancelled"},
+    416: {"description": "a Range outside the file"}})
+async def stream_audio(job_id: str, request: Request) -> Response:
+    """The job's audio while it renders: a WAV of known length (``Content-Length``, ``Range``
+    requests answered 206) whose bytes are sent as the render writes them, so that a player can
+    start before the job is done and seek (a seek ahead of the render waits for it). Only for a
+    job of ``output.format`` wav with ``output.normalize: false`` (its bytes, as ``GET
+    /jobs/{id}/audio`` gives them when done, are those of ``POST /render/stream``)."""
+    store = request.state.jobs.store
+    job = _job_or_404(request, job_id)
+    layout = _stream_layout(job)
+    if layout is None:
+        raise _NotReady(f"job {job_id} is not streamed: only a wav job with output.normalize "
+                        "false is written as it renders; GET /jobs/{id}/audio once it is done")
+    if job["status"] in ("failed", "cancelled"):
+        raise _NotReady(f"job {job_id} is {job['status']}"
+                        + (f": {job['error']}" if job["error"] else ""))
+    total, _ = layout
+    start, end = 0, total - 1
+    asked = request.headers.get("range")
+    m = _RANGE.match(asked.strip()) if asked else None
+    if m and (m.group(1) or m.group(2)):
+        if m.group(1):
+            start = int(m.group(1))
+            end = min(int(m.group(2)), total - 1) if m.group(2) else total - 1
+        else:  # the last n bytes
+            start = max(0, total - int(m.group(2)))
+        if start > end:
+            return Response(status_code=416, headers={"Content-Range": f"bytes */{total}"})
+    folder = store.job_dir(job_id)
+    part, final = folder / "stream.wav.part", store.audio_path(job)
+
+    async def body() -> AsyncIterator[bytes]:
+        f = None
+        try:
+            at = start
+            while at <= end:
+                if f is None:  # the render has not begun, or its file was just renamed
+                    for path in (final, part):
+                        try:
+                            f = open(path, "rb")  # noqa: SIM115 - closed in finally
+                            break
+                        except FileNotFoundError:
+                            continue
+                if f is not None:
+                    f.seek(at)
+                    chunk = f.read(min(1 << 16, end + 1 - at))
+                    if chunk:
+                        at += len(chunk)
+                        yield chunk
+                        continue
+                # nothing new: the render is behind, or over (then the file is whole or gone)
+                now = store.get(job_id)
+                if now is None or now["status"] in ("failed", "cancelled"):
+                    return
+                if now["status"] == "done" and f is not None and f.name == str(final):
+                    return  # a file shorter than its header says: nothing more will come
+                if now["status"] == "done" and f is not None:
+                    f.close()
+                    f = None  # renamed into place: read on from the final file
+                    continue
+                # (a client gone cancels this generator: Starlette listens for the disconnect)
+                await asyncio.sleep(STREAM_POLL_S)
+        finally:
+            if f is not None:
+                f.close()
+
+    headers = {"Accept-Ranges": "bytes", "Content-Length": str(end + 1 - start),
+               "Content-Disposition": f'inline; filename="{job_id}.wav"'}
+    if m and (m.group(1) or m.group(2)):
+        headers["Content-Range"] = f"bytes {start}-{end}/{total}"
+        return StreamingResponse(body(), status_code=206, media_type="audio/wav",
+                                 headers=headers)
+    return StreamingResponse(body(), media_type="audio/wav", headers=headers)
 
 
 @router.get("/jobs/{job_id}/labels", response_class=FileResponse, responses={

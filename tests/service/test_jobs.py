@@ -234,3 +234,26 @@ def test_sigterm_leaves_a_running_job_queued_with_its_attempt_uncounted(tmp_path
                                   (job["id"],)).fetchone()
     db.close()
     assert (status, attempts) == ("queued", 0)
+
+
+def test_a_job_streams_its_wav_while_it_renders(jobs_app: AppHarness) -> None:
+    """GET /jobs/{id}/stream, asked for at once (the job still queued): the whole file, the
+    bytes GET /jobs/{id}/audio gives once done; a Range is answered 206 with its slice; a
+    normalized job (its file rewritten at the end) is 409."""
+    scene = chord_scene(0.6, output={"normalize": False})
+    job = jobs_app.post("/jobs", json=scene).json()
+    whole = jobs_app.get(f"/jobs/{job['id']}/stream", timeout=120.0)
+    assert whole.status_code == 200 and whole.headers["accept-ranges"] == "bytes"
+    assert wait_for(jobs_app.get, job["id"])["status"] == "done"
+    assert whole.content == jobs_app.get(f"/jobs/{job['id']}/audio").content
+    part = jobs_app.get(f"/jobs/{job['id']}/stream", headers={"range": "bytes=1000-1999"})
+    assert part.status_code == 206 and part.content == whole.content[1000:2000]
+    assert part.headers["content-range"] == f"bytes 1000-1999/{len(whole.content)}"
+    tail = jobs_app.get(f"/jobs/{job['id']}/stream", headers={"range": "bytes=-10"})
+    assert tail.status_code == 206 and tail.content == whole.content[-10:]
+    bad = jobs_app.get(f"/jobs/{job['id']}/stream", headers={"range": f"bytes={len(whole.content)}-"})
+    assert bad.status_code == 416
+    normalized = jobs_app.post("/jobs", json=chord_scene(0.3)).json()
+    r = jobs_app.get(f"/jobs/{normalized['id']}/stream")
+    assert r.status_code == 409 and "normalize" in r.json()["detail"]
+    assert jobs_app.get("/jobs/nope/stream").status_code == 404

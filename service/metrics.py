@@ -21,7 +21,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 RENDER_PATHS = frozenset({"/render", "/render/stream", "/render/score"})
 _KNOWN = frozenset({"/", "/health", "/limits", "/presets", "/metrics", "/jobs", "/docs",
                     "/openapi.json", *RENDER_PATHS})
-_JOB_PATH = re.compile(r"^/jobs/[^/]+(/audio|/stream|/labels)?$")
+_JOB_PATH = re.compile(r"^/jobs/[^/]+(/audio|/stream|/labels|/stems)?$")
 
 
 def route_label(path: str) -> str:

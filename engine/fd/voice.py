@@ -95,6 +95,9 @@ class Voice:
     energy_q: list = field(default_factory=list)
     energy_p: list = field(default_factory=list)
     _step_block: object = field(default=None, repr=False)  # kernels.entry_point of step_block
+    # every step at which a control acts or changes, sorted, and the controls they are of
+    _changes: np.ndarray = field(default=None, repr=False)
+    _changes_of: object = field(default=None, repr=False)
 
     def __post_init__(self):
         n = self.coefs.n
@@ -205,12 +208,18 @@ class Voice:
 
     def _next_change(self) -> int:
         """The first step from now at which a control acts or changes (a pluck starts or ends, a
-        finger is put down, moves or lifts, a damper comes or goes, a tension breakpoint)."""
+        finger is put down, moves or lifts, a damper comes or goes, a tension breakpoint).  Asked
+        at every decay check, so the steps are sorted once per controls (a live session's
+        ``rebuild`` gives new ones) and looked up by bisection."""
         a = self.ctl.arrays
-        ends = (a.pl_start, a.pl_start + a.pl_len, a.fs_on, a.fs_rel, a.fs_ms, a.fs_me, a.dp_on,
-                a.dp_off, a.tb_step)
-        later = [int(x[x >= self.step].min()) for x in ends if np.any(x >= self.step)]
-        return min(later, default=NEVER)
+        if self._changes_of is not a:
+            self._changes = np.unique(np.concatenate(
+                [np.asarray(x, np.int64) for x in (a.pl_start, a.pl_start + a.pl_len, a.fs_on,
+                                                   a.fs_rel, a.fs_ms, a.fs_me, a.dp_on, a.dp_off,
+                                                   a.tb_step)]))
+            self._changes_of = a
+        i = int(np.searchsorted(self._changes, self.step))  # the first at or after this step
+        return int(self._changes[i]) if i < len(self._changes) else NEVER
 
     def _maybe_sleep(self, peak: float) -> None:
         # As _maybe_stop, until the next change: the string (and any finger resting on it) is

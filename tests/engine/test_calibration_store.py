@@ -181,6 +181,6 @@ def test_a_stored_dispersion_filter_is_the_fitted_one(store):
     finally:
         calibration_store.on_compute(None)
         wg_string.dispersion_filter.cache_clear()
-    assert kinds == ["dispersion_filter"]
+    assert kinds == ["waveguide_dispersion"]
     assert first == again == wg_string._fit_dispersion(*args)
     assert first[1] >= 1 and isinstance(again[1], int)

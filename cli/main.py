@@ -445,10 +445,10 @@ def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> Non
     sf.write(path, np.clip(audio, -1.0, 1.0), rate, format=fmt.upper(), subtype=subtype)
 
 
-def write_labels(path: str, sc: Any, title: str = "") -> None:
+def write_labels(path: str, sc: Any, title: str = "", metadata: dict | None = None) -> None:
     import engine
 
-    engine.scene_labels(sc, title=title).save(path)
+    engine.save_labels(engine.scene_labels(sc, title=title, metadata=metadata), path)
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -466,7 +466,7 @@ def cmd_render(args: argparse.Namespace) -> int:
                        "use --quality high") from None
     write_audio(args.output, audio, sc.sample_rate, fmt, sc.output.subtype)
     if args.labels:
-        write_labels(args.labels, sc, Path(args.input).stem)
+        write_labels(args.labels, sc, Path(args.input).stem, {"input": Path(args.input).name})
     if not args.quiet:
         audio_s = len(audio) / sc.sample_rate
         speed = f", {audio_s / seconds:.2f}x real time" if seconds > 0 else ""

@@ -78,6 +78,7 @@ _LAZY = {
     # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)
     "score_to_scene": "score",
     "scene_labels": "score",
+    "save_labels": "score",
     "ScoreError": "score",
     "SCORE_SUFFIXES": "score",
     "group_warnings": "score",

@@ -440,8 +440,9 @@ TOOL = "guitar-synth engine.score.labels"
 def scene_labels(scene, title: str = "", contour_hop: float | None = CONTOUR_HOP_S,
                  metadata: dict | None = None):
     """The scene's labels as a ``jams.JAMS`` (see the module's docstring for the layout).
-    ``contour_hop``: the pitch contours' frame hop in seconds (None: no contours); ``metadata``:
-    more of the file's provenance for ``sandbox.guitar_synth`` (a dataset item's ``seed`` ...)."""
+    ``title``: the file's title where the score gives none (a scene has none); ``contour_hop``:
+    the pitch contours' frame hop in seconds (None: no contours); ``metadata``: more of the
+    file's provenance for ``sandbox.guitar_synth`` (a dataset item's ``seed`` ...)."""
     import jams
 
     if hasattr(scene, "model_dump"):
@@ -450,7 +451,7 @@ def scene_labels(scene, title: str = "", contour_hop: float | None = CONTOUR_HOP
     info = scene.get("score") or {}
     jam = jams.JAMS()
     jam.file_metadata.duration = duration
-    jam.file_metadata.title = title or info.get("title") or ""
+    jam.file_metadata.title = info.get("title") or title
     jam.file_metadata.artist = info.get("artist") or ""
     jam.sandbox.update(guitar_synth=provenance(scene, metadata))
     strings = _labels(scene, contour_hop)

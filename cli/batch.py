@@ -105,7 +105,7 @@ def describe(sc: Any) -> dict[str, Any]:
     """The manifest's columns that say what an item is, to filter a dataset by: its presets
     (joined by "+" over tracks), string model(s), quality, tuning (each track's strings from the
     lowest, tracks joined by " | "), duration, notes and the articulations they use."""
-    from engine.score.labels import summary
+    from engine import score
 
     tracks = sc.instruments()
     presets, models, tunings = [], [], []
@@ -114,7 +114,7 @@ def describe(sc: Any) -> dict[str, Any]:
         presets.append(t.guitar.preset)
         models.append(t.model or sc.model)
         tunings.append(" ".join(s.note for s in reversed(p.strings)))
-    brief = summary(sc)
+    brief = score.label_summary(sc)
     return {"preset": "+".join(dict.fromkeys(presets)), "model": "+".join(dict.fromkeys(models)),
             "quality": sc.quality, "tuning": " | ".join(tunings), "duration": sc.duration,
             "notes": brief["notes"], "articulations": brief["articulations"]}
@@ -199,11 +199,11 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
                  subtype=subtype)
         row.update(describe(sc))
         if options.get("labels", True):
-            from engine.score import save_labels
+            from engine import score
 
             meta = {"id": item.id, "input": item.input, "seed": item.seed}
             with open(tmp_labels, "w", encoding="utf-8") as f:
-                save_labels(_labels(sc, meta), f)
+                score.save_labels(_labels(sc, meta), f)
             _replace_into(tmp_labels, labels_path)
             row["labels"] = str(labels_path.relative_to(out))
             row["files"].append(row["labels"])

@@ -21,10 +21,11 @@ from ..performance import truncate
 from ..scene import MAX_DURATION_S, MAX_TRACKS
 from .common import MAX_SCORE_BYTES, ScoreError
 from .labels import save_labels, scene_labels, scene_notes
+from .labels import summary as label_summary
 
 __all__ = ["FORMATS", "SCORE_SUFFIXES", "SUFFIXES", "WARNING_MODES", "ScoreError", "ScoreScene",
-           "group_warnings", "save_labels", "scene_labels", "scene_notes", "score_to_scene",
-           "select_warnings"]
+           "group_warnings", "label_summary", "save_labels", "scene_labels", "scene_notes",
+           "score_to_scene", "select_warnings"]
 
 _OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate",
             "all_instruments"}

@@ -379,8 +379,94 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
                          "of this score")
     scene = _assemble(scene_tracks, tracks, planned, strums, warnings)
     scene["score"] = {"title": song.title or "", "artist": song.artist or "",
-                      **timing(song.measureHeaders, order, clock)}
+                      **timing(song.measureHeaders, order, clock),
+                      **harmony(song, order, clock)}
     return scene, planned
+
+
+_MAJOR = ["Cb", "Gb", "Db", "Ab", "Eb", "Bb", "F", "C", "G", "D", "A", "E", "B", "F#", "C#"]
+_MINOR = ["Ab", "Eb", "Bb", "F", "C", "G", "D", "A", "E", "B", "F#", "C#", "G#", "D#", "A#"]
+_NAMES = ["C", "C#", "D", "Eb", "E", "F", "F#", "G", "Ab", "A", "Bb", "B"]
+_DEGREES = ["1", "b2", "2", "b3", "3", "4", "b5", "5", "b6", "6", "b7", "7"]
+_KINDS = {"major": "maj", "seventh": "7", "majorSeventh": "maj7", "sixth": "maj6", "minor": "min",
+          "minorSeventh": "min7", "minorMajor": "minmaj7", "minorSixth": "min6",
+          "suspendedSecond": "sus2", "suspendedFourth": "sus4", "seventhSuspendedSecond": "sus2(b7)",
+          "seventhSuspendedFourth": "sus4(b7)", "diminished": "dim", "augmented": "aug",
+          "power": "5"}
+# a chord name's suffix (after its root) -> JAMS quality, the longest first
+_SUFFIXES = [("maj7", "maj7"), ("m7b5", "hdim7"), ("dim7", "dim7"), ("sus2", "sus2"),
+             ("sus4", "sus4"), ("maj", "maj"), ("min", "min"), ("dim", "dim"), ("aug", "aug"),
+             ("m7", "min7"), ("m6", "min6"), ("m9", "min9"), ("M7", "maj7"), ("m", "min"),
+             ("7", "7"), ("9", "9"), ("6", "maj6"), ("5", "5"), ("+", "aug"), ("", "maj")]
+
+
+def key_name(accidentals: int, minor: bool) -> str | None:
+    """A key signature (sharps > 0, flats < 0) as JAMS ``key_mode``: 'Eb:major', 'F#:minor'."""
+    if not -7 <= accidentals <= 7:
+        return None
+    return f"{(_MINOR if minor else _MAJOR)[accidentals + 7]}:{'minor' if minor else 'major'}"
+
+
+def chord_name(chord) -> str | None:
+    """A Guitar Pro chord (PyGuitarPro's ``Chord``) in JAMS ``chord`` syntax ('A:min7', 'C:maj/3'),
+    from its root and type where the file has them (Guitar Pro 4/5), else from its name ('Am7');
+    None when neither says what it is."""
+    import re
+
+    root = getattr(chord, "root", None)
+    kind = getattr(chord, "type", None)
+    if root is not None and kind is not None and getattr(kind, "name", None) in _KINDS:
+        quality = _KINDS[kind.name]
+        ext = getattr(getattr(chord, "extension", None), "name", "none")
+        if ext in ("ninth", "eleventh", "thirteenth") and kind.name in (
+                "major", "seventh", "majorSeventh", "minor", "minorSeventh"):
+            pre = {"majorSeventh": "maj", "minor": "min", "minorSeventh": "min"}.get(kind.name, "")
+            quality = pre + {"ninth": "9", "eleventh": "11", "thirteenth": "13"}[ext]
+        value = root.value % 12
+        out = f"{_NAMES[value]}:{quality}"
+        bass = getattr(chord, "bass", None)
+        if bass is not None and bass.value % 12 != value:
+            out += "/" + _DEGREES[(bass.value - value) % 12]
+        return out
+    m = re.fullmatch(r"\s*([A-G])([#b]?)(.*?)\s*", chord.name or "")
+    if m is None:
+        return None
+    rest = m.group(3)
+    quality = next((q for suffix, q in _SUFFIXES if rest == suffix), None)
+    return None if quality is None else f"{m.group(1)}{m.group(2)}:{quality}"
+
+
+def harmony(song, order, clock) -> dict:
+    """Key signatures and chord names as played (``ScoreInfo.keys``, ``.chords``): a key where
+    it changes (and at the start), a chord at each beat that names one (in any track; the first
+    track's where two name one at the same time) or at each MusicXML ``<harmony>``."""
+    keys: list[dict] = []
+    chords: dict[float, str] = {}
+    named: dict[int, list[tuple[int, str]]] = {}
+    for m, h in enumerate(song.measureHeaders):
+        for off, label in getattr(h, "chord_names", []):
+            named.setdefault(m, []).append((off, label))
+    for track in song.tracks:
+        if track.isPercussionTrack:
+            continue
+        for m, measure in enumerate(track.measures):
+            for voice in measure.voices:
+                for beat in voice.beats:
+                    chord = beat.effect.chord
+                    label = chord_name(chord) if chord is not None else None
+                    if label is not None:
+                        named.setdefault(m, []).append((beat.start - measure.header.start, label))
+    for k, m in enumerate(order):
+        h = song.measureHeaders[m]
+        sig = getattr(h, "keySignature", None)
+        value = getattr(sig, "value", None)
+        if isinstance(value, tuple) and len(value) == 2:
+            name = key_name(int(value[0]), bool(value[1]))
+            if name is not None and (not keys or keys[-1]["value"] != name):
+                keys.append({"time": _r6(clock.seconds(clock.starts[k])), "value": name})
+        for off, label in named.get(m, []):
+            chords.setdefault(_r6(clock.seconds(clock.starts[k] + off)), label)
+    return {"keys": keys, "chords": [{"time": t, "value": v} for t, v in sorted(chords.items())]}
 
 
 def beat_unit(numerator: int, denominator: int) -> tuple[int, float]:

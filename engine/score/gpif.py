@@ -295,6 +295,7 @@ class _Builder:
         self.voices = _table(root, "Voices", "Voice", C.MAX_BEATS, "voices")
         self.bars = _table(root, "Bars", "Bar", C.MAX_MEASURES * C.MAX_TRACKS, "bars")
         self.beat_count = 0
+        self.chords: dict[str, str] = {}  # the current track's chord diagrams: id -> name
 
     def song(self):
         M, root = self.M, self.root
@@ -349,6 +350,13 @@ class _Builder:
             if 1 <= e <= 8:
                 alt |= 1 << (e - 1)
         h.repeatAlternative = alt
+        key = mb.find("Key")
+        if key is not None:  # (accidentals, minor) as PyGuitarPro's key signatures
+            acc = int(_num(_text(key, "AccidentalCount"), 0))
+            try:
+                h.keySignature = M.KeySignature((acc, int(_text(key, "Mode") == "Minor")))
+            except ValueError:
+                pass
         feel = _text(mb, "TripletFeel")
         if feel in ("Triplet8th", "Triplet16th"):
             h.tripletFeel = M.TripletFeel.eighth if feel == "Triplet8th" else M.TripletFeel.sixteenth
@@ -414,6 +422,9 @@ class _Builder:
         staff = t_el.find("Staves/Staff")
         if staff is not None:
             props = {**props, **_props(staff)}
+        diagrams = props.get("DiagramCollection")
+        self.chords = {i.get("id"): i.get("name") or "" for i in (
+            diagrams.findall("Items/Item") if diagrams is not None else [])}
         tuning = _ints(_text(props.get("Tuning"), "Pitches"))
         capo = int(_num(_text(props.get("CapoFret"), "Fret"), 0))
         program = None
@@ -476,6 +487,9 @@ class _Builder:
                 continue
             beat = M.Beat(voice, start=tick, duration=dur,
                           status=M.BeatStatus.normal if note_els else M.BeatStatus.rest)
+            name = self.chords.get(_text(b_el, "Chord") or None)
+            if name:  # a chord diagram's name (gp.chord_name reads it)
+                beat.effect.chord = M.Chord(n_strings, name=name)
             velocity = _DYNAMICS.get(_text(b_el, "Dynamic"), 95)
             self._beat_effects(beat, b_el, dur)
             for n_el in note_els:

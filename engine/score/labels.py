@@ -398,6 +398,8 @@ def _contour(notes, harmonics, fingers, evs, geo: _Geometry, string: int, rate: 
     bt, br = _ratio_curve(evs, rate, model)
     out: dict = {"time": [], "frequency": [], "index": [], "voiced": []}
     open_pitch = geo.open[string - 1]
+    ons = np.array([f["on"] for f in fingers], float)
+    rels = np.array([f["rel"] for f in fingers], float)
     for i, n in enumerate(notes):
         start, end = n["time"], n["time"] + n["duration"]
         k0, k1 = math.ceil(start / hop - 1e-9), math.ceil(end / hop - 1e-9)
@@ -407,8 +409,16 @@ def _contour(notes, harmonics, fingers, evs, geo: _Geometry, string: int, rate: 
         ratio = np.interp(times, bt, br)
         if model == "fdtd":
             ratio = np.sqrt(ratio)
-        mine = [f for f in fingers if f["on"] < end and f["rel"] > start]
-        stops = np.array([_stop(mine, geo, string, float(t)) for t in times])
+        stops = np.zeros(len(times))
+        for j in np.nonzero((ons < end) & (rels > start))[0]:
+            fg = fingers[j]
+            down = (times >= fg["on"]) & (times < fg["rel"])
+            q = np.full(len(times), float(fg["fret"]))
+            if fg["slide"] is not None:  # fret by fret while it moves
+                q[:] = fg["slide"][3]
+                for j in np.nonzero(down & (times < fg["slide"][1]))[0]:
+                    q[j] = _stop([fg], geo, string, float(times[j]))
+            stops = np.maximum(stops, np.where(down, q, 0.0))
         f = 440.0 * 2.0 ** ((open_pitch + harmonics[i] + stops - 69.0) / 12.0) * ratio
         out["time"] += [round(float(t), 6) for t in times]
         out["frequency"] += [round(float(x), 3) for x in f]
@@ -430,8 +440,9 @@ TOOL = "guitar-synth engine.score.labels"
 def scene_labels(scene, title: str = "", contour_hop: float | None = CONTOUR_HOP_S,
                  metadata: dict | None = None):
     """The scene's labels as a ``jams.JAMS`` (see the module's docstring for the layout).
-    ``contour_hop``: the pitch contours' frame hop in seconds (None: no contours); ``metadata``:
-    more of the file's provenance for ``sandbox.guitar_synth`` (a dataset item's ``seed`` ...)."""
+    ``title``: the file's title where the score gives none (a scene has none); ``contour_hop``:
+    the pitch contours' frame hop in seconds (None: no contours); ``metadata``: more of the
+    file's provenance for ``sandbox.guitar_synth`` (a dataset item's ``seed`` ...)."""
     import jams
 
     if hasattr(scene, "model_dump"):
@@ -440,7 +451,7 @@ def scene_labels(scene, title: str = "", contour_hop: float | None = CONTOUR_HOP
     info = scene.get("score") or {}
     jam = jams.JAMS()
     jam.file_metadata.duration = duration
-    jam.file_metadata.title = title or info.get("title") or ""
+    jam.file_metadata.title = info.get("title") or title
     jam.file_metadata.artist = info.get("artist") or ""
     jam.sandbox.update(guitar_synth=provenance(scene, metadata))
     strings = _labels(scene, contour_hop)
@@ -523,9 +534,10 @@ def provenance(scene: dict, metadata: dict | None = None) -> dict:
 
 
 def _score_annotations(jam, info: dict | None, duration: float) -> None:
-    """``beat`` (value: the beat's place in its bar, 1 = downbeat, as GuitarSet) and ``tempo``
-    (quarter notes per minute over each stretch of constant tempo, confidence 1) of a converted
-    score's bars and beats (``engine.scene.ScoreInfo``); nothing for a scene written by hand."""
+    """``beat`` (value: the beat's place in its bar, 1 = downbeat, as GuitarSet), ``tempo``
+    (quarter notes per minute over each stretch of constant tempo, confidence 1), ``key_mode``
+    and ``chord`` (each until the next) of a converted score (``engine.scene.ScoreInfo``);
+    nothing for a scene written by hand."""
     import jams
 
     if not info:
@@ -540,13 +552,17 @@ def _score_annotations(jam, info: dict | None, duration: float) -> None:
         for t, p in beats:
             ann.append(time=float(t), duration=0.0, value=int(p), confidence=None)
         jam.annotations.append(ann)
-    tempo = [m for m in info.get("tempo") or [] if m["time"] < duration]
-    if tempo:
-        ann = jams.Annotation(namespace="tempo", time=0.0, duration=duration)
+    for namespace, key, field, confidence in (("tempo", "tempo", "bpm", 1.0),
+                                              ("key_mode", "keys", "value", None),
+                                              ("chord", "chords", "value", None)):
+        marks = [m for m in info.get(key) or [] if m["time"] < duration]
+        if not marks:
+            continue
+        ann = jams.Annotation(namespace=namespace, time=0.0, duration=duration)
         ann.annotation_metadata.annotation_tools = tool
         ann.annotation_metadata.data_source = "score"
-        for k, m in enumerate(tempo):
-            end = tempo[k + 1]["time"] if k + 1 < len(tempo) else duration
+        for k, m in enumerate(marks):  # each lasts until the next
+            end = marks[k + 1]["time"] if k + 1 < len(marks) else duration
             ann.append(time=float(m["time"]), duration=max(float(end - m["time"]), 0.0),
-                       value=float(m["bpm"]), confidence=1.0)
+                       value=m[field], confidence=confidence)
         jam.annotations.append(ann)

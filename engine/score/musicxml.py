@@ -121,9 +121,11 @@ def to_song(root, warnings: list[str]):
     start = Q
     divisions = 1
     beats_n, beat_type = 4, 4
+    key = None
     for k in range(n_measures):
         m = first[k] if k < len(first) else None
         h = M.MeasureHeader(number=k + 1, start=start)
+        h.chord_names = []  # (tick in the bar, JAMS chord) of its <harmony> (gp.harmony)
         length = 0
         pos = 0
         if m is not None:
@@ -133,6 +135,12 @@ def to_song(root, warnings: list[str]):
                     if el.find("time") is not None:
                         beats_n = int(_f(_t(el, "time/beats").split("+")[0], 4)) or 4
                         beat_type = int(_f(_t(el, "time/beat-type"), 4)) or 4
+                    if el.find("key/fifths") is not None:
+                        key = (int(_f(_t(el, "key/fifths"), 0)), int(_t(el, "key/mode") == "minor"))
+                elif el.tag == "harmony":
+                    label = _harmony(el)
+                    if label is not None:
+                        h.chord_names.append((round(pos * Q / divisions), label))
                 elif el.tag in ("note", "backup", "forward"):
                     if el.tag == "note" and (el.find("grace") is not None or
                                              el.find("chord") is not None):
@@ -177,6 +185,11 @@ def to_song(root, warnings: list[str]):
             num = quarters * den / 4
         h.timeSignature = M.TimeSignature(numerator=max(int(num), 1),
                                           denominator=M.Duration(value=den))
+        if key is not None:
+            try:
+                h.keySignature = M.KeySignature(key)
+            except ValueError:
+                pass
         headers.append(h)
         start += h.length
     song.measureHeaders = headers
@@ -422,3 +435,32 @@ def parse_song(data: bytes, warnings: list[str]):
     except (ValueError, TypeError, KeyError, IndexError, AttributeError, ZeroDivisionError) as exc:
         raise ScoreError(f"MusicXML score is malformed: {type(exc).__name__}: {exc}"[:300]) \
             from None
+
+
+_HARMONY_KINDS = {
+    "major": "maj", "minor": "min", "augmented": "aug", "diminished": "dim", "dominant": "7",
+    "major-seventh": "maj7", "minor-seventh": "min7", "diminished-seventh": "dim7",
+    "augmented-seventh": "aug7", "half-diminished": "hdim7", "major-minor": "minmaj7",
+    "major-sixth": "maj6", "minor-sixth": "min6", "dominant-ninth": "9", "major-ninth": "maj9",
+    "minor-ninth": "min9", "dominant-11th": "11", "major-11th": "maj11", "minor-11th": "min11",
+    "dominant-13th": "13", "major-13th": "maj13", "minor-13th": "min13",
+    "suspended-second": "sus2", "suspended-fourth": "sus4", "power": "5"}
+
+
+def _harmony(el) -> str | None:
+    """A ``<harmony>`` chord symbol in JAMS ``chord`` syntax ('Bb:min7', 'C:maj/3'); None for a
+    kind JAMS has no name for (or 'none')."""
+    from .gp import _DEGREES, _NAMES
+
+    step = _t(el, "root/root-step")
+    quality = _HARMONY_KINDS.get(_t(el, "kind"))
+    if step not in _STEPS or quality is None:
+        return None
+    root = (_STEPS[step] + int(_f(_t(el, "root/root-alter"), 0))) % 12
+    out = f"{_NAMES[root]}:{quality}"
+    bass = _t(el, "bass/bass-step")
+    if bass in _STEPS:
+        b = (_STEPS[bass] + int(_f(_t(el, "bass/bass-alter"), 0))) % 12
+        if b != root:
+            out += "/" + _DEGREES[(b - root) % 12]
+    return out

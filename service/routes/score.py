@@ -211,9 +211,10 @@ def _ascii(text: str) -> str:
 @labels_router.post(
     "/scene/labels",
     responses={
-        200: {"description": "JAMS (JSON) in GuitarSet's layout: one note_midi annotation per "
-                             "string of each track; each note's track, string, fret and "
-                             "articulations in the annotation's sandbox.notes",
+        200: {"description": "JAMS (JSON) in GuitarSet's layout: one note_midi and one "
+                             "pitch_contour annotation per string of each track (each note's "
+                             "fret and articulations in the note_midi sandbox.notes); beat, "
+                             "tempo, key_mode and chord from the scene's score",
               "content": {"application/json": {}}},
         **{k: v for k, v in ERROR_RESPONSES.items() if k != 502},
     },

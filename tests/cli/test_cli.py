@@ -270,6 +270,11 @@ def test_render_a_guitar_pro_file_with_labels(tmp_path: Path) -> None:
     notes = sorted((o.time, o.value) for a in jam.search(namespace="note_midi") for o in a.data)
     open_midi = dict(enumerate(STANDARD_TUNING, 1))
     assert notes == [(pytest.approx(0.5 * i), open_midi[s] + f) for i, (s, f) in enumerate(NOTES)]
+    made = jam.sandbox.guitar_synth  # what made the audio, in the file
+    assert (made["source"], made["format"], made["input"]) == ("s.gp5", "gp", "s.gp5")
+    assert (made["model"], made["quality"], made["tracks"][0]["tuning"][0]) == ("fdtd", "draft",
+                                                                                 "E4")
+    assert jam.file_metadata.title == "s" and jam.search(namespace="pitch_contour")
 
 
 def test_scene_of_a_midi_file_gets_strings_and_frets(tmp_path: Path) -> None:

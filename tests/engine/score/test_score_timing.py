@@ -98,3 +98,44 @@ def test_midi_beats_are_pretty_midis():
     downs = [t for t, p in zip(info["beats"], info["beat_positions"], strict=True) if p == 1]
     assert downs == pytest.approx(info["bars"][:len(downs)])
     assert info["tempo"][0]["bpm"] == pytest.approx(2 * pm.get_tempo_changes()[1][0], rel=1e-4)
+
+
+def _corpus(sub: str, name: str) -> str:
+    path = os.path.join(CORPUS, sub, name)
+    if not os.path.exists(path):
+        pytest.skip("score corpus not fetched (make test-data)")
+    return path
+
+
+def test_keys_and_chords_of_guitar_pro_and_musicxml(tmp_path):
+    gp5 = score_to_scene(_corpus("gp", "Chords.gp5"), all_instruments=True)
+    names = [c["value"] for c in gp5["score"]["chords"]]
+    assert names[:6] == ["C:maj", "C:maj", "C:7", "C:5", "C:9", "C:9"]  # C, C, C7, C5, C9, C9-
+    # the same chords read from a Guitar Pro 3 file, which has their names only
+    gp3 = score_to_scene(_corpus("gp", "Chords.gp3"), all_instruments=True)
+    assert [c["value"] for c in gp3["score"]["chords"]] == names
+    demo = score_to_scene(_corpus("gp", "Demo v5.gp5"))["score"]
+    assert [k["value"] for k in demo["keys"]] == ["C:major", "Bb:major"]
+    keys = score_to_scene(_corpus("musicxml", "13a-KeySignatures.xml"), all_instruments=True)
+    assert [k["value"] for k in keys["score"]["keys"]][:4] == ["Cb:major", "Ab:minor", "Gb:major",
+                                                               "Eb:minor"]
+    kinds = score_to_scene(_corpus("musicxml", "71f-AllChordTypes.xml"), all_instruments=True)
+    assert [c["value"] for c in kinds["score"]["chords"]][:5] == ["C:maj", "C:min", "C:aug",
+                                                                  "C:dim", "C:7"]
+    for scene in (gp5, keys, kinds):
+        path = tmp_path / "x.jams"
+        scene_labels(scene, contour_hop=None).save(str(path))
+        jam = jams.load(str(path))  # the JAMS key_mode and chord grammars
+        (ann,) = jam.search(namespace="key_mode")
+        assert ann.data[0].value == scene["score"]["keys"][0]["value"]
+    assert len(jam.search(namespace="chord")[0].data) == len(kinds["score"]["chords"])
+
+
+@pytest.mark.skipif(not os.environ.get("GUITAR_GPIF_CORPUS"),
+                    reason="GUITAR_GPIF_CORPUS names no folder of real .gpx/.gp files")
+def test_chord_diagrams_of_a_guitar_pro_7_file():
+    path = os.path.join(os.environ["GUITAR_GPIF_CORPUS"], "guitarpro7", "chords.gp")
+    if not os.path.exists(path):
+        pytest.skip("alphaTab's guitarpro7/chords.gp is not in GUITAR_GPIF_CORPUS")
+    info = score_to_scene(path, all_instruments=True)["score"]
+    assert [c["value"] for c in info["chords"]] == ["C:maj", "C:min"] * 2 + ["D:maj", "D:min"] * 2

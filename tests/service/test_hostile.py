@@ -21,6 +21,7 @@ from svc_helpers import brief, decode, heavy_scene, pluck_scene, same_bytes
 import engine
 from service.config import Settings
 from service.validation import check_limits
+from tests.score_files import small_midi
 
 
 @pytest.fixture(scope="module")
@@ -164,31 +165,46 @@ def test_a_scene_over_the_cost_budget_is_refused_with_what_would_fit(client, sce
 
 # ---- a client that leaves stops costing ----------------------------------------------------------
 
-def _send_and_leave(url: str, path: str, scene: dict) -> None:
+def _send(url: str, path: str, scene: dict) -> socket.socket:
+    """A request sent on a socket of its own, whose answer is never read (close it to leave)."""
     host, port = url.removeprefix("http://").split(":")
-    body = json.dumps(scene).encode()
-    with socket.create_connection((host, int(port))) as s:
-        s.sendall(f"POST {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: application/json\r\n"
-                  f"Content-Length: {len(body)}\r\n\r\n".encode() + body)
-        time.sleep(0.05)
+    if path.endswith("+score"):  # the score form of /render/score or /jobs: its import queues
+        request = httpx.Request("POST", url + path.removesuffix("+score"),
+                                files={"file": ("s.mid", small_midi(), "audio/midi")})
+        body = request.read()
+        head = "".join(f"{k}: {v}\r\n" for k, v in request.headers.items())
+        start = f"POST {path.removesuffix('+score')} HTTP/1.1\r\n{head}\r\n"
+    else:
+        body = json.dumps(scene).encode()
+        start = (f"POST {path} HTTP/1.1\r\nHost: {host}\r\nContent-Type: application/json\r\n"
+                 f"Content-Length: {len(body)}\r\n\r\n")
+    s = socket.create_connection((host, int(port)))
+    s.sendall(start.encode() + body)
+    return s
 
 
 @pytest.fixture(scope="module")
 def all_heavy_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[UvicornServer]:
     """Two workers that any render may hold (no heavy class): to fill both with long renders."""
-    s = UvicornServer(tmp_path_factory.mktemp("allheavy"), {
-        "GUITAR_WORKERS": "2", "GUITAR_HEAVY_RENDER_S": "1000"}).start()
+    tmp = tmp_path_factory.mktemp("allheavy")
+    s = UvicornServer(tmp, {"GUITAR_WORKERS": "2", "GUITAR_HEAVY_RENDER_S": "1000",
+                            "GUITAR_DATA_DIR": str(tmp / "data")}).start()
     yield s
     s.stop()
 
 
-@pytest.mark.parametrize("path", ["/render/stream", "/render"])
+@pytest.mark.parametrize("path", ["/render/stream", "/render", "/render/score+score",
+                                  "/jobs+score"])
 def test_requests_abandoned_while_queued_stop_costing(all_heavy_server, path) -> None:
+    """A score's import waits in the same queue: /render/score and a score job whose client left
+    leave it too (and no job is made of them)."""
     server = all_heavy_server
     client = httpx.Client(base_url=server.url, timeout=60)
     busy = [heavy_scene(4.0 + 0.001 * i) for i in range(2)]  # seconds of work each
-    blocker = [client.build_request("POST", "/render", json=s) for s in busy]
-    with client, httpx.Client(base_url=server.url, timeout=60) as other:
+    # the blockers' own timeout: minutes on a busy machine
+    other = httpx.Client(base_url=server.url, timeout=300)
+    blocker = [other.build_request("POST", "/render", json=s) for s in busy]
+    with client, other:
         import threading
 
         results = []
@@ -197,18 +213,23 @@ def test_requests_abandoned_while_queued_stop_costing(all_heavy_server, path) ->
         for t in threads:
             t.start()
         wait_ready(lambda: client.get("/health").json()["pool"]["busy"] == 2, 30)
-        for i in range(6):  # queued behind the two, then abandoned
-            _send_and_leave(server.url, path, heavy_scene(4.0 + 0.01 * (i + 1)))
-        assert client.get("/health").json()["pool"]["in_flight"] >= 4
+        # six queued behind the two (all of them: the queue holds 8), then abandoned together
+        socks = [_send(server.url, path, heavy_scene(4.0 + 0.01 * (i + 1))) for i in range(6)]
+        wait_ready(lambda: client.get("/health").json()["pool"]["in_flight"] == 8, 10)
+        for s in socks:
+            s.close()
         # they leave the queue within a few disconnect polls, long before the workers are free
         wait_ready(lambda: client.get("/health").json()["pool"]["in_flight"] <= 2, 5)
         assert client.get("/health").json()["pool"]["busy"] == 2  # the blockers still run
         for t in threads:
-            t.join(60)
+            t.join(300)
         assert sorted(r.status_code for r in results) == [200, 200]
         t0 = time.monotonic()
         wait_ready(lambda: client.get("/health").json()["pool"]["busy"] == 0, 10)
         assert time.monotonic() - t0 < 1.0  # nothing of theirs is rendered after
+        jobs = [ln for ln in client.get("/metrics").text.splitlines()
+                if ln.startswith("guitar_jobs{")]
+        assert jobs and all(ln.endswith(" 0.0") for ln in jobs), jobs  # no job made of them
 
 
 # ---- heavy renders leave a worker to small ones --------------------------------------------------

@@ -211,15 +211,14 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
 
 
 def _check_label_limits(scene: engine.Scene, settings: Any) -> None:
-    """Labelling renders no audio, so a scene as long as a job may render is labelled (the demo
-    page shows the tab of a whole song before and while it renders); its events are bounded by
-    ``GUITAR_MAX_SCORE_EVENTS``."""
+    """Labelling renders no audio, so a scene as long and as large as a job may render is labelled
+    (the demo page shows the tab of a whole song before and while it renders as a job)."""
     if scene.duration > settings.job_max_duration_s:
         raise form_error("duration", f"Input should be less than or equal to "
                          f"{settings.job_max_duration_s:g} (service limit "
                          "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", scene.duration)
-    if scene.event_count() > settings.max_score_events:
+    if scene.event_count() > settings.job_max_events:
         raise form_error("tracks" if scene.tracks is not None else "events",
-                         f"List should have at most {settings.max_score_events} items (service "
-                         f"limit GUITAR_MAX_SCORE_EVENTS, counted over all tracks), not "
+                         f"List should have at most {settings.job_max_events} items (service "
+                         f"limit GUITAR_JOB_MAX_EVENTS, counted over all tracks), not "
                          f"{scene.event_count()}", "too_long", scene.event_count())

@@ -6,13 +6,12 @@ store and with the calibrations on disk (``engine.calibration_store``).
 
     python -m benchmarks.calibration
 
-Each figure is the wall time of ``engine.fd.instrument.prepare`` (``engine.waveguide.prepare`` for the
-waveguide) in a new Python process (the numba kernels already compiled and cached, as in a warm
-service).  A store that starts empty is filled by the first run, a single one; the warm runs read
-it, and their figure is the best of ``--repeat``.  A live worker prepares a guitar, rate and
-quality (and model) it has not seen before in its loop, so the empty-store figure is how long its
-other sessions stall when a session opens on one on a new machine.
-"""
+Each figure is the wall time of ``engine.models.prepare`` (the scene's model) in a new Python
+process (the numba kernels already compiled and cached, as in a warm service). A store that starts
+empty is filled by the first run, a single one; the warm runs read it, and their figure is the best
+of ``--repeat``. A live worker prepares a guitar, rate and quality (and model) it has not seen
+before in its loop, so the empty-store figure is how long its other sessions stall when a session
+opens on one on a new machine. """
 
 from __future__ import annotations
 
@@ -28,19 +27,15 @@ from engine.scene import MODELS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 
 CHILD = r"""
 import sys, time
-from engine import waveguide
+from engine.models import prepare
 from engine.scene import Scene
-from engine.fd.instrument import prepare
 from engine.options import RenderOptions
 preset, rate, quality, model = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 sc = Scene.model_validate({"duration": 0.1, "sample_rate": rate, "events": [],
                            "quality": quality, "guitar": {"preset": preset}, "model": model})
 opts = RenderOptions(live_grid=True, skip_silent=False)
 t = time.perf_counter()
-if model == "waveguide":
-    waveguide.prepare(sc, waveguide.options_from(opts))
-else:
-    prepare(sc, opts)
+prepare(sc, opts)  # engine.models: the scene's model
 print(time.perf_counter() - t)
 """
 

@@ -63,11 +63,11 @@ import engine
 import engine.fd.instrument
 import engine.fd.kernels
 import engine.fd.string
+import engine.models
 import engine.waveguide
 from benchmarks.accuracy import ENERGY_SCENES
 from benchmarks.intonation import FRETS, worst
 from engine.analysis import cents, decay_db_per_s, partials, spectrum_peak
-from engine.fd.instrument import prepare
 from engine.fd.voice import string_model
 from engine.options import QUALITY, Quality, RenderOptions
 from engine.presets import PRESETS, get_preset
@@ -252,14 +252,10 @@ class Study:
 
 
 def prepare_for(st: Study, cfg: Config, sc: dict, **kw):
-    """The scene's guitar on the configuration's model: ``engine.fd.instrument.prepare``, or
-    ``engine.waveguide.prepare`` with the options the two models share
-    (``engine.waveguide.options_from``)."""
-    options = st.options(cfg, **kw)
-    if cfg.model == "waveguide":
-        return engine.waveguide.prepare(Scene.model_validate({**sc, "model": "waveguide"}),
-                                        engine.waveguide.options_from(options))
-    return prepare(Scene.model_validate(sc), options)
+    """The scene's guitar on the configuration's model (``engine.models.prepare``; the waveguide
+    reads the options the two models share, ``engine.waveguide.options_from``)."""
+    scene = Scene.model_validate({**sc, "model": cfg.model})
+    return engine.models.prepare(scene, st.options(cfg, **kw))
 
 
 def render(st: Study, cfg: Config, sc: dict, probe=None, diagnostics: bool = False):
@@ -366,7 +362,7 @@ def job_spectral(name: str, key: str, st: Study):
 
 
 def job_energy(name: str, st: Study):
-    if BY_NAME[name].model == "waveguide":  # no discrete energy balance (WaveguideInstrument)
+    if not engine.models.TRAITS[BY_NAME[name].model].energy_balance:
         return ("energy", name, None), math.nan
     r = engine.render(st.energy, diagnostics=True, options=st.options(BY_NAME[name]))
     return ("energy", name, None), r.energy_error
@@ -702,7 +698,7 @@ def tables(st: Study, rows: dict, configs: list[Config], ref_check: dict, noise:
                    if c.name != "standard" and dominates(rows[c.name], std, 0.0)]
         notes.append("configurations cheaper than standard by any amount and more accurate "
                      f"(5 m/s taps excluded): {', '.join(cheaper) if cheaper else 'none'}.")
-    for c in configs:
+    for c in configs if not brief else []:  # the docs' copy leaves out who dominates whom
         by = [d.name for d in configs
               if d.name != c.name and dominates(rows[d.name], rows[c.name], margin)]
         if by:
@@ -782,7 +778,7 @@ def grids(configs: list[Config], rates=(22050, 32000, 44100, 48000, 88200, 96000
     """Each configuration's oversampling factor for every string with a finger on it, on every
     preset at each rate, plain and on the live grid: where two configurations' rows are equal,
     they render the same samples (no scene of the study bends a string).  No rendering."""
-    configs = [c for c in configs if c.model == "fdtd"]  # the waveguide has no grid factor
+    configs = [c for c in configs if engine.models.TRAITS[c.model].grid]  # a grid factor
     head = ["preset", "sample rate", "grid", *[c.name for c in configs], "same"]
     body = []
     for preset in sorted(PRESETS):

@@ -110,7 +110,7 @@ def label_notes(jam) -> list[Note]:
             notes.append(Note(int(ann.sandbox.track), float(obs.time),
                               float(obs.time + obs.duration), float(obs.value),
                               tuple(info.get("articulations") or ()),
-                              int(info.get("string") or 0), int(info.get("fret") or 0)))
+                              int(ann.sandbox.string), int(info.get("fret") or 0)))
     return sorted(notes, key=lambda n: (n.start, n.pitch))
 
 

@@ -79,6 +79,7 @@ import numpy as np
 import engine
 from benchmarks.pareto import spectral_error_db
 from engine.analysis import cents, decay_db_per_s, spectrum_peak
+from engine.models import PRESSED_STRING
 from engine.options import QUALITY, RenderOptions
 from engine.testing.scenes import CG_CHORD, SR, fret, pluck, scene, strum_scene
 from engine.waveguide import WaveguideOptions, prepare
@@ -106,7 +107,7 @@ def cpu(fn) -> tuple[float, np.ndarray]:
 def renderer(sc: dict, model: str, options=None):
     if model == "wg":
         parsed = engine.parse_scene({**sc, "model": "waveguide"})
-        return lambda: wg_render(parsed, options)
+        return lambda: wg_render(parsed, options, statics=PRESSED_STRING)
     opts = options or RenderOptions()
     return lambda: engine.render({**sc, "output": {"body": "none", "normalize": False}},
                                  options=opts) / engine.FIXED_GAIN
@@ -251,7 +252,7 @@ def main() -> None:
                 f = STEEL.strings[s - 1].frequency_hz * 2 ** (q / 12)
                 sc = engine.parse_scene({**scene([fret(s, q), pluck(s, time=0.05)], 1.2),
                                          "model": "waveguide"})
-                inst = prepare(sc, opts)
+                inst = prepare(sc, opts, statics=PRESSED_STRING)
                 a = np.concatenate(list(inst.blocks()))
                 errs.append(pitch(a, f))
             print(f"  string {s}: " + " ".join(f"{e:+.1f}" for e in errs))

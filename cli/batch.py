@@ -7,9 +7,10 @@
 INPUTS are scene ``.json`` files, Guitar Pro ``.gp3``-``.gp5``, ``.gpx``, ``.gp`` and MIDI files,
 folders (searched recursively for those), and dataset specs (``cli.dataset``: YAML, or JSON with a
 top-level ``dataset``), each of which stands for ``count`` drawn scenes.  OUT_DIR receives
-``audio/ID.wav`` (or ``.flac``), ``labels/ID.jams`` and ``manifest.parquet`` (or ``.csv``): one row
-per item with its input, seed, outputs, audio seconds, render seconds, energy error, status and
-error.
+``audio/ID.wav`` (or ``.flac``), ``labels/ID.jams``, with ``--stems`` ``stems/ID/`` (each string's
+file and ``stems.json``, as ``render --stems``: ``cli.stems``) and ``manifest.parquet`` (or ``.csv``):
+one row per item with its input, seed, outputs, audio seconds, render seconds, energy error, status
+and error.
 
 Each item is one Dask task that renders a whole scene or song (``render_item``).  A task writes its
 files as ``NAME.part`` and renames them into place, then returns its manifest row; only the client
@@ -46,7 +47,10 @@ from cli.common import EXIT_BAD_INPUT, SCENE_SUFFIXES, SCORE_SUFFIXES, BadInput,
 SPEC_SUFFIXES = (".yaml", ".yml")
 MANIFEST_INTERVAL_S = 5.0
 COLUMNS = ("id", "input", "seed", "input_hash", "audio", "labels", "audio_seconds",
-           "render_seconds", "energy_error", "status", "error", "warnings")
+           "render_seconds", "energy_error", "status", "error", "warnings", "content", "preset",
+           "model", "quality", "tuning", "duration", "notes", "articulations", "files", "stems")
+LIST_COLUMNS = ("articulations", "files")  # lists in parquet; joined by ";" in CSV
+CONTENT = {"scene": "scene", "score": "score", "drawn": "dataset"}
 
 
 @dataclass
@@ -91,15 +95,29 @@ def _score_scene(data: bytes, options: dict) -> tuple[dict, list[str]]:
     return dict(r), list(getattr(r, "warnings", []))
 
 
-def _labels(scene: Any):
-    import engine
+def _labels(scene: Any, metadata: dict):
+    from engine import score
 
-    f = getattr(engine, "scene_labels", None)
-    if f is None:  # before engine re-exports it
-        from engine import score
+    return score.scene_labels(scene, metadata=metadata)
 
-        f = score.scene_labels
-    return f(scene)
+
+def describe(sc: Any) -> dict[str, Any]:
+    """The manifest's columns that say what an item is, to filter a dataset by: its presets
+    (joined by "+" over tracks), string model(s), quality, tuning (each track's strings from the
+    lowest, tracks joined by " | "), duration, notes and the articulations they use."""
+    from engine.score.labels import summary
+
+    tracks = sc.instruments()
+    presets, models, tunings = [], [], []
+    for t in tracks:
+        p = t.preset()
+        presets.append(t.guitar.preset)
+        models.append(t.model or sc.model)
+        tunings.append(" ".join(s.note for s in reversed(p.strings)))
+    brief = summary(sc)
+    return {"preset": "+".join(dict.fromkeys(presets)), "model": "+".join(dict.fromkeys(models)),
+            "quality": sc.quality, "tuning": " | ".join(tunings), "duration": sc.duration,
+            "notes": brief["notes"], "articulations": brief["articulations"]}
 
 
 def _one_line(exc: BaseException) -> str:
@@ -125,7 +143,8 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
 
     out = Path(out_dir)
     row: dict[str, Any] = {"id": item.id, "input": item.input, "seed": item.seed,
-                           "input_hash": item.input_hash, "status": "failed", "warnings": 0}
+                           "input_hash": item.input_hash, "status": "failed", "warnings": 0,
+                           "content": CONTENT.get(item.kind, item.kind), "files": []}
     if item.error:
         row["error"] = item.error
         return row
@@ -134,6 +153,7 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
     labels_path = out / "labels" / f"{item.id}.jams"
     tmp_audio = audio_path.with_name(audio_path.name + ".part")
     tmp_labels = labels_path.with_name(labels_path.name + ".part")
+    stems = None
     try:
         warnings: list[str] = []
         if item.kind == "score":
@@ -160,8 +180,15 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
         if max_s and scene.get("duration", 0) > max_s:
             engine.truncate(scene, max_s)
         sc = engine.parse_scene(scene)
+        if options.get("stems"):
+            from cli.stems import StemWriter
+
+            # written as they come (at the fixed gain) or spilled until the gain is known
+            stems = StemWriter(out / "stems" / item.id, sc.sample_rate, fmt, sc.output.subtype,
+                               None if sc.output.normalize else engine.FIXED_GAIN)
+            stems.start(sc.stems())
         t0 = time.perf_counter()
-        result = engine.render_result(sc)
+        result = engine.render_result(sc, on_stems=None if stems is None else stems.write)
         seconds = time.perf_counter() - t0
         x = np.asarray(result.audio)
         if not np.all(np.isfinite(x)):
@@ -170,12 +197,23 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
             "PCM_16" if sc.output.subtype == "PCM_16" else "PCM_24")
         sf.write(tmp_audio, np.clip(x, -1.0, 1.0), sc.sample_rate, format=fmt.upper(),
                  subtype=subtype)
+        row.update(describe(sc))
         if options.get("labels", True):
-            with open(tmp_labels, "w", encoding="utf-8") as f:  # jams reads a name's suffix
-                _labels(sc).save(f)
+            from engine.score import save_labels
+
+            meta = {"id": item.id, "input": item.input, "seed": item.seed}
+            with open(tmp_labels, "w", encoding="utf-8") as f:
+                save_labels(_labels(sc, meta), f)
             _replace_into(tmp_labels, labels_path)
             row["labels"] = str(labels_path.relative_to(out))
+            row["files"].append(row["labels"])
+        if stems is not None:
+            stems.close(result.gain)
+            row["stems"] = str(stems.folder.relative_to(out))
+            row["files"].append(f"{row['stems']}/stems.json")
+            stems = None
         _replace_into(tmp_audio, audio_path)
+        row["files"].insert(0, str(audio_path.relative_to(out)))
         row.update(status="done", audio=str(audio_path.relative_to(out)),
                    audio_seconds=len(x) / sc.sample_rate, render_seconds=seconds,
                    energy_error=result.energy_error,
@@ -187,6 +225,8 @@ def render_item(item: Item, out_dir: str, options: dict) -> dict[str, Any]:
     except Exception as exc:  # recorded in the manifest; the batch goes on
         row["error"] = _one_line(exc)
     finally:
+        if stems is not None:  # the render failed: no stems half written
+            stems.abort()
         for tmp in (tmp_audio, tmp_labels):
             try:
                 tmp.unlink()
@@ -251,7 +291,8 @@ def gather(inputs: list[str], options: dict) -> Plan:
     opts_hash = json.dumps({**{k: options.get(k) for k in (
         "quality", "diagnostics", "max_seconds", "format", "labels", "score_options")},
         # only when given: the items of a batch run before there was --model keep their ids
-        **({"model": options["model"]} if options.get("model") else {})},
+        **({"model": options["model"]} if options.get("model") else {}),
+        **({"stems": True} if options.get("stems") else {})},
         sort_keys=True).encode()
     for text in inputs:
         p = Path(text)
@@ -358,27 +399,36 @@ def write_manifest(out: Path, fmt: str, rows: list[dict[str, Any]]) -> None:
         import pyarrow as pa
         import pyarrow.parquet as pq
 
-        schema = pa.schema([("id", pa.string()), ("input", pa.string()), ("seed", pa.int64()),
-                            ("input_hash", pa.string()), ("audio", pa.string()),
-                            ("labels", pa.string()), ("audio_seconds", pa.float64()),
-                            ("render_seconds", pa.float64()), ("energy_error", pa.float64()),
-                            ("status", pa.string()), ("error", pa.string()),
-                            ("warnings", pa.int64())])
-        table = pa.Table.from_pylist([{c: r.get(c) for c in COLUMNS} for r in rows], schema)
+        text, real, count = pa.string(), pa.float64(), pa.int64()
+        types = {"seed": count, "audio_seconds": real, "render_seconds": real,
+                 "energy_error": real, "warnings": count, "duration": real, "notes": count,
+                 **{c: pa.list_(text) for c in LIST_COLUMNS}}
+        schema = pa.schema([(c, types.get(c, text)) for c in COLUMNS])
+        table = pa.Table.from_pylist([{c: _as_list(r.get(c)) if c in LIST_COLUMNS
+                                       else r.get(c) for c in COLUMNS} for r in rows], schema)
         pq.write_table(table, tmp)
     else:
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             w = csv.DictWriter(f, COLUMNS)
             w.writeheader()
             for r in rows:
-                w.writerow({c: "" if r.get(c) is None else r.get(c) for c in COLUMNS})
+                w.writerow({c: ";".join(_as_list(r.get(c))) if c in LIST_COLUMNS
+                            else "" if r.get(c) is None else r.get(c) for c in COLUMNS})
     _replace_into(tmp, path)
+
+
+def _as_list(v: Any) -> list[str]:
+    """A list column's value: a list as it is, a CSV cell split at ";", nothing for None."""
+    if v is None or v == "":
+        return []
+    return [str(x) for x in v] if isinstance(v, list | tuple) else str(v).split(";")
 
 
 def _is_done(row: dict[str, Any] | None, item: Item, out: Path) -> bool:
     if not row or row.get("status") != "done" or row.get("input_hash") != item.input_hash:
         return False
-    files = [row.get("audio")] + ([row.get("labels")] if row.get("labels") else [])
+    files = _as_list(row.get("files")) or (
+        [row.get("audio")] + ([row.get("labels")] if row.get("labels") else []))
     return all(f and (out / f).is_file() and (out / f).stat().st_size > 0 for f in files)
 
 
@@ -435,6 +485,9 @@ def build_parser(prog: str = "guitar-synth batch") -> argparse.ArgumentParser:
     p.add_argument("--diagnostics", action="store_true",
                    help="energy-balance figures in the manifest (slower renders)")
     p.add_argument("--no-labels", dest="labels", action="store_false", help="no JAMS labels")
+    p.add_argument("--stems", action="store_true",
+                   help="also each string's signal before body, pan, effects and mix: "
+                        "stems/ID/t1-s6.wav ... and stems.json (the manifest's stems column)")
     p.add_argument("--retries", type=int, default=2, metavar="N",
                    help="extra tries of an item whose task raised (default 2); an item whose "
                         "worker died is retried by the scheduler as well")
@@ -466,7 +519,8 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.output)
     options = {"format": args.format, "quality": args.quality, "model": args.model,
                "max_seconds": args.max_seconds,
-               "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {}}
+               "diagnostics": args.diagnostics, "labels": args.labels, "score_options": {},
+               "stems": args.stems}
     plan = gather(args.inputs, options)
     if not plan.total:
         raise BadInput("no inputs found (scene .json, Guitar Pro, MusicXML, MIDI files or specs)")

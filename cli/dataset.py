@@ -271,7 +271,7 @@ def draw_scene(spec: Spec, index: int) -> dict[str, Any]:
              "quality": pick(spec.qualities), "events": events, "output": output}
     # drawn last, and only from a choice: a spec without models draws what it drew before
     model = pick(spec.models) if len(spec.models) > 1 else spec.models[0]
-    if model != "fdtd":
+    if model != engine.Scene.model_fields["model"].default:  # the schema's default stays implicit
         scene["model"] = model
     return scene
 

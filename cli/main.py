@@ -1,6 +1,7 @@
 """guitar-synth: render scenes and scores to audio, turn scores into scenes, serve HTTP.
 
     guitar-synth render song.gp5 -o song.flac --labels song.jams --tracks 1,3
+    guitar-synth render song.gp5 -o song.wav --stems      (each string in song.stems/)
     guitar-synth scene tune.mid -o tune.json
     guitar-synth serve --port 8000
     guitar-synth batch songs/ dataset.yaml -o out/ [--scheduler tcp://host:8786]
@@ -51,6 +52,21 @@ def _positive_float(text: str) -> float:
     if not (math.isfinite(x) and x > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number, not {text!r}")
     return x
+
+
+def _cores() -> int:
+    """The cores this process may run on (a container's cpuset, ``taskset``), not the host's."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _jobs(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"at least 1 thread, not {n}")
+    return n
 
 
 def _track_list(text: str) -> list[int | str]:
@@ -116,7 +132,15 @@ def build_parser() -> argparse.ArgumentParser:
                       help="scale the peak to -1 dBFS (the default)")
     norm.add_argument("--no-normalize", dest="normalize", action="store_false",
                       help="the fixed gain: loudness follows force")
+    r.add_argument("--stems", action="store_true",
+                   help="also each string's signal before body, pan, effects and mix, one file "
+                        "per string in OUTPUT's name with .stems (song.stems/t1-s6.wav ...; "
+                        "stems.json lists them), at the mix's format and gain: they sum to the "
+                        "dry mix")
     r.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    r.add_argument("-j", "--jobs", type=_jobs, metavar="N",
+                   help="threads to compute the strings on (default: the cores this process may "
+                        "use); the samples are the same for any number")
     _add_score_options(r)
     _add_render_options(r)
     r.set_defaults(func=cmd_render)
@@ -389,10 +413,22 @@ def prepare_kernels(sc: Any, quiet: bool) -> None:
               file=sys.stderr, flush=True)
 
 
-def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
+# what the bar says while the calibration store computes a kind it does not hold yet
+# (``engine.calibration_store.on_compute``); the others calibrate frets
+CALIBRATING = {"decimation_taps": "designing the decimation filter",
+               "dispersion_filter": "designing the strings' dispersion filters"}
+
+# frames per block of a command-line render: blocks as long as this (0.37 s at 44.1 kHz) keep the
+# threads busy between the blocks' joins (a string's share of a block varies less), and the bar
+# moves often enough
+BLOCK_FRAMES = 16384
+
+
+def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tuple[Any, float]:
     """The scene's audio (frames,) or (frames, 2), scaled as its ``output`` asks, rendered
-    block by block with a progress bar; and the wall time of the render (kernels loaded or
-    compiled first, the preparation included)."""
+    block by block on ``jobs`` threads with a progress bar; and the wall time of the render
+    (kernels loaded or compiled first, the preparation included).  ``stems``: a
+    ``cli.stems.StemWriter`` given each block of stems at the fixed gain as it comes."""
     import numpy as np
 
     import engine
@@ -406,13 +442,13 @@ def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
     prepare_kernels(sc, quiet)
     with _progress(frames / rate, quiet) as bar:
         def calibrating(kind: str) -> None:
-            what = ("designing the decimation filter" if kind == "decimation_taps"
-                    else "calibrating frets")
+            what = CALIBRATING.get(kind, "calibrating frets")
             bar.set_description(f"{what} (first use of this guitar and quality)")
 
         calibration_store.on_compute(calibrating)
         try:
-            blocks = engine.blocks(sc)  # prepares the instruments: the bar says "preparing"
+            # prepares the instruments: the bar says "preparing"
+            blocks = engine.blocks(sc, BLOCK_FRAMES, jobs=jobs, stems=stems is not None)
         finally:
             calibration_store.on_compute(None)
         _print_warnings(blocks.warnings, quiet)
@@ -420,7 +456,12 @@ def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
         bar.reset(total=round(frames / rate, 3))  # the rate and time left count from here
         t1 = time.perf_counter()
         done = 0
+        if stems is not None:
+            stems.start(blocks.stem_layout)
         for block in blocks:
+            if stems is not None:
+                block, strings = block
+                stems.write(strings)
             if not np.all(np.isfinite(block)):
                 raise FloatingPointError("the audio holds non-finite samples")
             audio[done:done + len(block)] = block
@@ -428,8 +469,19 @@ def render_audio(sc: Any, quiet: bool) -> tuple[Any, float]:
             elapsed = time.perf_counter() - t1
             bar.set_postfix_str(f"{done / rate / elapsed:.2f}x real time" if elapsed else "")
             bar.update(round(done / rate, 3) - bar.n)
+    if stems is not None and sc.output.normalize:
+        # one gain for the mix and its stems, which puts the loudest at -1 dBFS (as engine.render
+        # with stems): the stems are scaled into place with it
+        velocity = audio / engine.FIXED_GAIN
+        peak = max(float(np.max(np.abs(velocity))) if velocity.size else 0.0,
+                   stems.peak / engine.FIXED_GAIN)
+        gain = engine.output_gain(peak, True)
+        stems.close(gain / engine.FIXED_GAIN)
+        audio = np.multiply(velocity, gain, out=velocity)
+    elif stems is not None:
+        stems.close()  # written at the fixed gain as they came
     seconds = time.perf_counter() - t0
-    if sc.output.normalize:  # blocks come at the fixed gain; normalize as engine.render does
+    if sc.output.normalize and stems is None:  # blocks come at the fixed gain; as engine.render
         audio = engine.to_output_scale(audio / engine.FIXED_GAIN, True)
     return audio, seconds
 
@@ -445,10 +497,10 @@ def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> Non
     sf.write(path, np.clip(audio, -1.0, 1.0), rate, format=fmt.upper(), subtype=subtype)
 
 
-def write_labels(path: str, sc: Any, title: str = "") -> None:
+def write_labels(path: str, sc: Any, title: str = "", metadata: dict | None = None) -> None:
     import engine
 
-    engine.scene_labels(sc, title=title).save(path)
+    engine.save_labels(engine.scene_labels(sc, title=title, metadata=metadata), path)
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -459,20 +511,39 @@ def cmd_render(args: argparse.Namespace) -> int:
     scene, warnings = load_input(args)
     sc = validate(scene, args.input)
     _print_warnings(warnings, args.quiet, args.warnings)
+    stems = None
+    if args.stems:
+        import engine
+        from cli.stems import StemWriter, stems_folder
+
+        folder = stems_folder(args.output)
+        if folder.exists() and not folder.is_dir():
+            raise BadInput(f"--stems: {folder} exists and is not a folder")
+        # known now at the fixed gain; under normalize only once the whole mix is seen
+        stems = StemWriter(folder, sc.sample_rate, fmt, sc.output.subtype,
+                           None if sc.output.normalize else 1.0, engine.FIXED_GAIN)
     try:
-        audio, seconds = render_audio(sc, args.quiet)
+        audio, seconds = render_audio(sc, args.quiet, args.jobs or _cores(), stems)
     except FloatingPointError as e:
         raise BadInput(f"{args.input}: the simulation became unstable ({e}); lower the forces or "
                        "use --quality high") from None
+    except BaseException:
+        if stems is not None:
+            stems.abort()
+        raise
     write_audio(args.output, audio, sc.sample_rate, fmt, sc.output.subtype)
     if args.labels:
-        write_labels(args.labels, sc, Path(args.input).stem)
+        write_labels(args.labels, sc, Path(args.input).stem, {"input": Path(args.input).name})
     if not args.quiet:
         audio_s = len(audio) / sc.sample_rate
         speed = f", {audio_s / seconds:.2f}x real time" if seconds > 0 else ""
         labels = f" and {args.labels}" if args.labels else ""
         print(f"wrote {args.output}{labels}: {audio_s:.2f} s of audio in {seconds:.2f} s"
               f"{speed}", file=sys.stderr)
+        if stems is not None:
+            clipped = (f"; {stems.clipped} samples clipped at full scale (--no-normalize "
+                       "or a lower force keeps them whole)") if stems.clipped else ""
+            print(f"wrote {len(stems.paths)} stems in {stems.folder}{clipped}", file=sys.stderr)
     return 0
 
 

@@ -33,11 +33,13 @@ reads every module's imports, inside functions too):
     output       decimation, pickups, pan, body, output scale
     instrument   the interface both models implement, and what they share (the block loop,
                  pickups and body, the frame count)
-    fd/          the finite-difference model: kernels/, string, controls, intonation, voice,
-                 playability, instrument (its modules in that order)
-    statics      the pressed string at rest for both models: seating force, a held note's decay
-    waveguide/   the digital-waveguide model (imports nothing of fd/)
-    models       the one map from a scene's ``model`` to its instrument
+    statics      the face of the pressed string's statics both models use (seating force, a
+                 held note's decay): ``fd.statics`` computes them, ``models`` hands them over
+    fd/          the finite-difference model: kernels/, string, controls, intonation, statics,
+                 voice, playability, instrument (its modules in that order)
+    waveguide/   the digital-waveguide model (neither model reaches the other's package)
+    models       the one map from a scene's ``model`` to its instrument, and from the fd
+                 statics to the waveguide
     effects      a track's effects chain (pedalboard), state kept across blocks
     mix          a scene of tracks: an instrument per track, panned, through effects, mixed
     live         an open-ended session: events pushed as played, blocks pulled (``Session``)
@@ -61,6 +63,9 @@ from .scene import MODELS, ModelName, QualityName, Scene, frame_count, parse_sce
 _LAZY = {
     "FIXED_GAIN": "output",
     "to_output_scale": "output",
+    "output_gain": "output",
+    "Stem": "scene",
+    "stems_index": "scene",
     "QUALITY": "options",
     "Quality": "options",
     "RenderOptions": "options",
@@ -78,6 +83,7 @@ _LAZY = {
     # scores in, labels out (engine/score: Guitar Pro, MIDI, JAMS)
     "score_to_scene": "score",
     "scene_labels": "score",
+    "save_labels": "score",
     "ScoreError": "score",
     "SCORE_SUFFIXES": "score",
     "group_warnings": "score",

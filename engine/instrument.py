@@ -86,18 +86,30 @@ class Instrument:
             m = min(bf, self.frames - self.frame)
             yield self.render_frames(m)
 
-    def render_frames(self, m: int) -> np.ndarray:
-        """The next ``m`` frames: every voice's, panned and summed, through the body."""
+    def render_frames(self, m: int, voice_frames: list[np.ndarray] | None = None,
+                      strings: np.ndarray | None = None) -> np.ndarray:
+        """The next ``m`` frames: every voice's, panned and summed in the order of ``voices``,
+        through the body.  ``voice_frames``: each voice's next ``m`` frames (``voice_frames``),
+        already computed (on other threads: ``engine.mix``); the sum is the same.
+
+        ``strings``, an (m, n_strings) array of zeros: each string's own samples are written into
+        it as they are mixed, before pan and body (its stem), column ``k`` the string
+        ``n_strings - k`` (the lowest first, as the labels order a track's strings); a string
+        with no voice stays zero."""
         mix = np.zeros((m, self.channels)) if self.channels == 2 else np.zeros(m)
         end = self.frame + m
-        for v in self.voices:
-            add_to_mix(mix, self.voice_frames(v, end), self.pans[v.index])
+        for i, v in enumerate(self.voices):
+            y = self.voice_frames(v, end) if voice_frames is None else voice_frames[i]
+            if strings is not None:
+                strings[:, self.preset.n_strings - v.index] = y
+            add_to_mix(mix, y, self.pans[v.index])
         self.frame = end
         return self.body(mix) if self.body is not None else mix
 
     def voice_frames(self, voice, end: int) -> np.ndarray:
         """One voice's pickup velocity at the output rate, from ``self.frame`` up to frame
-        ``end``."""
+        ``end``.  It touches that voice's state only, so the voices of a block may be computed
+        on several threads at once (the kernels release the GIL)."""
         raise NotImplementedError
 
     def energy_error(self) -> float:

@@ -15,11 +15,25 @@ instrument renders its pickup velocity (through its body), then, in this order:
 and the tracks are summed.  A scene with top-level ``guitar``/``events`` is the one-track case and
 renders exactly (bit for bit) as its instrument alone.  Nothing here grows with the scene's duration:
 each block is computed from the voices' states and the effects' states and handed on.
+
+Threads (``jobs``): the strings of every track are independent until their instrument sums them, and
+the kernels release the GIL, so with ``jobs`` > 1 each block's voices (of all tracks at once) are
+computed on a pool of that many threads, most costly first (by their cost in the block before), and
+then summed, bodies, effects and faders applied on the calling thread in the same order as with one:
+the samples are the same, bit for bit, whatever ``jobs`` is.
+
+Stems (``Mix.stems``, ``blocks(stems=True)``): each string of each track on its own, its pickup
+velocity before pan, body and effects, times its track's ``gain_db``; their sum is the **dry mix**,
+the scene's mix with every body, pan and effect left out (mono).  Columns in the labels' order:
+track by track, within a track from the lowest string to the highest (``Stem``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import nullcontext
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -28,7 +42,7 @@ from .effects import Chain
 from .instrument import Instrument
 from .options import RenderOptions
 from .output import pan_gains
-from .scene import Scene, frame_count
+from .scene import Scene, Stem, frame_count
 
 
 @dataclass
@@ -41,8 +55,14 @@ class Track:
     chain: Chain | None
     gain: float
 
-    def render_frames(self, m: int) -> np.ndarray:
-        y = self.instrument.render_frames(m)
+    def render_frames(self, m: int, voice_frames: list[np.ndarray] | None = None,
+                      strings: np.ndarray | None = None) -> np.ndarray:
+        """The track's next ``m`` frames; ``voice_frames``: its voices' frames computed already
+        (``Mix._voice_frames``); ``strings``: its stems (``Instrument.render_frames``), times its
+        gain."""
+        y = self.instrument.render_frames(m, voice_frames, strings)
+        if strings is not None and self.gain != 1.0:
+            strings *= self.gain
         if self.pan is not None:
             y = np.stack((self.pan[0] * y, self.pan[1] * y), axis=1)
         if self.chain is not None:
@@ -54,27 +74,73 @@ class Track:
 
 @dataclass
 class Mix:
-    """A scene prepared for rendering: its tracks, mixed block by block."""
+    """A scene prepared for rendering: its tracks, mixed block by block, their voices computed on
+    ``jobs`` threads."""
 
     scene: Scene
     tracks: list[Track]
     frames: int
     frame: int = 0
+    jobs: int = 1
+    # seconds each voice (in ``voices`` order) took in the block before: the pool's order
+    _cost: list[float] = field(default_factory=list, repr=False)
 
-    def blocks(self, block_frames: int | None = None):
-        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block."""
+    def blocks(self, block_frames: int | None = None, stems: bool = False):
+        """Yield the mix (pickup velocity, m/s; (m,) mono, (m, 2) stereo) block by block; with
+        ``stems``, (mix, stems) pairs, stems of shape (m, len(self.stems())) in m/s."""
         bf = block_frames or self.tracks[0].instrument.options.block_frames
-        while self.frame < self.frames:
-            m = min(bf, self.frames - self.frame)
-            yield self.render_frames(m)
+        width = len(self.stems()) if stems else 0
+        threads = min(self.jobs, len(self.voices))
+        executor = (ThreadPoolExecutor(threads, thread_name_prefix="guitar-render") if threads >= 2
+                else nullcontext())
+        with executor as pool:
+            while self.frame < self.frames:
+                m = min(bf, self.frames - self.frame)
+                if stems:
+                    s = np.zeros((m, width))
+                    yield self.render_frames(m, pool, s), s
+                else:
+                    yield self.render_frames(m, pool)
 
-    def render_frames(self, m: int) -> np.ndarray:
+    def render_frames(self, m: int, pool: ThreadPoolExecutor | None = None,
+                      stems: np.ndarray | None = None) -> np.ndarray:
+        """The next ``m`` frames of the mix; with a ``pool``, every voice's frames computed on its
+        threads first; ``stems``, (m, len(self.stems())) zeros: filled with the stems."""
+        per_track = self._voice_frames(m, pool) if pool is not None else [None] * len(self.tracks)
         mix = None
-        for t in self.tracks:
-            y = t.render_frames(m)
+        at = 0
+        for t, frames in zip(self.tracks, per_track, strict=True):
+            n = t.instrument.preset.n_strings
+            y = t.render_frames(m, frames, None if stems is None else stems[:, at:at + n])
+            at += n
             mix = y if mix is None else mix + y
         self.frame += m
         return mix
+
+    def _voice_frames(self, m: int, pool: ThreadPoolExecutor) -> list[list[np.ndarray]]:
+        """Every voice's next ``m`` frames, per track, computed on ``pool``: submitted most costly
+        first (longest processing time first, by the block before), so that no thread is left
+        with a long string at the end of the block while the others wait."""
+        work = [(t.instrument, v) for t in self.tracks for v in t.instrument.voices]
+        if len(self._cost) != len(work):
+            self._cost = [0.0] * len(work)
+        order = sorted(range(len(work)), key=self._cost.__getitem__, reverse=True)
+        futures = {i: pool.submit(_timed, *work[i], m) for i in order}
+        out: list[np.ndarray] = []
+        for i in range(len(work)):
+            y, self._cost[i] = futures[i].result()
+            out.append(y)
+        per_track, k = [], 0
+        for t in self.tracks:
+            n = len(t.instrument.voices)
+            per_track.append(out[k:k + n])
+            k += n
+        return per_track
+
+    def stems(self) -> list[Stem]:
+        """What each column of the stems holds (``Scene.stems``; a silent string's column is
+        zeros)."""
+        return self.scene.stems()
 
     @property
     def voices(self):
@@ -96,9 +162,18 @@ class Mix:
                 for t in self.tracks for w in t.instrument.warnings()]
 
 
-def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
+def _timed(instrument: Instrument, voice, m: int) -> tuple[np.ndarray, float]:
+    """A voice's next ``m`` frames (``Instrument.voice_frames``) and the seconds they took."""
+    t0 = time.perf_counter()
+    y = instrument.voice_frames(voice, instrument.frame + m)
+    return y, time.perf_counter() - t0
+
+
+def prepare(scene: Scene, options: RenderOptions | None = None, jobs: int = 1) -> Mix:
     """An instrument for every track (``models.prepare``: of the model the track names) with its
-    pan, effects and gain."""
+    pan, effects and gain; its blocks computed on ``jobs`` threads (``Mix``)."""
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, not {jobs}")
     frames = frame_count(scene)
     stereo = scene.output.channels == 2
     tracks = []
@@ -112,4 +187,4 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Mix:
         tracks.append(Track(instrument, scene.track_label(i),
                             pan_gains(track.pan) if placed else None, chain,
                             10.0 ** (track.gain_db / 20.0)))
-    return Mix(scene, tracks, frames)
+    return Mix(scene, tracks, frames, jobs=jobs)

@@ -138,16 +138,23 @@ def convolve_ir(audio: np.ndarray, ir: np.ndarray) -> np.ndarray:
                      for c in range(audio.shape[1])], axis=1)
 
 
-def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = False) -> np.ndarray:
-    """Pickup velocity (m/s) -> samples: peak at ``PEAK_DBFS``, or the fixed gain ``FIXED_GAIN``.
-    ``in_place``: scale ``velocity`` itself (a long render holds one copy of its output)."""
-    out = velocity if in_place else None
+def output_gain(peak: float, normalize: bool) -> float:
+    """The gain from pickup velocity (m/s) to samples of a signal whose largest magnitude is
+    ``peak``: the one that puts it at ``PEAK_DBFS``, or ``FIXED_GAIN`` (1 for silence)."""
     if not normalize:
-        return np.multiply(velocity, FIXED_GAIN, out=out)
-    peak = float(np.max(np.abs(velocity))) if velocity.size else 0.0
-    if peak == 0.0:
+        return FIXED_GAIN
+    return 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0.0 else 1.0
+
+
+def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = False) -> np.ndarray:
+    """Pickup velocity (m/s) -> samples: peak at ``PEAK_DBFS``, or the fixed gain ``FIXED_GAIN``
+    (``output_gain``).  ``in_place``: scale ``velocity`` itself (a long render holds one copy of
+    its output)."""
+    out = velocity if in_place else None
+    peak = float(np.max(np.abs(velocity))) if normalize and velocity.size else 0.0
+    if normalize and peak == 0.0:
         return velocity if in_place else velocity.copy()
-    return np.multiply(velocity, 10.0 ** (PEAK_DBFS / 20.0) / peak, out=out)
+    return np.multiply(velocity, output_gain(peak, normalize), out=out)
 
 
 def _firwin(ntaps: int, rate_out: float, factor: int) -> tuple[float, ...]:

@@ -163,7 +163,9 @@ def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("st
     """Calibrate every stopped fret of every string of ``presets`` (default: all) for ``models``
     at ``qualities`` and ``sample_rates``, into the calibration store (``engine.calibration_store``)
     where a later render finds them: preparing a scene that frets each string at every fret does
-    it.  Returns the seconds it took."""
+    it, and, for the waveguide, designing the loop of every stopped and held note (its dispersion
+    filter, the finger's damping), which a render does when the note comes.  Returns the seconds
+    it took."""
     from .mix import prepare
     from .presets import PRESETS
     from .scene import Scene
@@ -176,9 +178,14 @@ def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("st
         for model in models:
             for quality in qualities:
                 for rate in sample_rates:
-                    prepare(Scene.model_validate(
+                    mix = prepare(Scene.model_validate(
                         {"duration": 0.5, "sample_rate": rate, "quality": quality,
                          "model": model, "guitar": {"preset": name}, "events": events}))
+                    if model == "waveguide":
+                        for v in mix.voices:
+                            for q in range(1, preset.frets + 1):
+                                v.loop(q)
+                                v.loop(q, held=True)
     return time.perf_counter() - t0
 
 

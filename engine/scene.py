@@ -7,6 +7,7 @@ Every limit below is a documented range, and every violation is reported with th
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
@@ -386,6 +387,9 @@ class Output(_Model):
     body: Literal["none", "acoustic", "classical"] | None = Field(
         None, description="body response (default: the preset's)"
     )
+    stems: bool = Field(
+        False, description="also each string's signal before body, pan, effects and mix, at the "
+                           "mix's gain (summed: the dry mix); docs/service.md says how it comes")
 
     @field_validator("pan")
     @classmethod
@@ -428,6 +432,82 @@ class Track(_Model):
         return apply_overrides(get_preset(self.guitar.preset), self.guitar)
 
 
+@dataclass(frozen=True)
+class Stem:
+    """One column of a render's stems: ``track`` (0-based, in the scene's order), its ``name``
+    (``""`` when unnamed) and the ``string`` (1 = highest, as the scene numbers strings)."""
+
+    track: int
+    name: str
+    string: int
+
+    @property
+    def label(self) -> str:
+        """``t1-s6``: a stem's file name without its suffix (the front ends')."""
+        return f"t{self.track + 1}-s{self.string}"
+
+
+def stems_index(layout: list[Stem], suffix: str, sample_rate: int, gain: float,
+                clipped: int = 0) -> dict:
+    """``stems.json`` of the front ends: the stems' files in the labels' order (``annotation``:
+    the index of the string's ``note_midi`` annotation in the scene's labels) and the ``gain``
+    (samples per m/s) they share with the mix."""
+    return {
+        "sample_rate": sample_rate,
+        "gain": gain,
+        "clipped_samples": clipped,
+        "about": "each string's pickup velocity before pan, body and effects, times its track's "
+                 "gain_db and this gain (the mix's): summed, the dry mix",
+        "stems": [{"file": f"{s.label}.{suffix}", "track": s.track,
+                   "track_name": s.name or f"track {s.track + 1}", "string": s.string,
+                   "annotation": k} for k, s in enumerate(layout)],
+    }
+
+
+# --- What a converted score says beyond its events (the labels read it; rendering ignores it).
+
+MAX_SCORE_MARKS = 100_000  # bars, beats, tempo changes, keys or chords of one scene
+
+
+class TempoMark(_Model):
+    time: Time
+    bpm: float = Field(gt=0.0, le=20000.0, description="quarter notes per minute, as played")
+
+
+class LabelMark(_Model):
+    time: Time
+    value: str = Field(max_length=40, description="key as 'E:minor'; chord as 'A:min7' (JAMS)")
+
+
+class ScoreInfo(_Model):
+    """The score a scene was converted from (``engine.score_to_scene`` writes it): its title, and
+    its bars and beats in seconds as played (repeats unfolded, the tempo map and tempo scale
+    applied, cut where the scene is).  ``bars[i]`` starts the score's bar ``bar_numbers[i]``;
+    ``beat_positions[i]`` is beat ``beats[i]``'s place in its bar, 1 = the downbeat (a dotted
+    beat in 6/8, 9/8, 12/8).  The labels' ``beat``, ``tempo``, ``key_mode`` and ``chord``
+    annotations come from here; the renderer ignores it."""
+
+    title: str = Field("", max_length=300)
+    artist: str = Field("", max_length=300)
+    source: str = Field("", max_length=300, description="the score file's name")
+    format: str = Field("", max_length=16, description="gp, gpx, gp7, musicxml or midi")
+    bars: list[Time] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    bar_numbers: list[int] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    beats: list[Time] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    beat_positions: list[int] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    tempo: list[TempoMark] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    keys: list[LabelMark] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+    chords: list[LabelMark] = Field(default_factory=list, max_length=MAX_SCORE_MARKS)
+
+    @model_validator(mode="after")
+    def _parallel(self) -> ScoreInfo:
+        if len(self.bar_numbers) != len(self.bars):
+            raise ValueError("score.bar_numbers: one per bar")
+        if len(self.beat_positions) != len(self.beats):
+            raise ValueError("score.beat_positions: one per beat")
+        return self
+
+
 class Scene(_Model):
     duration: float = Field(gt=0.0, le=MAX_DURATION_S, description="seconds")
     sample_rate: int = Field(44100, ge=SAMPLE_RATE_MIN, le=SAMPLE_RATE_MAX, description="Hz")
@@ -445,6 +525,9 @@ class Scene(_Model):
                     "same events (engine/waveguide)",
     )
     diagnostics: bool = False
+    score: ScoreInfo | None = Field(
+        None, description="the score the scene was converted from: title, bars, beats, tempo, "
+                          "keys and chords in seconds (labels read it; rendering ignores it)")
 
     model_config = ConfigDict(
         json_schema_extra={
@@ -518,6 +601,14 @@ class Scene(_Model):
             return ""
         name = self.tracks[i].name
         return f"track {i + 1}" + (f" {name!r}" if name else "")
+
+    def stems(self) -> list[Stem]:
+        """What each column of a render's stems holds (``engine.mix``): every string of every
+        track, track by track, the lowest string first (the labels' order, and their name of a
+        lone guitar)."""
+        return [Stem(i, track.name if self.tracks is not None else "guitar", n - k)
+                for i, track in enumerate(self.instruments())
+                for n in (track.preset().n_strings,) for k in range(n)]
 
     def event_count(self) -> int:
         """Events over all tracks (what ``MAX_EVENTS`` and a server's limit count)."""

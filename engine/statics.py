@@ -1,36 +1,32 @@
 """The pressed string at rest, as both models need it: the force that seats a finger's string on
 its fret (below it the note is dead), and the decay that the finger's contact gives the note it
-holds.  Both are static analyses of the finite-difference string (``engine.fd.intonation`` on the
-grid ``engine.fd.string.tune`` builds at the scene's rate), so the two models agree on which notes
-are dead and how a held note decays; the waveguide reads them here, not from inside ``fd``.
+holds.  Both are static analyses that only the finite-difference string has the grid for
+(``engine.fd.statics``), so that the two models agree on which notes are dead and how a held note
+decays.  This module is the face of those analyses, below both models: the waveguide is handed
+an implementation (``engine.models.PRESSED_STRING``, the one place that joins the models) and
+never imports ``fd``.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
+from typing import Protocol
 
-from threadpoolctl import threadpool_limits
-
-from .fd.intonation import held_note, reference_model, seating_force
-from .fd.string import tune
 from .presets import Preset
 
 
-@lru_cache(maxsize=4096)
-def seating_force_n(preset: Preset, string: int, rate: float, fret: int) -> float:
-    """N a finger must press with to rest string ``string`` on ``fret`` (``seating_force`` on the
-    string tuned at ``rate``; cached per process)."""
-    spec = preset.strings[string - 1]
-    return seating_force(tune(spec, preset.string_length_m(string), rate), preset, fret)
+class PressedString(Protocol):
+    """The statics of a preset's string ``string`` pressed on ``fret``, at ``rate`` Hz.  An
+    implementation is hashable (the waveguide caches per implementation) and names the modules
+    whose code computes it (``sources``, relative to the engine's folder: the calibration store's
+    keys hold their code)."""
 
+    sources: tuple[str, ...]
 
-def held_note_decay_db_s(preset: Preset, string: int, rate: float, fret: int) -> float:
-    """dB/s of the note a finger holds at ``fret``, decaying by the finger's contact damping:
-    the held-note analysis (``held_note``) on the converged grid (``reference_model``); not
-    finite where it finds no mode near the note."""
-    spec = preset.strings[string - 1]
-    model = reference_model(tune(spec, preset.string_length_m(string), rate))
-    # BLAS on one thread, as the fret calibrations (``intonation._each_fret``): the value does not
-    # depend on the machine's thread count, nor on who computed it first
-    with threadpool_limits(limits=1, user_api="blas"):
-        return held_note(model, preset, fret, spec.frequency_hz * 2 ** (fret / 12)).decay_db_s
+    def seating_force_n(self, preset: Preset, string: int, rate: float, fret: int) -> float:
+        """N a finger must press with to rest the string on ``fret``."""
+        ...
+
+    def held_note_decay_db_s(self, preset: Preset, string: int, rate: float, fret: int) -> float:
+        """dB/s of the note a finger holds at ``fret``, decaying by the finger's contact damping;
+        not finite where the analysis finds no note."""
+        ...

@@ -51,7 +51,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             # renders admitted but not yet on a worker (job streams hold workers, not slots)
             waiting = max(0, s["in_flight"] - (s["busy"] - runner.running))
             return {**s, "queue_depth": waiting, "jobs": store.counts(),
-                    "jobs_requeued": runner.completed["requeued"]}
+                    "jobs_requeued": runner.completed["requeued"],
+                    "live_late_blocks": live_pool.late_blocks}
 
         counters.watch(state)
         try:

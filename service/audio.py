@@ -13,7 +13,10 @@ or 24 bits.  Samples are clipped to [-1, 1] first, everywhere (the fixed-gain ou
 from __future__ import annotations
 
 import io
+import json
 import struct
+import zipfile
+from typing import IO, Any
 
 import numpy as np
 import soundfile as sf
@@ -101,3 +104,36 @@ def encode(x: np.ndarray, sample_rate: int, fmt: str = "wav", subtype: str = "PC
     if fmt == "ogg":
         return _soundfile_bytes(x, sample_rate, "ogg", "VORBIS")
     raise ValueError(f"unsupported format {fmt!r}")
+
+
+def media_type(fmt: str, stems: bool) -> str:
+    """A response's media type: the format's, or a zip's when it carries stems."""
+    return "application/zip" if stems else MEDIA_TYPES[fmt]
+
+
+def stems_zip(mix: bytes, spill: IO[bytes], layout: list[Any], gain: float, sample_rate: int,
+              fmt: str, subtype: str, name: str = "guitar") -> bytes:
+    """A zip of the mix (``NAME.FMT``, the bytes given) and its stems, as the command line
+    writes them (``stems/t1-s6.FMT`` ..., ``stems/stems.json``: ``engine.stems_index``).
+    ``spill`` holds the stems as float64 rows of len(layout) columns in m/s (``on_stems``);
+    each is scaled by ``gain``, the mix's, and encoded as the mix is (clipped at full scale)."""
+    import engine
+
+    width = len(layout)
+    size = spill.seek(0, io.SEEK_END)
+    # mapped, not read: the pages of a column come and go as the system sees fit
+    rows = np.memmap(spill, dtype="<f8", mode="r").reshape(-1, width) if width and size else \
+        np.zeros((0, width))
+    buf = io.BytesIO()
+    clipped = 0
+    # PCM of silent strings deflates to nothing; FLAC and Vorbis are compressed already
+    mode = zipfile.ZIP_DEFLATED if fmt == "wav" else zipfile.ZIP_STORED
+    with zipfile.ZipFile(buf, "w", mode, compresslevel=1 if fmt == "wav" else None) as z:
+        z.writestr(f"{name}.{fmt}", mix)
+        for k, stem in enumerate(layout):
+            x = rows[:, k] * gain
+            clipped += int(np.count_nonzero(np.abs(x) > 1.0))
+            z.writestr(f"stems/{stem.label}.{fmt}", encode(x, sample_rate, fmt, subtype))
+        info = engine.stems_index(layout, fmt, sample_rate, gain, clipped)
+        z.writestr("stems/stems.json", json.dumps(info, indent=1) + "\n")
+    return buf.getvalue()

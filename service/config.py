@@ -35,11 +35,17 @@ class Settings(BaseSettings):
                                            "(engine.warmup: every kernel compiled or loaded)")
     mp_context: str = Field("spawn", pattern="^(spawn|forkserver)$",
                             description="multiprocessing start method of the workers")
+    worker_nice: int = Field(0, ge=0, le=19,
+                             description="added to the render workers' niceness: renders run "
+                                         "behind the API process and the live workers")
 
     # Time limit of one render (seconds of wall time): the smaller of
     #   base + per_audio_second * duration   and   base + per_estimated * estimated seconds
     time_limit_base_s: float = Field(10.0, gt=0.0)
-    time_limit_per_audio_s: float = Field(5.0, ge=0.0)
+    # 20: the costliest scene admitted (six fingered strings at 96 kHz, quality high) takes about
+    # 4 s per second of audio on an idle core, so a cap of 5 killed it as soon as the machine was
+    # busy; the estimate's limit (4 times it) is the tighter one for most scenes
+    time_limit_per_audio_s: float = Field(20.0, ge=0.0)
     time_limit_per_estimated_s: float = Field(
         4.0, ge=1.0, description="time limit per second of the render's cost estimate")
 
@@ -78,6 +84,13 @@ class Settings(BaseSettings):
         description="events once strums and string-less mutes and damps count once per string")
     min_sample_rate: int = Field(SAMPLE_RATE_MIN, ge=SAMPLE_RATE_MIN)
     max_sample_rate: int = Field(SAMPLE_RATE_MAX, le=SAMPLE_RATE_MAX)
+
+    render_threads: int = Field(
+        1, ge=1, le=64,
+        description="threads each render (HTTP or job) computes its strings on; the samples are "
+                    "the same for any number. Keep workers x render_threads at the cores: 1 with a "
+                    "worker per core, the cores with a single worker (one long song at a time, "
+                    "fast)")
 
     # Streaming
     # a multiple of 1024: the waveguide model's blocks then give the samples of a whole render

@@ -97,6 +97,11 @@ def field_path(loc: tuple | list, msg: str) -> str:
 # that no request makes this process serialise megabytes on its event loop.
 MAX_ERRORS = 20
 MAX_INPUT_CHARS = 200
+MAX_MESSAGE_CHARS = 1000  # a message quoting what it refuses (a preset name of 100 KB) is cut
+
+
+def _short_text(text: str) -> str:
+    return text if len(text) <= MAX_MESSAGE_CHARS else text[:MAX_MESSAGE_CHARS - 3] + "..."
 
 
 def _too_big(value: Any, budget: int = MAX_INPUT_CHARS) -> bool:
@@ -154,7 +159,9 @@ def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
         item["field"] = field
         # One self-contained sentence for people: the field, then pydantic's text with the range.
         text = msg.removeprefix("Value error, ")
-        item["message"] = text if not field or text.startswith(field) else f"{field}: {text}"
+        item["message"] = _short_text(
+            text if not field or text.startswith(field) else f"{field}: {text}")
+        item["msg"] = _short_text(str(item.get("msg", "")))
         if tuple(item.get("loc", ())) == ("body",):
             item.pop("input", None)  # the whole scene: no need to echo it back
         elif "input" in item:

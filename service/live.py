@@ -75,6 +75,7 @@ class LivePool:
         self._opening = 0  # sessions waiting for a live worker to warm up
         self._ready_event: asyncio.Event
         self.replaced = 0
+        self.late_blocks = 0  # blocks a live worker finished after their play time
 
     async def start(self) -> None:
         self.loop = asyncio.get_running_loop()
@@ -108,7 +109,8 @@ class LivePool:
     def status(self) -> dict[str, Any]:
         return {"live_workers": self.size, "started": self._started,
                 "live_workers_ready": sum(w.ready for w in self._workers),
-                "live_sessions": self.open_sessions, "max_live_sessions": self.limit}
+                "live_sessions": self.open_sessions, "max_live_sessions": self.limit,
+                "late_blocks": self.late_blocks}
 
     def pids(self) -> list[int]:
         return [w.pid for w in self._workers if w.alive]
@@ -172,6 +174,9 @@ class LivePool:
             self._ready_event.set()
             log.info("live worker ready", extra={"fields": {
                 "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
+            return
+        if msg[0] == "late":
+            self.late_blocks += msg[2]
             return
         s = w.sessions.get(msg[1])
         if s is not None:

@@ -14,6 +14,10 @@ applied in the next block computed for its session.
                        ("ack", sid, id, frame)                 an event with an ``id`` acts at frame
                        ("error", sid, field, message, id)      an event refused (the session goes on)
                        ("failed", sid, message)                the session could not go on
+                       ("late", sid, n)                        n blocks were finished after
+                                                               their play time since the last
+                                                               such report (underruns the server
+                                                               caused); at most one a second
 
 Everything sent is plain data.  An exception in one session ends that session only (``failed``),
 never the process or its other sessions.
@@ -102,13 +106,21 @@ class _Live:
     def __init__(self, session: Any, lead_s: float):
         self.session = session
         self.block_s = session.block_frames / session.sample_rate
+        self.lead_s = lead_s
         self.t0 = time.monotonic() - lead_s  # block k is due at t0 + k * block_s
         self.k = 0
         self.acks: list[tuple[Any, int]] = []
+        self.late = 0  # blocks finished after their play time, not yet reported
+        self.late_sent = 0.0
 
     @property
     def due(self) -> float:
         return self.t0 + self.k * self.block_s
+
+    @property
+    def plays(self) -> float:
+        """When the block being computed plays: ``lead`` after it is due."""
+        return self.due + self.lead_s
 
 
 def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
@@ -262,4 +274,10 @@ def _block(conn: Connection, sessions: dict[int, _Live], sid: int) -> None:
         conn.send(("ack", sid, ident, at))
     live.acks.clear()
     conn.send(("block", sid, frame, x.astype("<f4").tobytes()))
+    now = time.monotonic()
+    if now > live.plays:
+        live.late += 1
+    if live.late and now - live.late_sent >= 1.0:  # counted, not one message each: a worker
+        conn.send(("late", sid, live.late))        # behind is not slowed down further
+        live.late, live.late_sent = 0, now
     live.k += 1

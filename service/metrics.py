@@ -21,7 +21,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 RENDER_PATHS = frozenset({"/render", "/render/stream", "/render/score"})
 _KNOWN = frozenset({"/", "/health", "/limits", "/presets", "/metrics", "/jobs", "/docs",
                     "/openapi.json", *RENDER_PATHS})
-_JOB_PATH = re.compile(r"^/jobs/[^/]+(/audio|/stream|/labels)?$")
+_JOB_PATH = re.compile(r"^/jobs/[^/]+(/audio|/stream|/labels|/stems)?$")
 
 
 def route_label(path: str) -> str:
@@ -93,6 +93,9 @@ class _StateCollector(Collector):
                                   "(killed at a time limit, crashed)", value=s["replaced"])
         yield CounterMetricFamily("guitar_jobs_requeued", "job runs cut off by a dead worker "
                                   "and queued again", value=s["jobs_requeued"])
+        yield CounterMetricFamily("guitar_live_late_blocks", "live blocks finished after their "
+                                  "play time (underruns the server caused)",
+                                  value=s["live_late_blocks"])
 
 
 class MetricsMiddleware:

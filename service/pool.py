@@ -87,9 +87,11 @@ class _Worker(PipedProcess):
         self.warmed = False  # said "ready" once (``ready`` goes False when it is being killed)
         self.job: _Job | None = None
         self.jobs_done = 0
+        self.warming: str | None = None  # what its warm-up is doing, until it is ready
         s = pool.settings
         super().__init__(pool, ctx, number, worker_module.main,
-                         (s.warmup, s.stream_block_frames, s.heartbeat_s),
+                         (s.warmup, s.stream_block_frames, s.heartbeat_s, s.worker_nice,
+                          s.render_threads),
                          f"render-worker-{number}")
         self.last_seen = self.started
 
@@ -180,6 +182,7 @@ class WorkerPool:
             "heavy_in_flight": self._heavy_in_flight,
             "heavy_capacity": self.heavy_capacity,
             "hung": self.hung,
+            "warming": next((w.warming for w in self._workers if w.alive and w.warming), None),
         }
 
     async def _watch(self) -> None:
@@ -207,10 +210,12 @@ class WorkerPool:
     def _on_message(self, w: _Worker, msg: tuple) -> None:
         kind = msg[0]
         if kind == "warming":  # what a worker's warm-up is doing (compiling kernels: minutes)
+            w.warming = msg[2]
             log.info(msg[2], extra={"fields": {"worker": w.number, "pid": w.pid}})
             return
         if kind == "ready":
             w.ready = w.warmed = True
+            w.warming = None
             self._failed_starts = 0
             log.info("worker ready", extra={"fields": {
                 "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
@@ -501,6 +506,7 @@ class RenderStream:
         self.first_block_seconds = self.render_seconds
         # the engine's warnings come with the first block (or the end of a stream of none)
         self.warnings: list[str] = first[4] if first[0] == "block" else first[2]["warnings"]
+        self.scale: float | None = None  # the samples per m/s, told at the end
 
     async def chunks(self) -> AsyncIterator[bytes]:
         msg = self._first
@@ -511,6 +517,7 @@ class RenderStream:
                 yield msg[2]
             elif kind == "end":
                 self.render_seconds = msg[2]["render_seconds"]
+                self.scale = msg[2].get("scale")
                 return
             else:
                 try:

@@ -16,6 +16,9 @@ class PoolStatus(BaseModel):
     heavy_capacity: int = Field(0, description="heavy slots + their queue; more heavy renders "
                                                "are answered 503")
     hung: int = Field(0, description="workers killed since start for missing heartbeats")
+    warming: str | None = Field(None, description="what a worker warming up is doing when it "
+                                                  "takes long (compiling the kernels, on a "
+                                                  "machine's first start); null otherwise")
 
 
 class Health(BaseModel):

@@ -11,7 +11,7 @@ from typing import Any
 
 from fastapi import Request, UploadFile
 from fastapi.exceptions import RequestValidationError
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 import engine
 from engine.scene import MAX_EVENTS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
@@ -48,6 +48,15 @@ class ScoreOptions(BaseModel):
         None, description="the scene's quality (default standard)")
     model: engine.ModelName | None = Field(
         None, description="the scene's string model (default fdtd; waveguide: many times cheaper)")
+
+    @field_validator("presets")
+    @classmethod
+    def _short_names(cls, v: str | dict[str, str] | None) -> str | dict[str, str] | None:
+        # an unknown name is quoted in the importer's refusal: bounded, so is the refusal
+        names = [v] if isinstance(v, str) else [*v.keys(), *v.values()] if v else []
+        if len(names) > 2 * 64 or any(len(n) > 200 for n in names):
+            raise ValueError("at most 64 tracks, each name at most 200 characters")
+        return v
 
 
 def form_error(field: str, msg: str, kind: str = "value_error", value: Any = None) -> Any:

@@ -179,3 +179,8 @@ def check_streamable(scene: engine.Scene) -> None:
             f"/render/stream sends WAV only; got {scene.output.format!r} "
             "(use POST /render for flac or ogg)", scene.output.format,
             {"expected": "'wav'"})])
+    if scene.output.stems:
+        raise RequestValidationError([_error(
+            "output.stems", "literal_error",
+            "/render/stream sends the mix only; stems come from POST /render (a zip) or a job "
+            "(GET /jobs/{id}/stems)", True, {"expected": "false"})])

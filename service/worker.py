@@ -19,6 +19,7 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
     parent -> worker   ("labels", job_id, {"scene": dict})
     a ``stream`` payload's ``subtype`` may be ``FLOAT64`` (raw float64 samples, for jobs) and
     ``raw`` true (the pickup velocity before any gain: a job normalizes it as /render does)
+    and ``stems`` true (each block's stems as columns after the mix's: a job's stems)
     worker -> parent   ("done", job_id, jams_json_bytes, {"seconds": s})
 
 Everything sent is plain data (bytes, floats, lists, dicts) so the parent never unpickles engine
@@ -29,10 +30,12 @@ and with the first streamed block (an empty list with the later ones).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
 import signal
+import tempfile
 import threading
 import time
 from multiprocessing.connection import Connection
@@ -73,10 +76,15 @@ def _heartbeat(pipe: _Pipe, period_s: float) -> None:
         time.sleep(period_s)
 
 
-def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float = 1.0) -> None:
-    """Entry point of a worker process."""
+def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float = 1.0,
+         nice: int = 0, threads: int = 1) -> None:
+    """Entry point of a worker process; ``nice`` is added to its niceness (GUITAR_WORKER_NICE:
+    renders behind the API process and the live workers, which need the CPU on time); each render
+    on ``threads`` threads (``engine.mix``)."""
     # Ctrl-C reaches the whole process group; the parent decides when workers stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if nice:
+        os.nice(nice)  # lowering one's own priority needs no privilege
     conn = _Pipe(conn)  # type: ignore[assignment]
     threading.Thread(target=_heartbeat, args=(conn, heartbeat_s), name="heartbeat",
                      daemon=True).start()
@@ -92,12 +100,12 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
             audio.encode(np.zeros(64), 44100, fmt)
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0))
-        _serve(conn, engine, block_frames)
+        _serve(conn, engine, block_frames, threads)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass  # the parent has gone away
 
 
-def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
+def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -> None:
     while True:
         msg = conn.recv()
         if msg is None:
@@ -107,9 +115,9 @@ def _serve(conn: Connection, engine: Any, block_frames: int) -> None:
             continue  # the job it meant already finished
         try:
             if kind == "render":
-                _render(conn, engine, job_id, msg[2])
+                _render(conn, engine, job_id, msg[2], threads)
             elif kind == "stream":
-                _stream(conn, engine, job_id, msg[2], block_frames)
+                _stream(conn, engine, job_id, msg[2], block_frames, threads)
             elif kind == "score":
                 _score(conn, job_id, msg[2])
             elif kind == "labels":
@@ -184,14 +192,29 @@ def _check_finite(x: np.ndarray) -> None:
         raise FloatingPointError("the rendered audio contains non-finite samples")
 
 
-def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any]) -> None:
+def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
+            threads: int = 1) -> None:
+    """The scene's file; with ``output.stems``, a zip of it and its stems (``audio.stems_zip``),
+    the stems kept in a temporary file while the render runs rather than in memory."""
     t0 = time.perf_counter()
-    result = engine.render_result(payload["scene"])
-    seconds = time.perf_counter() - t0
-    samples = result.audio
-    _check_finite(samples)
-    data = audio.encode(samples, payload["sample_rate"], payload["format"], payload["subtype"],
-                        payload["channels"])
+    stems = bool((payload["scene"].get("output") or {}).get("stems"))
+    with tempfile.TemporaryFile() if stems else contextlib.nullcontext() as spill:
+        if stems:
+            result = engine.render_result(
+                payload["scene"], jobs=threads,
+                on_stems=lambda b: spill.write(np.ascontiguousarray(b, dtype="<f8").tobytes()))
+        else:
+            result = engine.render_result(payload["scene"], jobs=threads, stems=False)
+        seconds = time.perf_counter() - t0
+        samples = result.audio
+        _check_finite(samples)
+        data = audio.encode(samples, payload["sample_rate"], payload["format"],
+                            payload["subtype"], payload["channels"])
+        if stems:
+            spill.flush()
+            data = audio.stems_zip(data, spill, result.stem_layout, result.gain,
+                                   payload["sample_rate"], payload["format"], payload["subtype"],
+                                   payload.get("name", "guitar"))
     meta = {
         "render_seconds": seconds,
         "frames": int(audio.as_frames(samples, payload["channels"]).shape[0]),
@@ -220,14 +243,19 @@ def _sample_bytes(block: np.ndarray, subtype: str) -> bytes:
 
 
 def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
-            block_frames: int) -> None:
+            block_frames: int, threads: int = 1) -> None:
     t0 = time.perf_counter()
     frames, subtype, channels = payload["frames"], payload["subtype"], payload["channels"]
+    stems = payload.get("stems", False)
     sent = 0
     blocks = engine.blocks(payload["scene"], block_frames=block_frames,
-                           raw=payload.get("raw", False))
+                           raw=payload.get("raw", False), jobs=threads, stems=stems)
     warnings = blocks.warnings  # sent with the first block, before the response's headers
+    if stems:  # a job's: its stems ride as columns after the mix's
+        channels += len(blocks.stem_layout)
     for block in blocks:
+        if stems:
+            block = np.column_stack((audio.as_frames(block[0], payload["channels"]), block[1]))
         block = audio.as_frames(block, channels)
         _check_finite(block)
         # The header announced ``frames``: never send more than that.
@@ -245,5 +273,7 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
         silence = audio.as_frames(np.zeros((frames - sent) * channels), channels)
         conn.send(("block", job_id, _sample_bytes(silence, subtype), time.perf_counter() - t0,
                    warnings))
+    # scale: the stream's samples per m/s of pickup velocity
     conn.send(("end", job_id, {"render_seconds": time.perf_counter() - t0, "frames": sent,
-                               "warnings": warnings}))
+                               "warnings": warnings,
+                               "scale": 1.0 if payload.get("raw") else engine.FIXED_GAIN}))

@@ -17,9 +17,11 @@ ENGINE = ROOT / "engine"
 # ``score`` and ``testing`` are one layer each
 ORDER = ["config", "presets", "effect_specs", "scene", "live_events", "analysis", "losses",
          "performance", "options", "fd.grid", "cost", "score", "calibration_store", "output",
-         "instrument", "fd.kernels", "fd.string", "fd.controls", "fd.intonation", "fd.voice",
-         "fd.playability", "fd.instrument", "statics", "waveguide", "models", "effects", "mix",
-         "live", "rendering", "precompile", "testing"]
+         "instrument", "statics", "fd.kernels", "fd.string", "fd.controls", "fd.intonation",
+         "fd.statics", "fd.voice", "fd.playability", "fd.instrument", "waveguide", "models",
+         "effects", "mix", "live", "rendering", "precompile", "testing"]
+# the two physical models: neither may reach the other, directly or through any module it imports
+MODELS = ("fd", "waveguide")
 
 
 def _layer(module: str) -> str:
@@ -93,6 +95,59 @@ def test_every_engine_module_imports_only_modules_below_it():
     assert not bad, bad
 
 
+def _reach(module: str) -> set[str]:
+    """Every engine module that importing ``module`` (a dotted name below ``engine``) runs: its
+    imports, theirs, and so on (the packages around them too)."""
+    seen, todo = set(), [module]
+    while todo:
+        name = todo.pop()
+        parts = name.split(".")
+        for i in range(1, len(parts) + 1):  # ``fd.string`` runs ``fd/__init__`` first
+            prefix = ".".join(parts[:i])
+            if prefix in seen or not _is_module(prefix):
+                continue
+            seen.add(prefix)
+            base = ENGINE.joinpath(*prefix.split("."))
+            path = base / "__init__.py" if (base / "__init__.py").is_file() else base.with_suffix(
+                ".py")
+            todo.extend(_engine_imports(path))
+    return seen - {module}
+
+
+def test_neither_model_reaches_the_other():
+    """``fd`` and ``waveguide`` are siblings: no module of one imports the other's, directly nor
+    through a module below them both that imports it (a shared module that needs one model's
+    analysis is handed it from above: ``engine.models``)."""
+    bad = []
+    for path in _engine_files():
+        name = _module(path)
+        own = name.split(".")[0]
+        if own not in MODELS:
+            continue
+        for dep in _reach(name):
+            if dep.split(".")[0] in MODELS and dep.split(".")[0] != own:
+                bad.append(f"{path.relative_to(ROOT)} reaches {dep}")
+    assert not bad, bad
+
+
+def test_no_model_is_told_apart_by_its_name_outside_models():
+    """Code in the engine, the service and the CLI never compares a model's name: what differs
+    between models is asked of ``engine.models`` (an instrument, ``TRAITS``) or of a table keyed
+    by every name of ``engine.scene.MODELS``."""
+    names = {"fdtd", "waveguide"}
+    bad = []
+    for path in [*ENGINE.rglob("*.py"), *(ROOT / "service").rglob("*.py"),
+                 *(ROOT / "cli").rglob("*.py")]:
+        if path == ENGINE / "models.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Compare) and any(
+                    isinstance(c, ast.Constant) and c.value in names
+                    for c in [node.left, *node.comparators]):
+                bad.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, bad
+
+
 def test_kernels_know_nothing_above_them():
     for path in (ENGINE / "fd" / "kernels").glob("*.py"):
         assert {_layer(d) for d in _engine_imports(path)} <= {"fd.kernels", "config"}, path
@@ -120,12 +175,8 @@ def test_the_service_reaches_the_engine_through_its_public_names():
 
 
 def test_the_rooms_beside_the_layers_know_only_what_they_need():
-    """The two models are siblings: the waveguide imports nothing of ``fd`` (what both need is
-    below them both).  The score importers know only the scene's schema, the presets and the
-    player's gestures."""
-    for path in (ENGINE / "waveguide").glob("*.py"):
-        reach = {d for d in _engine_imports(path) if d == "fd" or d.startswith("fd.")}
-        assert not reach, f"{path.relative_to(ROOT)} imports {reach}"
+    """The score importers know only the scene's schema, the presets and the player's gestures
+    (the two models' rooms: ``test_neither_model_reaches_the_other``)."""
     for path in (ENGINE / "score").glob("*.py"):
         deps = {_layer(d) for d in _engine_imports(path)} - {"score"}
         assert deps <= {"scene", "presets", "performance"}, path

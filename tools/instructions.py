@@ -65,7 +65,9 @@ def engine_of(c, duration):
     scene = Scene.model_validate({**c["scene"], "duration": duration})
     if scene.model == "waveguide":
         from engine import waveguide
-        return waveguide.prepare(scene, waveguide.WaveguideOptions(**c["options"]))
+        from engine.models import PRESSED_STRING
+        return waveguide.prepare(scene, waveguide.WaveguideOptions(**c["options"]),
+                                 statics=PRESSED_STRING)
     return prepare(scene, RenderOptions(**c["options"]))
 for c in configs:  # load the kernels for every configuration's types (not counted)
     for _ in engine_of(c, 0.25).blocks():

@@ -23,6 +23,7 @@ import os, sys
 import numpy as np
 import engine.waveguide.voice as wv
 from engine import waveguide
+from engine.models import PRESSED_STRING
 from engine.scene import Scene
 calls = int(sys.argv[1])
 kept = []
@@ -38,7 +39,7 @@ wv.entry_point = keep
 sc = Scene.model_validate({"duration": 0.1, "model": "waveguide", "events": [
     {"type": "fret", "time": 0, "string": 5, "fret": 3},
     {"type": "pluck", "time": 0.01, "string": 5}]})
-for _ in waveguide.prepare(sc, waveguide.WaveguideOptions()).blocks():
+for _ in waveguide.prepare(sc, waveguide.WaveguideOptions(), statics=PRESSED_STRING).blocks():
     pass
 fn, a = kept[0]
 if len(a) > 4:  # run_block(rails, ist, fst, ds, step0, nsteps, out, ...): no step

@@ -8,6 +8,7 @@ Modules, each knowing only those before it (and the engine's shared layers below
 * ``string``       one string's grid, coefficients, tuning and geometry
 * ``controls``     events -> one string's control arrays
 * ``intonation``   fret calibration and seating forces (small static solves)
+* ``statics``      the pressed string's statics the waveguide is handed (``engine.statics``)
 * ``voice``        one string of a scene: state across blocks, energy bookkeeping, the skips
 * ``playability``  warnings: fingers too light to seat their string, lost pull-offs
 * ``instrument``   the voices of one guitar, block by block (``engine.instrument``'s face)

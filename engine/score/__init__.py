@@ -20,10 +20,11 @@ import os
 from ..performance import truncate
 from ..scene import MAX_DURATION_S, MAX_TRACKS
 from .common import MAX_SCORE_BYTES, ScoreError
-from .labels import scene_labels, scene_notes
+from .labels import save_labels, scene_labels, scene_notes
 
 __all__ = ["FORMATS", "SCORE_SUFFIXES", "SUFFIXES", "WARNING_MODES", "ScoreError", "ScoreScene",
-           "group_warnings", "scene_labels", "scene_notes", "score_to_scene", "select_warnings"]
+           "group_warnings", "save_labels", "scene_labels", "scene_notes", "score_to_scene",
+           "select_warnings"]
 
 _OPTIONS = {"tracks", "presets", "tempo_scale", "max_seconds", "format", "sample_rate",
             "all_instruments"}
@@ -203,11 +204,31 @@ def score_to_scene(source, **options) -> ScoreScene:
     if max_s is not None:
         scene = truncate(scene, float(max_s))
         notes = [n for n in notes if n["time"] < max_s]
+    info = scene.get("score")
+    if info is not None:
+        info["title"] = (info.get("title") or "")[:300]
+        info["artist"] = (info.get("artist") or "")[:300]
+        info["source"] = os.path.basename(name)[:300]
+        info["format"] = fmt
+        cut_score_info(info, float(scene["duration"]))
     out = ScoreScene(scene)
     out.warnings = warnings
     out.notes = sorted(notes, key=lambda n: (n["time"], n["track"], n["string"]))
     out.format = fmt
     return out
+
+
+def cut_score_info(info: dict, seconds: float) -> dict:
+    """The score info of a scene cut at ``seconds`` (in place): its bars, beats, tempo changes,
+    keys and chords from then on dropped."""
+    for times, values in (("bars", "bar_numbers"), ("beats", "beat_positions")):
+        keep = [i for i, t in enumerate(info.get(times) or []) if t < seconds]
+        info[times] = [info[times][i] for i in keep]
+        info[values] = [info[values][i] for i in keep]
+    for key in ("tempo", "keys", "chords"):
+        if key in info:
+            info[key] = [m for m in info[key] if m["time"] < seconds]
+    return info
 
 
 def _keep_busiest_tracks(scene: dict, planned: list, warnings: list[str]) -> tuple[dict, list]:

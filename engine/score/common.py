@@ -148,7 +148,7 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
     out: list[dict] = []
     notes = sorted(notes, key=lambda n: n.time)
     free_from = 0.0  # when the string's previous note ended (its damp) or its attack, if it rings
-    held: set[int] = set()  # frets the fingers hold down on this string
+    held: dict[int, dict] = {}  # fret -> the event whose finger holds it down on this string
     for i, n in enumerate(notes):
         nxt = notes[i + 1] if i + 1 < len(notes) else None
         end = min(n.end, nxt.time) if nxt is not None else n.end
@@ -156,6 +156,7 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
         s = n.string
         lead = n.time if (n.attack in ("hammer_on", "pull_off", "slide")) else max(
             n.time - FRET_LEAD_S, free_from, 0.0)
+        start = len(out)
         # left hand first
         if n.attack == "pluck" or n.attack == "strum" or n.attack == "tap":
             if n.slide_in is not None:
@@ -196,6 +197,9 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
                 prep = min(prep, n.time - 1e-4)
                 out.append({"type": "hammer_on", "time": _r(prep), "string": s, "fret": n.fret,
                             "velocity": 0.1})
+            for f, ev in held.items():  # fingers between the two frets lift with the pull-off
+                if n.fret < f < (prev or 0) and ev["time"] < _r(n.time):
+                    ev["release"] = _r(n.time)
             out.append({"type": "pull_off", "time": _r(n.time), "string": s, "fret": prev,
                         "force": _r(min(max(0.5 * n.force, 0.1), 20.0))})
         elif n.attack == "slide":
@@ -205,14 +209,17 @@ def string_events(notes: list[Planned], frets: int) -> list[dict]:
             out.append({"type": "slide", "time": ts, "string": s, "from_fret": prev,
                         "to_fret": n.fret, "duration": _r(n.time - ts)})
         # strum: its plucks are written once per beat by the caller
+        finger = next((e for e in reversed(out[start:]) if e.get("fret", e.get("to_fret")) ==
+                       n.fret and e["type"] in ("fret", "tap", "hammer_on", "slide")), None)
         if n.attack in ("pluck", "strum", "tap", "slide"):
-            held = {n.fret} if n.fret > 0 else set()
-        elif n.attack == "hammer_on":
-            held.add(n.fret)
+            held = {n.fret: finger} if n.fret > 0 and finger is not None else {}
+        elif n.attack == "hammer_on" and finger is not None:
+            held[n.fret] = finger
         elif n.attack == "pull_off":
-            held.discard(n.legato_from)
-            if n.fret > 0:
-                held.add(n.fret)
+            held.pop(n.legato_from, None)
+            held = {f: ev for f, ev in held.items() if "release" not in ev}
+            if n.fret > 0 and n.fret not in held and finger is not None:
+                held[n.fret] = finger
         if n.vibrato is not None:
             depth, rate, start, dur = n.vibrato
             out.append({"type": "vibrato", "time": _r(start), "string": s, "depth_cents": depth,

@@ -377,7 +377,52 @@ def convert(song, options: dict, warnings: list[str]) -> tuple[dict, list[Planne
         raise ScoreError("the score has no pitched track to play" if want is None else
                          f"options.tracks: none of {sorted(map(str, want))} is a pitched track "
                          "of this score")
-    return _assemble(scene_tracks, tracks, planned, strums, warnings), planned
+    scene = _assemble(scene_tracks, tracks, planned, strums, warnings)
+    scene["score"] = {"title": song.title or "", "artist": song.artist or "",
+                      **timing(song.measureHeaders, order, clock)}
+    return scene, planned
+
+
+def beat_unit(numerator: int, denominator: int) -> tuple[int, float]:
+    """(beats in a bar, quarter notes per beat) of a time signature: the denominator's note,
+    or a dotted one in compound meters (6/8, 9/8, 12/8 ...: a numerator > 3 divisible by 3), as
+    pretty_midi counts the beats of a MIDI file."""
+    quarters = 4.0 / denominator
+    if numerator > 3 and numerator % 3 == 0:
+        return numerator // 3, 3 * quarters
+    return numerator, quarters
+
+
+def timing(headers, order, clock) -> dict:
+    """Bars and beats in seconds as played (``ScoreInfo`` of ``engine.scene``): each played
+    bar's start and number, each beat's time and place in its bar, and the tempo map (quarter
+    notes per minute, the tempo scale applied)."""
+    bars, numbers, beats, positions = [], [], [], []
+    for k, m in enumerate(order):
+        h = headers[m]
+        start = clock.starts[k]
+        bars.append(_r6(clock.seconds(start)))
+        numbers.append(m + 1)
+        count, quarters = beat_unit(h.timeSignature.numerator, h.timeSignature.denominator.value)
+        step = quarters * clock.quarter
+        for j in range(count):
+            if j * step >= h.length:
+                break
+            beats.append(_r6(clock.seconds(start + j * step)))
+            positions.append(j + 1)
+    tempo: list[dict] = []
+    for tick, bpm in zip(clock.seg_ticks, clock.seg_bpm, strict=True):
+        t, q = _r6(clock.seconds(tick)), round(bpm * clock.scale, 4)
+        if tempo and tempo[-1]["time"] == t:
+            tempo.pop()
+        if not tempo or tempo[-1]["bpm"] != q:
+            tempo.append({"time": t, "bpm": q})
+    return {"bars": bars, "bar_numbers": numbers, "beats": beats, "beat_positions": positions,
+            "tempo": tempo}
+
+
+def _r6(x: float) -> float:
+    return round(float(x), 6)
 
 
 def _assemble(scene_tracks, tracks, planned, strums, warnings) -> dict:
@@ -632,7 +677,11 @@ def _harmonic(p: Planned, h, tr, s, fret, w, warnings):
         warnings.append(f"{w}: {kind} not playable, played as a plain note")
 
 
-def _bend(p: Planned, points, t0, t1, w, warnings, what):
+def _bend(p: Planned, points, t0, t1, w, warnings, what, tied: bool = False):
+    """The bend curve ``points`` of the beat t0..t1 as ``bend`` events of note ``p``; a pre-bend
+    (a curve that starts bent) is put on just before t0, and raises the pitch ``p`` is attacked
+    at, unless the beat is ``tied``: a tie continues a note already sounding, whose attack it
+    does not change."""
     humps, approx = _bend_humps(points)
     if approx:
         warnings.append(f"{w}: {what} curve with a partial release or re-bend approximated by "
@@ -655,7 +704,7 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
         rel = t0 + fall * dur if fall is not None else t1 - rise
         rel = max(min(rel, t1 - rise), bt + rise)
         p.bends.append((bt, round(peak, 4), rise, rel))
-        if pre and p.attack in ("pluck", "strum"):
+        if pre and not tied and p.attack in ("pluck", "strum"):
             p.pitch += peak
     if humps and "bend" not in p.articulations:
         p.articulations.append("bend" if not humps[0][4] else "prebend")
@@ -663,7 +712,7 @@ def _bend(p: Planned, points, t0, t1, w, warnings, what):
 
 def _continuation_effects(prev: Planned, eff, be, t0, t1, w, warnings):
     if eff.isBend:
-        _bend(prev, eff.bend.points, t0, t1, w, warnings, "bend")
+        _bend(prev, eff.bend.points, t0, t1, w, warnings, "bend", tied=True)
     if eff.vibrato or be.vibrato:
         if prev.vibrato is None:
             prev.vibrato = (20.0, 5.5, t0, t1 - t0)
@@ -736,11 +785,18 @@ def _grace(p: Planned, g, tr, s, spt, w, warnings, planned) -> Planned | None:
         return None
     gd = spt * g.durationTime
     gd = min(gd, 0.5 * max(p.end - p.time, 1e-3), 0.12)
+    old = p.time
     if g.isOnBeat or p.time < gd:  # (before the first beat there is no time to steal)
         gt = p.time
         p.time = p.time + gd
     else:
         gt = p.time - gd
+    # the main note's pre-bend is put on after the grace note is struck, before its own attack
+    for k, (bt, peak, rise, rel) in enumerate(p.bends):
+        if bt < old - 1e-9:
+            bt = max(p.time - (old - bt), 0.5 * (gt + p.time))
+            rise = max(min(rise, p.time - bt), 1e-3)
+            p.bends[k] = (bt, peak, rise, max(rel, bt + rise))
     force = C.force_for_velocity(g.velocity)
     gn = Planned(p.track, s, fret, gt, p.time, force, float(tr.tuning[s - 1] + fret),
                  style=p.style, where=w, articulations=["grace"])

@@ -8,13 +8,19 @@ track order and, within a track, from the lowest string to the highest; each ann
 ``annotation_metadata.data_source`` is the string's index counted from the lowest string
 (``"0"`` = the lowest, as GuitarSet numbers its six strings).  Each observation is one note:
 ``time`` and ``duration`` in seconds as in the scene's events, ``value`` its (fractional) MIDI
-pitch at the attack, ``confidence`` None.  JAMS observations hold a number as value, so what else
-belongs to a note is kept in the annotation's **sandbox**: ``sandbox.notes`` is a list in the same
-order as the annotation's observations (sorted by time, one note per string at a time), each
-``{"time", "duration", "pitch", "track", "track_name", "string", "fret", "attack",
-"articulations"}``; ``sandbox`` also holds ``track``, ``track_name``, ``string`` (1 = highest, as
-the scene numbers strings), ``open_pitch`` and ``unpitched`` (attacks of dead notes: no pitch
-sounds, so they are no ``note_midi`` observation).  All of it survives ``jams.load``.
+pitch at the attack, ``confidence`` None.  What else belongs to a note is kept once, in the
+annotation's **sandbox**: ``sandbox.notes`` is a list in the same order as the observations (sorted
+by time, one note per string at a time), each ``{"fret", "attack", "articulations"}``; ``sandbox``
+also holds ``track``, ``track_name``, ``string`` (1 = highest, as the scene numbers strings),
+``open_pitch`` and ``unpitched`` (attacks of dead notes: no pitch sounds, so they are no
+``note_midi`` observation).  After them, one ``pitch_contour`` annotation per string in the same
+order: f0 in Hz at the frames ``k * contour_hop`` while a note sounds (value ``{"index": the
+note's place in the string's note_midi data, "frequency", "voiced"}``, one unvoiced frame after
+a note the string does not follow at once; ``_contour`` says how it is computed; the pitch glide
+of hard plucks, which depends on the string's motion, is not in it).  A converted score adds
+``beat`` and ``tempo`` annotations (and ``key_mode``, ``chord`` where the score has them) from
+``scene["score"]``; ``sandbox.guitar_synth`` says what made the audio (``provenance``).  All of
+it survives ``jams.load``.
 
 Rules (one string at a time, its events in time order; at equal times a ``damp`` first, then the
 left hand (``fret``, ``slide``, touches, palm, bends), then attacks):
@@ -38,9 +44,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
 
 from .. import presets as _presets
-from ..performance import strum_times
+from ..performance import bend_points, finger_x_m, strum_times, vibrato_points
 from .common import note_midi
 
 HARMONIC_TOLERANCE = 0.02  # |k r - j| for the touch at r of the speaking length
@@ -77,6 +86,7 @@ class _Geometry:
                 specs[i] = replace(specs[i], **{
                     k: o[k] for k in ("saddle_setback_m", "nut_compensation_m")
                     if o.get(k) is not None})
+        self.notes = notes
         self.open = [note_midi(n) for n in notes]
         self.preset = preset
         self.specs = specs + [specs[-1]] * max(len(notes) - len(specs), 0)
@@ -175,6 +185,7 @@ def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float)
             fret = into[0]["to_fret"]
             arts.append("slide_in")
         pitch = geo.open[string - 1] + fret
+        harmonic = 0.0
         bend = _bend_at(bends, t)
         if bend > 1e-6:
             pitch += bend
@@ -194,6 +205,7 @@ def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float)
                     arts.append("dead")
                 else:
                     pitch += 12.0 * math.log2(k)
+                    harmonic = 12.0 * math.log2(k)
                     arts.append(f"harmonic_{k}")
         if any(on <= t < off for (on, off) in mutes):
             arts.append("palm_mute")
@@ -201,6 +213,7 @@ def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float)
                "fret": fret, "attack": attack, "articulations": arts}
         if dead:
             cur["_dead"] = True
+        cur["_harmonic"] = harmonic
 
     for e in timeline:
         t, kind = e["time"], e["type"]
@@ -267,7 +280,7 @@ def _string_notes(evs: list[dict], geo: _Geometry, string: int, duration: float)
                 continue
             start(t, sl["to_fret"], "slide")
     end_current(duration)
-    return notes, unpitched
+    return notes, unpitched, fingers
 
 
 def scene_notes(scene) -> list[dict]:
@@ -280,45 +293,260 @@ def scene_notes(scene) -> list[dict]:
     return sorted(out, key=lambda n: (n["time"], n["track"], n["string"]))
 
 
-def _labels(scene) -> list[dict]:
+def _labels(scene, hop: float | None = None) -> list[dict]:
+    """Per string of each track (lowest first): its notes and unpitched attacks, and with a
+    ``hop`` (s) its pitch contour (``_contour``)."""
     if hasattr(scene, "model_dump"):
         scene = scene.model_dump(exclude_none=True)
     duration = float(scene["duration"])
+    rate = int(scene.get("sample_rate", 44100))
     result = []
     for ti, tr in enumerate(_tracks(scene)):
         geo = _Geometry(tr.get("guitar") or {})
         name = tr.get("name") or f"track {ti + 1}"
+        model = tr.get("model") or scene.get("model") or "fdtd"
         per = _expand(tr.get("events") or [], geo.n, duration)
         for s in range(geo.n, 0, -1):  # lowest string first, as GuitarSet
-            notes, unpitched = _string_notes(per[s], geo, s, duration)
+            notes, unpitched, fingers = _string_notes(per[s], geo, s, duration)
+            harmonics = [n.pop("_harmonic", 0.0) for n in notes]
             for n in notes + unpitched:
                 n.pop("_dead", None)
+                n.pop("_harmonic", None)
                 n["track"], n["track_name"] = ti, name
                 n["duration"] = round(n["duration"], 9)
-            result.append({"track": ti, "track_name": name, "string": s,
-                           "index": geo.n - s, "open_pitch": round(geo.open[s - 1], 4),
-                           "notes": notes, "unpitched": unpitched})
+            item = {"track": ti, "track_name": name, "string": s, "index": geo.n - s,
+                    "open_pitch": round(geo.open[s - 1], 4), "notes": notes,
+                    "unpitched": unpitched}
+            if hop:
+                item["contour"] = _contour(notes, harmonics, fingers, per[s], geo, s, rate,
+                                           model, hop)
+            result.append(item)
     return result
 
 
-def scene_labels(scene, title: str = ""):
-    """The scene's note labels as a ``jams.JAMS`` (see the module's docstring for the layout)."""
+def _stop(fingers: list[dict], geo: _Geometry, string: int, t: float) -> float:
+    """The fret stopping the string at ``t``: the highest of the fingers down; a sliding finger
+    stops it at the first fret wire beyond it (its pitch steps fret by fret, as in both
+    models)."""
+    best = 0
+    for f in fingers:
+        if not f["on"] <= t < f["rel"]:
+            continue
+        if f["slide"] is None:
+            best = max(best, f["fret"])
+            continue
+        t0, t1, a, b = f["slide"]
+        if t >= t1 or t1 <= t0:
+            best = max(best, b)
+            continue
+        spec = geo.specs[string - 1]
+        xa, xb = (finger_x_m(geo.preset, q, spec) for q in (a, b))
+        x = xa + (xb - xa) * max(t - t0, 0.0) / (t1 - t0)
+        q = next((q for q in range(1, geo.preset.frets + 1)
+                  if float(geo.preset.fret_x_m(q, spec)) > x), geo.preset.frets)
+        best = max(best, q)
+    return best
+
+
+def _ratio_curve(evs: list[dict], rate: int, model: str):
+    """(times, pitch ratios) of the string's bends and vibratos, linear between them as each
+    model plays them: the breakpoints of ``performance.bend_points``/``vibrato_points`` at
+    the scene's sample rate, merged (a later one at the same step wins); the waveguide
+    interpolates the pitch ratio, the finite-difference string the tension, i.e. its square."""
+    points: list[tuple[int, float]] = []
+
+    def step(t: float) -> int:
+        return int(round(t * rate))
+
+    def cents(c: float) -> float:
+        return 2.0 ** (c / 1200.0)
+
+    for e in evs:
+        if e["type"] == "bend":
+            b = SimpleNamespace(time=e["time"], duration=e.get("duration", 0.15),
+                                release=e.get("release"), semitones=e["semitones"])
+            pts, _ = bend_points(b, step(b.time), step, cents(100.0 * b.semitones))
+            points += pts
+        elif e["type"] == "vibrato":
+            v = SimpleNamespace(time=e["time"], duration=e.get("duration", 1.0),
+                                rate_hz=e.get("rate_hz", 5.5), depth_cents=e.get("depth_cents", 20.0))
+            pts, _ = vibrato_points(v, step, cents)
+            points += pts
+    points.sort(key=lambda p: p[0])
+    if not points or points[0][0] > 0:
+        points.insert(0, (0, 1.0))
+    steps: list[int] = []
+    ratios: list[float] = []
+    for st, r in points:
+        if steps and steps[-1] == st:
+            ratios[-1] = r
+        else:
+            steps.append(st)
+            ratios.append(r)
+    times = np.asarray(steps, float) / rate
+    r = np.asarray(ratios)
+    return times, (r * r if model == "fdtd" else r)
+
+
+def _contour(notes, harmonics, fingers, evs, geo: _Geometry, string: int, rate: int, model: str,
+             hop: float) -> dict:
+    """f0 of one string while each of its notes sounds, at the frames ``k * hop``: the open
+    string, the fret stopping it (slides step through the frets), the note's harmonic, bends
+    and vibrato; parallel lists ``time``, ``frequency`` (Hz), ``index`` (the note's place in
+    the string's ``note_midi`` data) and ``voiced`` (False on the frame after a note ends
+    where no note sounds)."""
+    bt, br = _ratio_curve(evs, rate, model)
+    out: dict = {"time": [], "frequency": [], "index": [], "voiced": []}
+    open_pitch = geo.open[string - 1]
+    for i, n in enumerate(notes):
+        start, end = n["time"], n["time"] + n["duration"]
+        k0, k1 = math.ceil(start / hop - 1e-9), math.ceil(end / hop - 1e-9)
+        if k1 <= k0:
+            continue
+        times = np.arange(k0, k1) * hop
+        ratio = np.interp(times, bt, br)
+        if model == "fdtd":
+            ratio = np.sqrt(ratio)
+        mine = [f for f in fingers if f["on"] < end and f["rel"] > start]
+        stops = np.array([_stop(mine, geo, string, float(t)) for t in times])
+        f = 440.0 * 2.0 ** ((open_pitch + harmonics[i] + stops - 69.0) / 12.0) * ratio
+        out["time"] += [round(float(t), 6) for t in times]
+        out["frequency"] += [round(float(x), 3) for x in f]
+        out["index"] += [i] * len(times)
+        out["voiced"] += [True] * len(times)
+        nxt = notes[i + 1]["time"] if i + 1 < len(notes) else math.inf
+        if k1 * hop < nxt - 1e-9:  # the note is over and the string silent: one unvoiced frame
+            out["time"].append(round(k1 * hop, 6))
+            out["frequency"].append(out["frequency"][-1])
+            out["index"].append(i)
+            out["voiced"].append(False)
+    return out
+
+
+CONTOUR_HOP_S = 0.01  # frames of the pitch contours
+TOOL = "guitar-synth engine.score.labels"
+
+
+def scene_labels(scene, title: str = "", contour_hop: float | None = CONTOUR_HOP_S,
+                 metadata: dict | None = None):
+    """The scene's labels as a ``jams.JAMS`` (see the module's docstring for the layout).
+    ``contour_hop``: the pitch contours' frame hop in seconds (None: no contours); ``metadata``:
+    more of the file's provenance for ``sandbox.guitar_synth`` (a dataset item's ``seed`` ...)."""
     import jams
 
     if hasattr(scene, "model_dump"):
         scene = scene.model_dump(exclude_none=True)
+    duration = float(scene["duration"])
+    info = scene.get("score") or {}
     jam = jams.JAMS()
-    jam.file_metadata.duration = float(scene["duration"])
-    jam.file_metadata.title = title
-    for per in _labels(scene):
-        ann = jams.Annotation(namespace="note_midi", time=0.0, duration=float(scene["duration"]))
+    jam.file_metadata.duration = duration
+    jam.file_metadata.title = title or info.get("title") or ""
+    jam.file_metadata.artist = info.get("artist") or ""
+    jam.sandbox.update(guitar_synth=provenance(scene, metadata))
+    strings = _labels(scene, contour_hop)
+    for per in strings:
+        ann = jams.Annotation(namespace="note_midi", time=0.0, duration=duration)
         ann.annotation_metadata.data_source = str(per["index"])
-        ann.annotation_metadata.annotation_tools = "guitar-synth engine.score.labels"
+        ann.annotation_metadata.annotation_tools = TOOL
         for n in per["notes"]:
             ann.append(time=float(n["time"]), duration=float(n["duration"]),
                        value=float(n["pitch"]), confidence=None)
-        ann.sandbox.update(track=per["track"], track_name=per["track_name"], string=per["string"],
-                           open_pitch=per["open_pitch"], notes=per["notes"],
-                           unpitched=per["unpitched"])
+        ann.sandbox.update(
+            track=per["track"], track_name=per["track_name"], string=per["string"],
+            open_pitch=per["open_pitch"],
+            notes=[{"fret": n["fret"], "attack": n["attack"], "articulations": n["articulations"]}
+                   for n in per["notes"]],
+            unpitched=[{k: n[k] for k in ("time", "duration", "fret", "attack", "articulations")}
+                       for n in per["unpitched"]])
         jam.annotations.append(ann)
+    for per in strings if contour_hop else ():
+        c = per["contour"]
+        ann = jams.Annotation(namespace="pitch_contour", time=0.0, duration=duration)
+        ann.annotation_metadata.data_source = str(per["index"])
+        ann.annotation_metadata.annotation_tools = TOOL
+        for t, f, i, v in zip(c["time"], c["frequency"], c["index"], c["voiced"], strict=True):
+            ann.append(time=t, duration=0.0, value={"index": i, "frequency": f, "voiced": v},
+                       confidence=None)
+        ann.sandbox.update(track=per["track"], track_name=per["track_name"],
+                           string=per["string"], hop=contour_hop)
+        jam.annotations.append(ann)
+    _score_annotations(jam, info, duration)
     return jam
+
+
+def save_labels(jam, target) -> None:
+    """Write ``jam`` as compact JSON (``jams.load`` reads it) to a path or a text file: a
+    song's contours are tens of thousands of frames, which ``JAMS.save``'s indented JSON makes
+    two and a half times larger."""
+    import json
+
+    text = json.dumps(jam.__json__, separators=(",", ":"), allow_nan=False)
+    if hasattr(target, "write"):
+        target.write(text)
+    else:
+        with open(target, "w", encoding="utf-8") as f:
+            f.write(text)
+
+
+def summary(scene) -> dict:
+    """A scene's labelled notes in brief, for a dataset's manifest: ``notes`` (how many) and
+    ``articulations`` (the names used, sorted)."""
+    notes = scene_notes(scene)
+    return {"notes": len(notes),
+            "articulations": sorted({a for n in notes for a in n["articulations"]})}
+
+
+def provenance(scene: dict, metadata: dict | None = None) -> dict:
+    """What made the labels' audio: the project's version, the scene's model, quality and
+    sample rate, each track's name, preset, tuning and model, and the score it came from (its
+    file name and format), with ``metadata`` added (a dataset item's seed ...)."""
+    from importlib import metadata as im
+
+    try:
+        version = im.version("guitar-synth")
+    except im.PackageNotFoundError:
+        version = "unknown"
+    info = scene.get("score") or {}
+    tracks = []
+    for tr in _tracks(scene):
+        g = tr.get("guitar") or {}
+        geo = _Geometry(g)
+        tracks.append({"name": tr.get("name") or "", "preset": geo.preset.name,
+                       "tuning": list(geo.notes),
+                       "model": tr.get("model") or scene.get("model") or "fdtd"})
+    out = {"version": version, "model": scene.get("model") or "fdtd",
+           "quality": scene.get("quality") or "standard",
+           "sample_rate": int(scene.get("sample_rate", 44100)), "tracks": tracks,
+           "source": info.get("source") or "", "format": info.get("format") or "scene"}
+    out.update(metadata or {})
+    return out
+
+
+def _score_annotations(jam, info: dict | None, duration: float) -> None:
+    """``beat`` (value: the beat's place in its bar, 1 = downbeat, as GuitarSet) and ``tempo``
+    (quarter notes per minute over each stretch of constant tempo, confidence 1) of a converted
+    score's bars and beats (``engine.scene.ScoreInfo``); nothing for a scene written by hand."""
+    import jams
+
+    if not info:
+        return
+    tool = "guitar-synth engine.score.labels"
+    beats = [(t, p) for t, p in zip(info.get("beats") or [], info.get("beat_positions") or [],
+                                     strict=False) if t < duration]
+    if beats:
+        ann = jams.Annotation(namespace="beat", time=0.0, duration=duration)
+        ann.annotation_metadata.annotation_tools = tool
+        ann.annotation_metadata.data_source = "score"
+        for t, p in beats:
+            ann.append(time=float(t), duration=0.0, value=int(p), confidence=None)
+        jam.annotations.append(ann)
+    tempo = [m for m in info.get("tempo") or [] if m["time"] < duration]
+    if tempo:
+        ann = jams.Annotation(namespace="tempo", time=0.0, duration=duration)
+        ann.annotation_metadata.annotation_tools = tool
+        ann.annotation_metadata.data_source = "score"
+        for k, m in enumerate(tempo):
+            end = tempo[k + 1]["time"] if k + 1 < len(tempo) else duration
+            ann.append(time=float(m["time"]), duration=max(float(end - m["time"]), 0.0),
+                       value=float(m["bpm"]), confidence=1.0)
+        jam.annotations.append(ann)

@@ -262,7 +262,35 @@ def convert(data: bytes, options: dict, warnings: list[str]) -> tuple[dict, list
             last = max(last, e["time"], e.get("release", 0.0))
     last = max([last] + [p.end for p in planned])
     return {"duration": round(last + C.TAIL_S, 6), "sample_rate": 44100,
-            "tracks": scene_tracks}, planned
+            "tracks": scene_tracks, "score": timing(pm, beats, downbeats, scale)}, planned
+
+
+def timing(pm, beats: list[float], downbeats: list[float], scale: float) -> dict:
+    """The file's bars, beats and tempo map in seconds as played (``engine.scene.ScoreInfo``),
+    from pretty_midi's beats and downbeats (a dotted beat in compound meters); the title is the
+    first track's name, as a sequencer writes it."""
+    bars = [round(t / scale, 6) for t in downbeats]
+    out_beats, positions = [], []
+    k, first = -1, 0
+    for i, t in enumerate(beats):
+        while k + 1 < len(downbeats) and downbeats[k + 1] <= t + 1e-9:
+            k += 1
+            first = bisect.bisect_left(beats, downbeats[k] - 1e-9)
+        out_beats.append(round(t / scale, 6))
+        positions.append(i - first + 1)
+    try:
+        times, qpm = pm.get_tempo_changes()
+    except Exception:
+        times, qpm = [], []
+    tempo: list[dict] = []
+    for t, q in zip(times, qpm, strict=True):
+        t, q = round(float(t) / scale, 6), round(float(q) * scale, 4)
+        if tempo and tempo[-1]["time"] == t:
+            tempo.pop()
+        if (not tempo or tempo[-1]["bpm"] != q) and 0 < q <= 20000:
+            tempo.append({"time": t, "bpm": q})
+    return {"bars": bars, "bar_numbers": list(range(1, len(bars) + 1)), "beats": out_beats,
+            "beat_positions": positions, "tempo": tempo}
 
 
 def _part_names(instruments) -> list[str]:

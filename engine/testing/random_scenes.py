@@ -15,6 +15,7 @@ Both explore the same space, since both go through ``random_scene``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -206,23 +207,41 @@ LONG_S = 60.0
 QUALITIES = ("draft",) * 14 + ("standard",) * 5 + ("high",)
 WG_LONG_EVERY = 10
 WG_SHORT_S = (0.3, 2.0)
-WG_STREAM = 1  # the waveguide's cases: a stream of their own, apart from the default model's
+
+
+@dataclass(frozen=True)
+class SoakDraws:
+    """How a model's soak cases are drawn: one in ``long_every`` is ``LONG_S`` long (4 events),
+    the others ``short_s`` (min, max) with up to ``short_events``; ``stream`` follows (seed, i) in
+    the generator's seed (a model's cases apart from the others'); ``model`` is written into the
+    scene when given."""
+
+    long_every: int
+    short_s: tuple[float, float]
+    short_events: int
+    short_qualities: tuple[str, ...]
+    stream: tuple[int, ...] = ()
+    model: str | None = None
+
+
+# ``engine.scene.MODELS`` -> its soak's draws (the waveguide is cheaper: longer scenes)
+SOAK_DRAWS = {
+    "fdtd": SoakDraws(LONG_EVERY, (0.02, 0.2), 16, QUALITIES),
+    "waveguide": SoakDraws(WG_LONG_EVERY, WG_SHORT_S, 12, ("draft",), stream=(1,),
+                           model="waveguide"),
+}
 
 
 def soak_case(seed: int, i: int, model: str = "fdtd") -> tuple[str, dict]:
-    """Case ``i`` of ``benchmarks.soak`` (and ``tools.held_soak``), drawn from seed (seed, i): its
-    kind ('short' or '60 s') and scene; the waveguide's cases come from a stream of their own."""
-    if model == "waveguide":
-        d = NumpyDraw(np.random.default_rng([seed, i, WG_STREAM]))
-        if i % WG_LONG_EVERY == WG_LONG_EVERY - 1:
-            sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4)
-            return "60 s", {**sc, "model": "waveguide"}
-        sc = random_scene(d, max_duration=WG_SHORT_S[1], min_duration=WG_SHORT_S[0],
-                          max_events=12)
-        return "short", {**sc, "model": "waveguide"}
-    d = NumpyDraw(np.random.default_rng([seed, i]))
-    if i % LONG_EVERY == LONG_EVERY - 1:
+    """Case ``i`` of ``benchmarks.soak`` (and ``tools.held_soak``) on ``model``, drawn from seed
+    (seed, i, *stream): its kind ('short' or '60 s') and scene (``SOAK_DRAWS``)."""
+    how = SOAK_DRAWS[model]
+    d = NumpyDraw(np.random.default_rng([seed, i, *how.stream]))
+    tag = {} if how.model is None else {"model": how.model}
+    if i % how.long_every == how.long_every - 1:
         sc = random_scene(d, max_duration=LONG_S, min_duration=LONG_S, max_events=4,
                           qualities=("draft",))
-        return "60 s", sc
-    return "short", random_scene(d, max_duration=0.2, max_events=16, qualities=QUALITIES)
+        return "60 s", {**sc, **tag}
+    sc = random_scene(d, max_duration=how.short_s[1], min_duration=how.short_s[0],
+                      max_events=how.short_events, qualities=how.short_qualities)
+    return "short", {**sc, **tag}

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from engine.models import PRESSED_STRING
 from engine.scene import Scene
 from engine.waveguide import WaveguideOptions, prepare
 
@@ -56,7 +57,7 @@ def energy_windows(scene: Scene, window_s: float = WINDOW_S,
     window mean over the first one less 1, largest glide ratio) of a scene rendered on the
     waveguide without the decay skip, counting each string's energy from just after its last
     event (two periods and 3 ms past it: the junctions' release)."""
-    inst = prepare(scene, WaveguideOptions(skip_decayed=False, glide=glide))
+    inst = prepare(scene, WaveguideOptions(skip_decayed=False, glide=glide), statics=PRESSED_STRING)
     rate = scene.sample_rate
     win = max(int(window_s * rate / BLOCK), 1)
     history: dict[int, list[float]] = {v.index: [] for v in inst.voices}

@@ -1,8 +1,9 @@
 """The digital-waveguide guitar of Evangelista & Eckerholm 2010 (IEEE TASLP 18(4)), beside the
 finite-difference model: the same scenes, presets and output conventions.
 
-    >>> from engine import waveguide
-    >>> inst = waveguide.prepare(engine.parse_scene({... "model": "waveguide"}))
+    >>> from engine import models, waveguide
+    >>> inst = waveguide.prepare(engine.parse_scene({... "model": "waveguide"}),
+    ...                          statics=models.PRESSED_STRING)
     >>> audio = np.concatenate(list(inst.blocks(4096)))   # pickup velocity, m/s, mono
 
 Modules, one per object, each opening with the equations it implements:
@@ -38,8 +39,11 @@ finite-difference analysis: ``fingering``), a distributed Kirchhoff-Carrier tens
 contacts with an exact energy balance, and the transients of pressing a finger down; its
 spectrum is the reference's.
 
-A scene's first fretted notes cost more than the rest: each fret a finger holds asks the
-finite-difference held-note analysis for the finger's damping (an eigenvalue problem a fret),
+What the waveguide takes from the finite-difference string (which notes a finger seats, and a
+held note's decay by the finger) it is handed as an ``engine.statics.PressedString`` (``statics``,
+given by ``engine.models``): this package imports nothing of ``engine.fd``.  A scene's first
+fretted notes cost more than the rest: each fret a finger holds asks that held-note analysis for
+the finger's damping (an eigenvalue problem a fret),
 once per machine: the result is kept on disk (``engine.calibration_store``;
 ``WaveguideOptions(finger_damping=False)`` leaves the damping out).
 
@@ -60,7 +64,7 @@ import numpy as np
 from ..instrument import FINGERS, Instrument, is_lift, lift_kept, output_of
 from ..presets import Preset
 from ..scene import Bend, Harmonic, Mute, Scene, Vibrato
-from ..statics import seating_force_n
+from ..statics import PressedString
 from .controls import timeline
 from .fingering import INTONATION, finger_decays
 from .kernel import LOOKAHEAD
@@ -130,21 +134,23 @@ class WaveguideInstrument(Instrument):
         return events
 
 
-def _seating(preset: Preset, string: int, rate: float):
+def _seating(statics: PressedString, preset: Preset, string: int, rate: float):
     """seated(fret, force): does a finger pressing ``force`` N rest the string on ``fret``?  The
-    pressed string's statics (``engine.statics.seating_force_n``: both models agree on which
-    notes are dead)."""
+    pressed string's statics (``statics.seating_force_n``: both models agree on which notes are
+    dead)."""
 
     def seated(fret: int, force: float | None) -> bool:
         if force is None or fret < 1:
             return True  # a finger with no force of its own presses hard enough
-        return force >= seating_force_n(preset, string, rate, fret)
+        return force >= statics.seating_force_n(preset, string, rate, fret)
 
     return seated
 
 
-def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideInstrument:
-    """Design every string that the scene plays and compile its events."""
+def prepare(scene: Scene, options: WaveguideOptions | None = None, *,
+            statics: PressedString) -> WaveguideInstrument:
+    """Design every string that the scene plays and compile its events.  ``statics``: the
+    pressed string's seating forces and held-note decays (``engine.models.PRESSED_STRING``)."""
     opts = options or WaveguideOptions()
     if opts.intonation not in INTONATION:
         raise ValueError(f"intonation must be one of {INTONATION}")
@@ -156,7 +162,7 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
     warnings: list[tuple[float, str]] = []
     for i in range(1, preset.n_strings + 1):
         phys = physical(preset, i)
-        seated = _seating(preset, i, rate)
+        seated = _seating(statics, preset, i, rate)
         tl = timeline(scene, preset, i, rate, phys.impedance, seated)
         if opts.skip_silent and not tl.slots and not tl.fingers:
             continue
@@ -166,9 +172,9 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None) -> WaveguideI
                                  f"presses {f.force:g} N, too lightly to rest the string on "
                                  f"fret {f.fret}: the note sounds dead"))
         if opts.finger_damping and opts.every_fret:
-            finger_decays(preset, i, rate, range(1, preset.frets + 1))
+            finger_decays(statics, preset, i, rate, range(1, preset.frets + 1))
         voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
-                                     opts.dispersion, opts.collisions, opts.glide,
+                                     statics, opts.dispersion, opts.collisions, opts.glide,
                                      opts.finger_damping, opts.skip_decayed,
                                      opts.decay_velocity))
     inst = WaveguideInstrument(scene, preset, voices, opts, out.frames, out.channels, out.pans,
@@ -194,7 +200,7 @@ def timeline_of(voice: WaveguideVoice, events: list):
     """The timeline (``controls.Timeline``) of a live session's string from its events so far
     (that string's, strums split, with their times)."""
     return timeline(None, voice.preset, voice.index, voice.rate, voice.phys.impedance,
-                    _seating(voice.preset, voice.index, voice.rate), events)
+                    _seating(voice.statics, voice.preset, voice.index, voice.rate), events)
 
 
 def rebuild(voice: WaveguideVoice, events: list) -> None:
@@ -203,10 +209,11 @@ def rebuild(voice: WaveguideVoice, events: list) -> None:
     voice.rebuild(timeline_of(voice, events))
 
 
-def render(scene: Scene, options: WaveguideOptions | None = None) -> np.ndarray:
+def render(scene: Scene, options: WaveguideOptions | None = None, *,
+           statics: PressedString) -> np.ndarray:
     """The whole scene's pickup velocity (m/s; through the body and panned as the scene's output
     says): the blocks concatenated."""
-    inst = prepare(scene, options)
+    inst = prepare(scene, options, statics=statics)
     parts = list(inst.blocks())
     return np.concatenate(parts) if parts else np.zeros(0)
 

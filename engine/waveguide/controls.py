@@ -6,7 +6,7 @@ Every event type of the scene maps to the model:
 * ``pluck`` (every ``style``) and ``strum`` (split into plucks as the finite-difference model
   does, ``engine.performance.expand``): a plucking junction (``pluck``) carrying the pulse F0(t).
 * ``fret``, ``tap``, ``hammer_on``, ``slide``: fingers.  A finger that presses at least the
-  string's seating force (``engine.statics.seating_force_n``, the pressed string's statics; a
+  string's seating force (``engine.statics.PressedString``, the pressed string's statics; a
   finger with no force of its own presses hard enough) stops the string on its fret: the
   termination moves to the crown (``fingering``); the stopping fret is the seated finger's nearest
   the bridge.  ``fret``/``tap``/``slide`` lift the finger already on the string, ``hammer_on``

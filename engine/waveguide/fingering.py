@@ -22,9 +22,9 @@ the finger's: its flesh (the finite-difference model's contact damper, ``FingerS
 on its mass and contact spring a few millimetres behind the crown) takes energy from the held
 note through the string's bending over the crown.  That coupling is the finite-difference
 model's physics, which the waveguide's point termination does not have, so g_f is fitted to it:
-the finite-difference model's own linear analysis of the held note
-(``engine.fd.intonation.held_note`` on its converged grid, ``engine.fd.intonation.reference_model``)
-gives the held mode's decay by the finger, D dB/s (``finger_decay_db_s``), and
+the finite-difference model's own linear analysis of the held note on its converged grid
+(``engine.fd.statics``, handed to the waveguide as an ``engine.statics.PressedString`` by
+``engine.models``) gives the held mode's decay by the finger, D dB/s (``finger_decay_db_s``), and
 
     g_f = 10^(D / (20 f1)),                                                      (``finger_reflection``)
 
@@ -44,7 +44,7 @@ held later waits for it.
 reference.  The light fingering junction of (40)
 without its reflector (finger mass, stiffness and damping at the finger, no stopping) is kept for
 what it models well, a finger that touches without stopping: a dead note (a ``fret`` pressing
-less than the string's seating force, ``engine.fd.intonation.seating_force``), the harmonic touch and
+less than the string's seating force, ``PressedString.seating_force_n``), the harmonic touch and
 the palm (``pluck``, ``controls``).
 
 Pitch of a stopped string.  The termination's delay is tuned so the stopped loop sounds f_q
@@ -83,35 +83,39 @@ from functools import lru_cache
 from .. import calibration_store
 from ..performance import finger_x_m
 from ..presets import Preset
-from ..statics import held_note_decay_db_s
+from ..statics import PressedString
 from .string import Physical
 
 FRET_REFLECTION = 1.0  # the crown's own reflection
 INTONATION = ("ideal", "physical")
-# the code ``finger_decay_db_s`` adds to the fret calibrations' (``calibration_store._SOURCES``)
-SOURCES = ("waveguide/fingering.py", "statics.py")
+# the code ``finger_decay_db_s`` adds to the fret calibrations' (``calibration_store._SOURCES``),
+# with its analysis' (``PressedString.sources``)
+SOURCES = ("waveguide/fingering.py",)
 
 
 @lru_cache(maxsize=4096)
-def finger_decay_db_s(preset: Preset, string: int, rate: float, fret: int) -> float:
+def finger_decay_db_s(statics: PressedString, preset: Preset, string: int, rate: float,
+                      fret: int) -> float:
     """dB/s (<= 0) of the held note at ``fret`` by the finger's contact damping: the
-    finite-difference model's held-note analysis on its converged grid (``engine.statics``);
-    0 where it finds no mode near the note.  Cached per process, and on disk per machine
-    (``engine.calibration_store``: the value read back is the one computed, to the bit)."""
+    finite-difference model's held-note analysis on its converged grid
+    (``statics.held_note_decay_db_s``); 0 where it finds no mode near the note.  Cached per
+    process, and on disk per machine (``engine.calibration_store``: the value read back is the one
+    computed, to the bit)."""
     rate = float(rate)
 
     def compute() -> tuple[float]:
-        d = held_note_decay_db_s(preset, string, rate, fret)
+        d = statics.held_note_decay_db_s(preset, string, rate, fret)
         return (min(d, 0.0) if math.isfinite(d) else 0.0,)
 
     return calibration_store.recall("finger_decay_db_s", (preset, string, rate, fret), compute,
-                                    sources=SOURCES)[0]
+                                    sources=SOURCES + statics.sources)[0]
 
 
-def finger_decays(preset: Preset, string: int, rate: float, frets) -> dict[int, float]:
+def finger_decays(statics: PressedString, preset: Preset, string: int, rate: float,
+                  frets) -> dict[int, float]:
     """``finger_decay_db_s`` of each of ``frets`` (a live session's: every fret, computed when
     its guitar is prepared rather than when a note is first held)."""
-    return {q: finger_decay_db_s(preset, string, rate, q) for q in frets}
+    return {q: finger_decay_db_s(statics, preset, string, rate, q) for q in frets}
 
 
 def finger_reflection(decay_db_s: float, f1: float) -> float:

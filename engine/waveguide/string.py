@@ -52,8 +52,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
+from .. import calibration_store
 from ..losses import LN1000, loss_coefficients
 from ..presets import Preset, StringSpec
 
@@ -141,7 +141,17 @@ def dispersion_filter(inharmonicity: float, period: float, room: float) -> tuple
     """(a, sections) of the cascade that puts partials 2..10 of a loop of ``period`` samples at
     f_n = n f1 sqrt(1 + B n^2) / sqrt(1 + B), least squares in cents, with its delay at the
     fundamental at most ``room`` samples.  (0, 0) when the string is too flexible to need one or
-    the loop too short to hold it."""
+    the loop too short to hold it.  A fit takes tens of milliseconds (every note a string stops
+    is a loop of its own): it is kept in the calibration store, computed once per machine."""
+    a, sections = calibration_store.recall(
+        "dispersion_filter", (inharmonicity, period, room),
+        lambda: _fit_dispersion(inharmonicity, period, room), sources=("waveguide/string.py",))
+    return a, int(sections)
+
+
+def _fit_dispersion(inharmonicity: float, period: float, room: float) -> tuple[float, int]:
+    from scipy.optimize import minimize_scalar  # only for a loop not in the store yet
+
     if inharmonicity < 1e-7 or room < 2.0:
         return 0.0, 0
     w1 = 2.0 * math.pi / period

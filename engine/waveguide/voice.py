@@ -29,6 +29,7 @@ import numpy as np
 from ..config import entry_point
 from ..instrument import DECAY_CHECK_FRAMES
 from ..presets import Preset
+from ..statics import PressedString
 from . import kernel as K
 from .collision import BOARD_RESTITUTION, FRET_RESTITUTION, REACH_EVERY
 from .controls import NEVER, Timeline
@@ -70,6 +71,7 @@ class WaveguideVoice:
     pickups: list[float]  # x / L
     gains: np.ndarray
     intonation: str
+    statics: PressedString  # the pressed string's statics (``fingering.finger_decay_db_s``)
     dispersion: bool = True
     collisions: bool = True
     glide: bool = True
@@ -264,7 +266,8 @@ class WaveguideVoice:
         if fret is not None:
             refl = FRET_REFLECTION
             if held and self.finger_damping:
-                refl *= finger_reflection(finger_decay_db_s(p, self.index, self.rate, fret), f1)
+                refl *= finger_reflection(
+                    finger_decay_db_s(self.statics, p, self.index, self.rate, fret), f1)
         loop = design_loop(self.spec, self.phys, self.rate, f1, speaking, refl, self.dispersion)
         self.loops[key] = loop
         return loop

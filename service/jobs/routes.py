@@ -1,5 +1,4 @@
-"""POST /jobs, GET /jobs/{id}, GET /jobs/{id}/audio, GET /jobs/{id}/stream, GET /jobs/{id}/labels,
-DELETE /jobs/{id}.
+"""POST /jobs, GET /jobs/{id}, GET /jobs/{id}/audio, /stream, /labels and /stems, DELETE /jobs/{id}.
 
 A job is a render that outlives its request: the scene (JSON, or a score uploaded as a multipart
 form) is checked and stored at once (202 with a ``Location``), rendered by ``JobRunner`` when a
@@ -56,6 +55,8 @@ class Job(BaseModel):
     labels_error: str | None = None
     audio_url: str
     labels_url: str
+    stems_url: str | None = Field(None, description="with output.stems: a zip of each "
+                                                    "string's file (docs/service.md)")
 
 
 def _public(job: dict[str, Any]) -> dict[str, Any]:
@@ -64,7 +65,13 @@ def _public(job: dict[str, Any]) -> dict[str, Any]:
     out["labels"] = bool(job["labels"])
     out["audio_url"] = f"/jobs/{job['id']}/audio"
     out["labels_url"] = f"/jobs/{job['id']}/labels"
+    if _wants_stems(job):
+        out["stems_url"] = f"/jobs/{job['id']}/stems"
     return Job(**out).model_dump()
+
+
+def _wants_stems(job: dict[str, Any]) -> bool:
+    return bool(job.get("stems"))
 
 
 def _errors_with_body(exc: ValidationError, prefix: tuple = ("body",)) -> RequestValidationError:
@@ -352,6 +359,24 @@ async def get_labels(job_id: str, request: Request) -> FileResponse:
         raise _NotFound(f"job {job_id} has no labels: {job['labels_error']}")
     return FileResponse(request.state.jobs.store.labels_path(job_id),
                         media_type="application/json", filename=f"{job_id}.jams")
+
+
+@router.get("/jobs/{job_id}/stems", response_class=FileResponse, responses={
+    200: {"content": {"application/zip": {}},
+          "description": "each string's file and stems.json, as POST /render's zip (without "
+                         "the mix: GET /jobs/{id}/audio)"},
+    404: {"description": "no such job, or no stems asked (output.stems)"},
+    409: {"description": "not done"}})
+async def get_stems(job_id: str, request: Request) -> FileResponse:
+    """The stems of a job whose scene asked for them (``output.stems``), once it is done."""
+    job = _job_or_404(request, job_id)
+    if not _wants_stems(job):
+        raise _NotFound(f"job {job_id} has no stems: its scene did not ask for them "
+                        "(output.stems: true)")
+    if job["status"] != "done":
+        raise _NotReady(f"job {job_id} is {job['status']}, not done")
+    return FileResponse(request.state.jobs.store.stems_path(job_id),
+                        media_type="application/zip", filename=f"{job_id}-stems.zip")
 
 
 @router.delete("/jobs/{job_id}", responses={

@@ -4,7 +4,8 @@ Each job is a stream (``WorkerPool.job_stream``) whose blocks are written to
 ``results/ID/stream.wav.part`` as they arrive; progress is the share of the file written.  When the
 last block is in, the file is flushed, normalized (``output.normalize``, the default, as /render)
 or converted (FLAC, Ogg) block by block if the scene asks for it, renamed into place, the labels
-are written the same way, and only then is the job ``done``.
+are written the same way, and only then is the job ``done``.  A job with ``output.stems`` streams
+its stems as columns after the mix's; they become ``stems.zip``, laid out as ``/render``'s.
 
 At most ``Settings.jobs_at_once`` jobs render at once (by default every worker but one), so that
 long jobs never take every worker from ``/render``.  On shutdown the running jobs go back to the
@@ -23,6 +24,8 @@ import os
 import time
 from pathlib import Path
 from typing import Any
+
+import engine
 
 from .. import audio
 from ..config import Settings
@@ -134,7 +137,8 @@ class JobRunner:
         # A file to be normalized or converted is streamed as raw float64 samples (the pickup
         # velocity when it is normalized), then scaled and encoded block by block as /render
         # scales and encodes the whole signal: the same bytes.
-        rewrite = normalize or job["format"] != "wav"
+        stems = engine.parse_scene(scene).stems() if out.get("stems") else []
+        rewrite = normalize or job["format"] != "wav" or bool(stems)
         stream_subtype = "FLOAT64" if rewrite else subtype
         channels = out.get("channels", 1)
         rate = scene.get("sample_rate", 44100)
@@ -143,10 +147,11 @@ class JobRunner:
         folder.mkdir(parents=True, exist_ok=True)
         part = folder / "stream.wav.part"  # not audio.wav.part: that is where _finalize writes
         header = b"" if rewrite else audio.wav_header(frames, rate, stream_subtype, channels)
-        total = len(header) + frames * channels * (
+        total = len(header) + frames * (channels + len(stems)) * (
             8 if rewrite else audio.BYTES_PER_SAMPLE[stream_subtype])
         payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
-                   "subtype": stream_subtype, "channels": channels, "raw": normalize}
+                   "subtype": stream_subtype, "channels": channels, "raw": normalize,
+                   "stems": bool(stems)}
         cost = job.get("cost")
         limit = self.settings.time_limit_s(job["duration"], cost)
         heavy = cost is None or cost > self.settings.heavy_render_s
@@ -162,7 +167,7 @@ class JobRunner:
                 raise StreamAborted(f"the stream ended after {written} of {total} bytes")
             final = folder / f"audio.{job['format']}"
             await asyncio.to_thread(_finalize, part, final, job["format"], subtype, normalize,
-                                    rewrite, rate, channels)
+                                    rewrite, rate, channels, stems, stream.scale)
             labels_error = await self._labels(scene, self.store.labels_path(job_id))
             self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
                          render_seconds=time.perf_counter() - t0, warnings=stream.warnings,
@@ -234,54 +239,116 @@ class JobRunner:
         return written
 
 
+STEMS_ZIP = "stems.zip"  # beside the audio (Store.stems_path)
 PEAK_DBFS = -1.0  # as engine.output: a normalized file peaks here
 _BLOCK = 1 << 16
 
 
-def _raw_blocks(part: Path, channels: int):
-    """The float64 samples of a raw stream file, (frames,) or (frames, channels), in blocks."""
+def _raw_blocks(part: Path, width: int):
+    """The float64 samples of a raw stream file, (frames, width), in blocks."""
     import numpy as np
 
-    data = np.memmap(part, dtype="<f8", mode="r")
-    data = data.reshape(-1, channels) if channels > 1 else data
+    data = np.memmap(part, dtype="<f8", mode="r").reshape(-1, width)
     for at in range(0, len(data), _BLOCK):
         yield np.array(data[at:at + _BLOCK])
 
 
+def _mix(block, channels: int):
+    """The mix's columns of a raw block: (frames,) or (frames, channels)."""
+    return block[:, 0] if channels == 1 else block[:, :channels]
+
+
 def _finalize(part: Path, final: Path, fmt: str, subtype: str, normalize: bool,
-              rewrite: bool, rate: int, channels: int) -> None:
+              rewrite: bool, rate: int, channels: int, stems: list | None = None,
+              scale: float | None = None) -> None:
     """The stream's WAV becomes the job's file by a rename; when it must be normalized or
     converted (FLAC, Ogg, another WAV subtype) the raw float64 stream is scaled and encoded block
     by block, with /render's arithmetic (``engine.output.to_output_scale``: the velocity times
     the one gain that puts its peak at PEAK_DBFS) and encoder (``service.audio``), so the file
-    has /render's bytes and a ten-minute job never holds its audio in memory."""
+    has /render's bytes and a ten-minute job never holds its audio in memory.  ``stems`` (their
+    ``engine.Stem``s; ``scale``: the stream's samples per m/s) ride as columns after the mix's
+    and are written the same way, at the mix's gain (normalized, the one that puts the loudest
+    of the mix and the stems at PEAK_DBFS, as /render), into ``stems.zip`` beside it."""
     if not rewrite:
         os.replace(part, final)
         return
     import numpy as np
     import soundfile as sf
 
+    width = channels + len(stems or [])
     gain = None
-    if normalize:
+    if normalize:  # the loudest of the mix and its stems (every column) at PEAK_DBFS
         peak = 0.0
-        for block in _raw_blocks(part, channels):
+        for block in _raw_blocks(part, width):
             peak = max(peak, float(np.max(np.abs(block))) if block.size else 0.0)
         gain = 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0 else None
     tmp = final.with_name(final.name + ".part")
-    frames = os.path.getsize(part) // (8 * channels)
+    frames = os.path.getsize(part) // (8 * width)
     if fmt == "wav":
         with open(tmp, "wb") as f:
             f.write(audio.wav_header(frames, rate, subtype, channels))
-            for block in _raw_blocks(part, channels):
-                f.write(audio.pcm_bytes(block if gain is None else block * gain, subtype))
+            for block in _raw_blocks(part, width):
+                x = _mix(block, channels)
+                f.write(audio.pcm_bytes(x if gain is None else x * gain, subtype))
     else:
-        out_subtype = {"flac": "PCM_16" if subtype == "PCM_16" else "PCM_24",
-                       "ogg": "VORBIS"}[fmt]
         with sf.SoundFile(str(tmp), "w", samplerate=rate, channels=channels,
-                          format=fmt.upper(), subtype=out_subtype) as f:
-            for block in _raw_blocks(part, channels):
-                f.write(audio.clip(block if gain is None else block * gain))
+                          format=fmt.upper(), subtype=_file_subtype(fmt, subtype)) as f:
+            for block in _raw_blocks(part, width):
+                x = _mix(block, channels)
+                f.write(audio.clip(x if gain is None else x * gain))
+    if stems:
+        _stems_zip(part, final.with_name(STEMS_ZIP), stems, width, channels, gain,
+                   (1.0 if gain is None else gain) * (scale or 1.0), frames, rate, fmt, subtype)
     os.replace(tmp, final)
+
+
+def _file_subtype(fmt: str, subtype: str) -> str:
+    return {"flac": "PCM_16" if subtype == "PCM_16" else "PCM_24", "ogg": "VORBIS"}[fmt]
+
+
+def _stems_zip(part: Path, final: Path, stems: list, width: int, channels: int,
+               gain: float | None, per_m_s: float, frames: int, rate: int, fmt: str,
+               subtype: str) -> None:
+    """The stems' columns of the raw stream as one file each (``stems/t1-s6.FMT`` ..., and
+    ``stems/stems.json``), in one pass, then zipped: /render's zip without the mix."""
+    import shutil
+    import zipfile
+
+    import numpy as np
+    import soundfile as sf
+
+    work = final.with_name(final.name + ".dir")
+    work.mkdir(exist_ok=True)
+    paths = [work / f"{s.label}.{fmt}" for s in stems]
+    clipped = 0
+    try:
+        if fmt == "wav":
+            files = [open(p, "wb") for p in paths]  # noqa: SIM115 (closed below)
+            for f in files:
+                f.write(audio.wav_header(frames, rate, subtype, 1))
+        else:
+            files = [sf.SoundFile(str(p), "w", samplerate=rate, channels=1, format=fmt.upper(),
+                                  subtype=_file_subtype(fmt, subtype)) for p in paths]
+        try:
+            for block in _raw_blocks(part, width):
+                x = block[:, channels:] if gain is None else block[:, channels:] * gain
+                clipped += int(np.count_nonzero(np.abs(x) > 1.0))
+                for k, f in enumerate(files):
+                    col = np.ascontiguousarray(x[:, k])
+                    f.write(audio.pcm_bytes(col, subtype) if fmt == "wav" else audio.clip(col))
+        finally:
+            for f in files:
+                f.close()
+        info = engine.stems_index(stems, fmt, rate, per_m_s, clipped)
+        tmp = final.with_name(final.name + ".part")
+        mode = zipfile.ZIP_DEFLATED if fmt == "wav" else zipfile.ZIP_STORED
+        with zipfile.ZipFile(tmp, "w", mode, compresslevel=1 if fmt == "wav" else None) as z:
+            for p in paths:
+                z.write(p, f"stems/{p.name}")
+            z.writestr("stems/stems.json", json.dumps(info, indent=1) + "\n")
+        os.replace(tmp, final)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
 
 
 def _write_atomically(tmp: Path, final: Path, data: bytes) -> None:

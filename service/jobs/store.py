@@ -46,7 +46,7 @@ CREATE TABLE IF NOT EXISTS jobs (
 CREATE INDEX IF NOT EXISTS jobs_status_created ON jobs (status, created);
 """
 # Columns added after the first release: a database made before gets them at start-up.
-_ADDED = {"cost": "REAL", "client": "TEXT"}
+_ADDED = {"cost": "REAL", "client": "TEXT", "stems": "INTEGER NOT NULL DEFAULT 0"}
 
 # Fair share: a queued job's turn is ordered by what its client has been served (the estimated
 # seconds of its jobs running now or started within this window) plus the job's own estimate.
@@ -99,17 +99,21 @@ class Store:
     def labels_path(self, job_id: str) -> Path:
         return self.job_dir(job_id) / "labels.jams"
 
+    def stems_path(self, job_id: str) -> Path:
+        return self.job_dir(job_id) / "stems.zip"
+
     # ---- writing ------------------------------------------------------------------------------
 
     def create(self, scene: dict[str, Any], fmt: str, duration: float, cost: float | None = None,
                client: str | None = None) -> dict[str, Any]:
         """A queued job; ``cost`` is its estimated render seconds, ``client`` who asked for it."""
         job_id = uuid.uuid4().hex
+        stems = int(bool((scene.get("output") or {}).get("stems")))
         with self._lock:
             self._db.execute(
-                "INSERT INTO jobs (id, status, created, scene, format, duration, cost, client) "
-                "VALUES (?, 'queued', ?, ?, ?, ?, ?, ?)",
-                (job_id, time.time(), json.dumps(scene), fmt, duration, cost, client))
+                "INSERT INTO jobs (id, status, created, scene, format, duration, cost, client, "
+                "stems) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?)",
+                (job_id, time.time(), json.dumps(scene), fmt, duration, cost, client, stems))
         job = self.get(job_id)
         assert job is not None
         return job

@@ -36,11 +36,13 @@ router = APIRouter(route_class=StrictJSONRoute, tags=["render"])
     response_class=Response,
     responses={
         200: {
-            "description": "the audio file; headers X-Render-Seconds, X-Realtime-Factor, "
+            "description": "the audio file (with output.stems, a zip of it and each "
+                           "string's file: docs/service.md); headers X-Render-Seconds, "
+                           "X-Realtime-Factor, "
                            "X-Render-Warnings when the scene has fingers pressing too lightly to "
                            "seat their strings (a JSON array of messages) and, with diagnostics, "
                            "X-Energy-Error",
-            "content": {t: {} for t in audio.MEDIA_TYPES.values()},
+            "content": {t: {} for t in (*audio.MEDIA_TYPES.values(), "application/zip")},
         },
         **ERROR_RESPONSES,
     },
@@ -68,12 +70,14 @@ async def render(
     headers = {
         "X-Render-Seconds": seconds(out.render_seconds),
         "X-Realtime-Factor": realtime_factor(audio_s, out.render_seconds),
-        "Content-Disposition": f'inline; filename="guitar.{scene.output.format}"',
+        "Content-Disposition": 'inline; filename="guitar.'
+                               f'{"zip" if scene.output.stems else scene.output.format}"',
         **warnings_header(out.warnings),
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)  # e.g. 6.24e-15
-    return Response(out.data, media_type=audio.MEDIA_TYPES[scene.output.format], headers=headers)
+    return Response(out.data, media_type=audio.media_type(scene.output.format, scene.output.stems),
+                    headers=headers)
 
 
 class _StreamResponse(StreamingResponse):

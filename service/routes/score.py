@@ -17,6 +17,7 @@ from pathlib import PurePath
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, File, Form, Request, Response, UploadFile
+from fastapi.exceptions import RequestValidationError
 
 import engine
 
@@ -151,11 +152,15 @@ async def render_score(
     sc = validate_scene(scene)
     # admitted by its estimated cost as /render is: a heavy score takes a heavy slot, and its
     # time limit follows the estimate; a client gone withdraws it (a heavy one running stops)
-    estimated_s = check_limits(sc, settings, max_events=settings.max_score_events)
+    try:
+        estimated_s = check_limits(sc, settings, max_events=settings.max_score_events)
+    except RequestValidationError as exc:
+        raise _as_score_option(exc) from None
     out = await while_connected(request, pool.render(
         {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
          "sample_rate": sc.sample_rate, "format": sc.output.format,
-         "subtype": sc.output.subtype, "channels": sc.output.channels},
+         "subtype": sc.output.subtype, "channels": sc.output.channels,
+         "name": _ascii(PurePath(name).stem or "score")},
         settings.time_limit_s(sc.duration, estimated_s),
         heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
     audio_s = out.frames / sc.sample_rate
@@ -164,13 +169,27 @@ async def render_score(
     headers = {
         "X-Render-Seconds": seconds(out.render_seconds),
         "X-Realtime-Factor": realtime_factor(audio_s, out.render_seconds),
-        "Content-Disposition": f'inline; filename="{_ascii(stem)}.{sc.output.format}"',
+        "Content-Disposition": 'inline; filename="'
+                               f'{_ascii(stem)}.{"zip" if sc.output.stems else sc.output.format}"',
         **warnings_header(out.warnings),
         **_score_warnings(warnings),
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)
-    return Response(out.data, media_type=audio.MEDIA_TYPES[sc.output.format], headers=headers)
+    return Response(out.data, media_type=audio.media_type(sc.output.format, sc.output.stems),
+                    headers=headers)
+
+
+def _as_score_option(exc: RequestValidationError) -> RequestValidationError:
+    """A score's scene over the cost budget was refused at ``duration``, a field its client never
+    sent: its way out is ``options.max_seconds`` (the longest that fits is the same number)."""
+    errors = []
+    for e in exc.errors():
+        if e.get("type") == "render_cost":
+            e = {**e, "loc": ("body", "options", "max_seconds"),
+                 "msg": e["msg"].replace("the duration must be", "options.max_seconds must be")}
+        errors.append(e)
+    return RequestValidationError(errors)
 
 
 def _score_warnings(warnings: list[str]) -> dict[str, str]:

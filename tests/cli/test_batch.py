@@ -160,7 +160,18 @@ def test_local_batch_fails_bad_items_renders_the_rest_and_resumes(tmp_path: Path
         x, rate = sf.read(out / v["audio"])
         assert len(x) == round(v["audio_seconds"] * rate) and v["render_seconds"] > 0
         assert (out / v["labels"]).stat().st_size > 0
+        assert v["files"] == [v["audio"], v["labels"]]
+        assert v["model"] == "fdtd" and v["duration"] == pytest.approx(v["audio_seconds"], abs=1e-4)
     assert not list(out.rglob("*.part"))
+    # the columns to filter a dataset by, and the same in each labels file
+    tune, scene, drawn = rows["tune"], rows["scene"], rows["t-000000"]
+    assert [r["content"] for r in (tune, scene, drawn)] == ["score", "scene", "dataset"]
+    assert (tune["preset"], tune["quality"], tune["notes"]) == ("steel-acoustic", "standard", 2)
+    assert tune["tuning"] == "E2 A2 D3 G3 B3 E4" and tune["articulations"] == ["pluck"]
+    assert drawn["preset"] in ("steel-acoustic", "nylon-classical") and drawn["quality"] == "draft"
+    meta = json.loads((out / drawn["labels"]).read_text())["sandbox"]["guitar_synth"]
+    assert (meta["seed"], meta["tracks"][0]["preset"]) == (drawn["seed"], drawn["preset"])
+    assert meta["version"] and meta["quality"] == "draft" and meta["input"] == drawn["input"]
 
     # the same spec elsewhere: the same audio, bit for bit
     out2 = tmp_path / "out2"
@@ -179,6 +190,16 @@ def test_local_batch_fails_bad_items_renders_the_rest_and_resumes(tmp_path: Path
     assert again["t-000001"]["status"] == "done"
     assert again["t-000001"]["render_seconds"] != before["t-000001"]
     assert again["t-000000"]["render_seconds"] == before["t-000000"]
+
+
+def test_list_columns_survive_a_csv_manifest(tmp_path: Path) -> None:
+    row = {"id": "a", "status": "done", "articulations": ["hammer_on", "pluck"],
+           "files": ["audio/a.wav", "labels/a.jams"], "notes": 3}
+    for fmt in ("csv", "parquet"):
+        batch.write_manifest(tmp_path, fmt, [row])
+        back = batch.read_manifest(tmp_path, fmt)["a"]
+        assert batch._as_list(back["files"]) == row["files"]
+        assert batch._as_list(back["articulations"]) == row["articulations"]
 
 
 # ---- a real Dask cluster: a scheduler and two workers on 127.0.0.1 -------------------------------

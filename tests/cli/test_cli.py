@@ -40,8 +40,8 @@ def test_every_command_has_help(args: list[str]) -> None:
     assert r.returncode == 0, r.stderr
     assert r.stdout.startswith(f"usage: guitar-synth {' '.join(args)}".rstrip())
     for word in {"": ["render", "scene", "serve"], "render": ["--labels", "--tracks", "--quality",
-                 "--model", ".wav", ".flac", ".ogg"], "scene": ["-o"], "serve": ["--host", "--port",
-                 "GUITAR_"]}["".join(args[:1])]:
+                 "--model", "--jobs", ".wav", ".flac", ".ogg"], "scene": ["-o"],
+                 "serve": ["--host", "--port", "GUITAR_"]}["".join(args[:1])]:
         assert word in r.stdout, word
 
 
@@ -115,6 +115,22 @@ def test_render_with_the_waveguide_model(tmp_path: Path) -> None:
     assert not np.allclose(flag, fdtd, atol=1e-3)
 
 
+def test_jobs_give_the_samples_of_one_thread(tmp_path: Path) -> None:
+    """--jobs 2 spreads the strings of both tracks over two threads: the same file as --jobs 1
+    (and the default, every core)."""
+    scene = {"duration": 0.3, "output": {"channels": 2}, "tracks": [
+        {"events": SCENE["events"]}, {"model": "waveguide", "events": SCENE["events"][1:]}]}
+    src = write_json(tmp_path / "s.json", scene)
+    files = []
+    for flags in (["--jobs", "1"], ["--jobs", "2"], []):
+        files.append(tmp_path / f"{len(files)}.wav")
+        r = run("render", src, "-o", files[-1], "--subtype", "FLOAT", "-q", *flags)
+        assert r.returncode == 0, r.stderr
+    one, *others = (sf.read(f)[0] for f in files)
+    assert np.max(np.abs(one)) > 0.1
+    assert all(o.tobytes() == one.tobytes() for o in others)
+
+
 # ---- bad input: one line naming the problem, exit status 2 ----------------------------------
 
 
@@ -186,6 +202,8 @@ def test_usage_errors_are_one_line(tmp_path: Path) -> None:
                                                  "--max-seconds", "-3"))
     assert "--model" in one_error_line(run("render", "a.json", "-o", "b.wav",
                                            "--model", "spline"))
+    for jobs in ("0", "-2", "two"):
+        assert "--jobs" in one_error_line(run("render", "a.json", "-o", "b.wav", "--jobs", jobs))
 
 
 def test_an_unknown_preset_for_a_score_names_the_flag(tmp_path: Path) -> None:

@@ -9,12 +9,14 @@ import numpy as np
 import pytest
 
 import engine
-from engine import calibration_store, config, statics
-from engine.fd import intonation
+from engine import calibration_store, config
+from engine.fd import intonation, statics
 from engine.fd.instrument import prepare
+from engine.models import PRESSED_STRING
 from engine.scene import Scene
 from engine.testing.scenes import fret, pluck, scene
 from engine.waveguide import fingering
+from engine.waveguide import string as wg_string
 
 SCENE = scene([fret(2, 7), pluck(2, time=0.01, force=2.0)], 0.1)
 WAVEGUIDE = {**scene([fret(2, 7), fret(5, 3), pluck(2, time=0.01, force=2.0),
@@ -27,6 +29,7 @@ def _forget() -> None:
     intonation.fret_calibration.cache_clear()
     intonation._stored_shift.cache_clear()
     fingering.finger_decay_db_s.cache_clear()
+    wg_string.dispersion_filter.cache_clear()
 
 
 @pytest.fixture
@@ -84,7 +87,7 @@ def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):
     """The waveguide's finger damping of a held note (``fingering.finger_decay_db_s``), read back
     in a process that has not computed it, without the held-note analysis."""
     preset = engine.get_preset("steel-acoustic")
-    computed = fingering.finger_decay_db_s(preset, 2, 44100.0, 12)
+    computed = fingering.finger_decay_db_s(PRESSED_STRING, preset, 2, 44100.0, 12)
     assert computed < 0.0
     fingering.finger_decay_db_s.cache_clear()
     calibration_store.reset()
@@ -95,13 +98,14 @@ def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):
         raise AssertionError("the held-note analysis ran")
 
     monkeypatch.setattr(statics, "held_note", analysis)
-    assert fingering.finger_decay_db_s(preset, 2, 44100, 12) == computed  # an int rate: the same
+    # an int rate: the same
+    assert fingering.finger_decay_db_s(PRESSED_STRING, preset, 2, 44100, 12) == computed
     assert calls == []
     with pytest.raises(AssertionError):  # another rate is another calibration
-        fingering.finger_decay_db_s(preset, 2, 48000.0, 12)
+        fingering.finger_decay_db_s(PRESSED_STRING, preset, 2, 48000.0, 12)
     # the finger damping's key holds its own module's code, and is not a fret calibration's
     k = calibration_store.key("finger_decay_db_s", preset, 2, 44100.0, 12,
-                              sources=fingering.SOURCES)
+                              sources=fingering.SOURCES + PRESSED_STRING.sources)
     assert k != calibration_store.key("finger_decay_db_s", preset, 2, 44100.0, 12)
 
 
@@ -161,3 +165,22 @@ def test_on_compute_is_told_of_a_computation_only(store):
         calibration_store.on_compute(None)
     calibration_store.recall("test_kind", (2, 2.5), lambda: (4.0,))  # no callback any more
     assert kinds == ["test_kind"]
+
+
+def test_a_stored_dispersion_filter_is_the_fitted_one(store):
+    """The waveguide's dispersion allpass of a loop, fitted once and read back to the bit; a loop
+    not in the store is fitted (the CLI says so: ``on_compute``)."""
+    args = (round(1.3e-4, 12), round(44100.0 / 146.83, 9), round(280.5, 6))
+    kinds = []
+    calibration_store.on_compute(kinds.append)
+    try:
+        wg_string.dispersion_filter.cache_clear()
+        first = wg_string.dispersion_filter(*args)
+        wg_string.dispersion_filter.cache_clear()
+        again = wg_string.dispersion_filter(*args)
+    finally:
+        calibration_store.on_compute(None)
+        wg_string.dispersion_filter.cache_clear()
+    assert kinds == ["dispersion_filter"]
+    assert first == again == wg_string._fit_dispersion(*args)
+    assert first[1] >= 1 and isinstance(again[1], int)

@@ -253,6 +253,7 @@ def test_a_waveguide_session_damps_a_held_note_as_a_render_does():
     as an offline render's does (``tests/engine/waveguide/test_finger_damping.py``)."""
     from engine import waveguide
     from engine.analysis import decay_db_per_s
+    from engine.models import PRESSED_STRING
     from engine.waveguide.fingering import finger_decay_db_s
 
     string, fret = 2, 12
@@ -263,13 +264,13 @@ def test_a_waveguide_session_damps_a_held_note_as_a_render_does():
     scene = s.scene()
     assert np.array_equal(live, np.concatenate(list(engine.blocks(scene, BLOCK))))
     undamped = waveguide.render(engine.parse_scene(scene), waveguide.WaveguideOptions(
-        finger_damping=False)) * engine.FIXED_GAIN
+        finger_damping=False), statics=PRESSED_STRING) * engine.FIXED_GAIN
     preset = engine.get_preset("steel-acoustic")
     f = preset.strings[string - 1].frequency_hz * 2 ** (fret / 12)
     start = next(e["time"] for e in scene["events"] if e["type"] == "pluck")
     d_live = decay_db_per_s(live, 44100, f, start + 0.2, start + 1.15)
     d_off = decay_db_per_s(undamped, 44100, f, start + 0.2, start + 1.15)
-    d = finger_decay_db_s(preset, string, 44100.0, fret)
+    d = finger_decay_db_s(PRESSED_STRING, preset, string, 44100.0, fret)
     print(f"finger {d:+.2f} dB/s; live {d_live:+.2f}, without the finger {d_off:+.2f}")
     assert d < -1.0
     assert abs((d_live - d_off) - d) < 0.2

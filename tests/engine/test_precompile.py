@@ -33,3 +33,35 @@ def test_kernels_cached_is_false_for_an_empty_cache(monkeypatch):
     d = precompile._dispatchers("fdtd")[0]
     monkeypatch.setattr(d._cache, "_cache_file", Empty(), raising=False)
     assert not precompile.kernels_cached(["fdtd"])
+
+
+def test_warm_calibrations_leave_a_waveguide_song_nothing_to_compute(tmp_path, monkeypatch):
+    """After ``warm_calibrations`` (``make install``), a waveguide render of held notes anywhere on
+    the neck computes no calibration: the loops' dispersion filters and the finger's damping of
+    every fret are in the store."""
+    from engine import calibration_store
+    from engine.waveguide import fingering
+    from engine.waveguide import string as wg_string
+
+    def forget():
+        calibration_store.reset()
+        fingering.finger_decay_db_s.cache_clear()
+        wg_string.dispersion_filter.cache_clear()
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(config, "CALIBRATION_CACHE", True)
+    forget()
+    try:
+        precompile.warm_calibrations(["bass"], models=("waveguide",))
+        forget()  # a new process: only the store
+        computed = []
+        calibration_store.on_compute(computed.append)
+        events = [e for s, q in ((1, 17), (2, 5), (3, 11), (4, 2))
+                  for e in ({"type": "fret", "time": 0.0, "string": s, "fret": q},
+                            {"type": "pluck", "time": 0.01, "string": s})]
+        engine.render({"duration": 0.1, "model": "waveguide", "guitar": {"preset": "bass"},
+                       "events": events})
+        assert computed == []
+    finally:
+        calibration_store.on_compute(None)
+        forget()

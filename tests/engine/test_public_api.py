@@ -216,6 +216,7 @@ def test_every_model_the_schema_names_has_an_instrument():
 
     assert tuple(models.PREPARE) == engine.MODELS
     assert tuple(models.ENTRY_POINTS) == engine.MODELS
+    assert tuple(models.TRAITS) == engine.MODELS
     for model in engine.MODELS:
         sc = engine.parse_scene({"duration": 0.01, "model": model, "events": [pluck(1)]})
         inst = models.prepare(sc)

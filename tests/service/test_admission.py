@@ -93,6 +93,27 @@ def test_a_job_and_a_heavy_render_never_hold_both_workers(server) -> None:
     assert out[0].status_code == 200, brief(out[0])
 
 
+def test_a_heavy_job_and_a_heavy_score_never_hold_both_workers(server) -> None:
+    """The same slots across paths: a heavy score render sent while a heavy job renders waits for
+    the job's slot (after its import), and a small render is served meanwhile."""
+    idle(server)
+    job = httpx.post(server.url + "/jobs", json=heavy_scene(20.0), timeout=30).json()
+    wait_job(server, job["id"], ("running",))
+    wait_ready(lambda: pool(server)["busy"] == 1, 30)
+    t, out = in_thread(lambda: httpx.post(server.url + "/render/score", timeout=300,
+                                          files={"file": ("s.gp5", SCORE)}, data=SCORE_FORM))
+    wait_ready(lambda: pool(server)["heavy_in_flight"] == 1, 60)  # imported, waiting
+    time.sleep(1.0)
+    p = pool(server)
+    assert p["busy"] == 1, p
+    t0 = time.monotonic()
+    r = httpx.post(server.url + "/render", json=pluck_scene(0.1), timeout=60)
+    assert r.status_code == 200 and time.monotonic() - t0 < 5.0, brief(r)
+    httpx.delete(f"{server.url}/jobs/{job['id']}", timeout=30)
+    t.join(300)
+    assert out[0].status_code == 200, brief(out[0])
+
+
 def test_a_score_render_whose_client_left_is_stopped(server) -> None:
     """It rendered to the end (and the log said 200); now its worker is free within a second or
     two, as for /render."""

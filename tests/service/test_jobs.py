@@ -114,6 +114,22 @@ def test_bad_scene_and_job_limits_are_422_naming_the_field(jobs_app: AppHarness)
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == "file"
 
 
+def test_a_job_over_its_cost_budget_is_refused_naming_the_setting(jobs_app: AppHarness) -> None:
+    """Jobs had no cost check: any scene up to 600 s was queued, with a time limit of 50 minutes.
+    A scene estimated over GUITAR_JOB_MAX_RENDER_S (600 s of rendering) is now a short 422 that
+    says how long it may be at these settings."""
+    r = jobs_app.post("/jobs", json=heavy_scene(600.0))
+    assert r.status_code == 422 and len(r.content) < 4096, (r.status_code, len(r.content))
+    (d,) = r.json()["detail"]
+    assert d["field"] == "duration" and "GUITAR_JOB_MAX_RENDER_S" in d["message"], d
+    most = float(d["message"].split("at most ")[2].split(" s")[0])
+    assert 0 < most < 600.0
+    assert jobs_app.post("/jobs", json=heavy_scene(most * 1.05)).status_code == 422
+    ok = jobs_app.post("/jobs", json=heavy_scene(most * 0.01))
+    assert ok.status_code == 202, ok.text
+    jobs_app.request("DELETE", f"/jobs/{ok.json()['id']}")
+
+
 def test_cancel_a_running_job_frees_its_worker(jobs_app: AppHarness) -> None:
     job = jobs_app.post("/jobs", json=heavy_scene(30.0)).json()
     wait_for(jobs_app.get, job["id"], ("running",))

@@ -158,3 +158,18 @@ def test_a_wait_that_runs_out_while_the_workers_start_says_so() -> None:
         assert "starting" not in str(busy.value)
 
     asyncio.run(wait())
+
+
+def test_health_says_what_a_warming_worker_is_doing() -> None:
+    """A worker compiling the kernels (a machine's first start) says so; /health's pool shows
+    it until the worker is ready."""
+    pool = WorkerPool(Settings(workers=1))
+    w = SimpleNamespace(number=1, pid=123, alive=True, ready=False, warmed=False, job=None,
+                        warming=None)
+    pool._workers = [w]
+    pool._responsive = lambda w: w.ready
+    assert pool.status()["warming"] is None
+    pool._on_message(w, ("warming", 123, "compiling kernels, first run only"))
+    assert pool.status()["warming"] == "compiling kernels, first run only"
+    pool._on_message(w, ("ready", 123, 42.0))
+    assert pool.status()["warming"] is None

@@ -47,8 +47,16 @@ FIELDS = {
 
 def check_scene(scene: dict) -> None:
     """Every field where API.md allows it, in its range."""
-    assert set(scene) <= {"duration", "sample_rate", "tracks", "output", "quality", "diagnostics"}
+    assert set(scene) <= {"duration", "sample_rate", "tracks", "output", "quality", "diagnostics",
+                          "score"}
     dur = scene["duration"]
+    if "score" in scene:  # bars and beats as played: in time order, within the scene
+        from engine.scene import ScoreInfo
+
+        info = ScoreInfo.model_validate(scene["score"])
+        for times in (info.bars, info.beats, [m.time for m in info.tempo]):
+            assert times == sorted(times) and all(0.0 <= t < dur for t in times)
+        assert all(p >= 1 for p in info.beat_positions)
     assert isinstance(dur, float | int) and dur > 0
     assert scene["tracks"], "no tracks"
     for ti, tr in enumerate(scene["tracks"]):

@@ -146,6 +146,8 @@ def test_sources_path_bytes_file_object_and_json(tmp_path):
     b = score_to_scene(data)
     with open(p, "rb") as f:
         c = score_to_scene(f)
+    # the file's name is kept where there is one (a path, a file object)
+    assert [x["score"].pop("source") for x in (a, b, c)] == ["x.gp5", "", "x.gp5"]
     assert a == b == c and a.notes == c.notes and a.format == "gp"
     assert json.loads(json.dumps(a)) == dict(a)  # the scene is plain JSON
     only = score_to_scene(data, tracks=[1], presets={1: "nylon-classical"})

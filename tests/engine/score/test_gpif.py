@@ -74,6 +74,8 @@ def test_gp5_written_as_gp7_and_gpx_reads_as_the_same_scene(path):
         if not rse:
             assert _events(got) == _events(want), (kind, path)
         assert [t["guitar"] for t in got["tracks"]] == [t["guitar"] for t in want["tracks"]]
+        timing = ("bars", "bar_numbers", "beats", "beat_positions", "tempo")
+        assert {k: got["score"][k] for k in timing} == {k: want["score"][k] for k in timing}
 
 
 def test_effects_survive_the_trip():

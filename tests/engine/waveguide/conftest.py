@@ -7,12 +7,13 @@ import pytest
 import engine
 from engine import waveguide
 from engine.analysis import cents, spectrum_peak
+from engine.models import PRESSED_STRING
 from engine.testing.scenes import SR, fret, pluck, scene  # noqa: F401  (the tests' builders)
 
 
 def render(events: list, duration: float, options=None, **extra) -> np.ndarray:
     sc = engine.parse_scene({**scene(events, duration, **extra), "model": "waveguide"})
-    audio = waveguide.render(sc, options)
+    audio = waveguide.render(sc, options, statics=PRESSED_STRING)
     assert np.isfinite(audio).all()
     return audio
 

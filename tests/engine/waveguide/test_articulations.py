@@ -7,6 +7,7 @@ import pytest
 
 import engine
 from engine.analysis import band_level_db, level_db
+from engine.models import PRESSED_STRING
 from engine.waveguide import prepare
 from engine.waveguide.controls import timeline
 
@@ -53,7 +54,7 @@ def test_dead_note_is_short():
 def test_a_light_finger_is_warned_about():
     sc = engine.parse_scene({"duration": 0.2, "model": "waveguide",
                              "events": [fret(3, 5, force=0.05), pluck(3, time=0.05)]})
-    w = prepare(sc).warnings()
+    w = prepare(sc, statics=PRESSED_STRING).warnings()
     assert len(w) == 1 and "string 3" in w[0] and "dead" in w[0]
 
 
@@ -88,7 +89,7 @@ def test_fret_zero_and_release_return_to_the_open_string():
 def test_strum_down_plucks_low_to_high_and_styles_differ():
     sc = engine.parse_scene({"duration": 0.1, "model": "waveguide",
                              "events": [{"type": "strum", "time": 0.0, "spread": 0.05}]})
-    inst = prepare(sc)
+    inst = prepare(sc, statics=PRESSED_STRING)
     starts = {v.index: v.timeline.slots[0].on for v in inst.voices}
     assert sorted(starts, key=starts.get) == [6, 5, 4, 3, 2, 1]
     slots = {}

@@ -9,6 +9,7 @@ import pytest
 
 import engine
 from engine import waveguide
+from engine.models import PRESSED_STRING
 from engine.testing.scenes import fret, pluck, scene
 from engine.waveguide import WaveguideOptions
 
@@ -22,7 +23,7 @@ def _scene(events: list, duration: float):
 
 def _stopped_at(sc) -> dict[int, float | None]:
     """Each voice's stopping time (s), None if it ran to the end."""
-    inst = waveguide.prepare(sc)
+    inst = waveguide.prepare(sc, statics=PRESSED_STRING)
     at: dict[int, float | None] = {v.index: None for v in inst.voices}
     for _ in inst.blocks(1024):
         for v in inst.voices:
@@ -60,9 +61,9 @@ def test_the_stop_changes_the_output_by_less_than_twice_the_decay_velocity(name)
     below 1e-7 m/s for the last 1024 samples and whose every point moves slower than that)."""
     events, duration = SCENES[name]
     sc = _scene(events, duration)
-    inst = waveguide.prepare(sc, WaveguideOptions(skip_decayed=True))
+    inst = waveguide.prepare(sc, WaveguideOptions(skip_decayed=True), statics=PRESSED_STRING)
     a = np.concatenate(list(inst.blocks()))
-    b = waveguide.render(sc, WaveguideOptions(skip_decayed=False))
+    b = waveguide.render(sc, WaveguideOptions(skip_decayed=False), statics=PRESSED_STRING)
     stopped = [v.index for v in inst.voices if v.stopped]
     d = float(np.max(np.abs(a - b)))
     print(f"{name}: stopped {stopped}, max difference {d:.2e} m/s, peak {np.max(np.abs(b)):.2f}")

@@ -23,6 +23,7 @@ import pytest
 from pydantic import ValidationError
 
 import engine
+from engine.models import PRESSED_STRING
 from engine.testing.random_scenes import NumpyDraw, random_scene
 from engine.testing.waveguide_stability import GROWTH, check
 from engine.waveguide import WaveguideOptions, prepare
@@ -92,7 +93,8 @@ def test_a_junction_cut_off_by_the_termination_starts_afresh():
                      {"type": "bend", "time": 0.002, "string": 6, "semitones": 3.0,
                       "duration": 0.002, "release": 0.02}]}
     inst = prepare(engine.parse_scene({**sc, "model": "waveguide"}),
-                   WaveguideOptions(skip_decayed=False, glide=False, collisions=False))
+                   WaveguideOptions(skip_decayed=False, glide=False, collisions=False),
+                   statics=PRESSED_STRING)
     (v,) = inst.voices
     rate = inst.scene.sample_rate
     held, after = [], []

@@ -108,6 +108,18 @@ def test_scene_labels(server) -> None:
     notes = sorted((o.time, o.value) for a in jam.search(namespace="note_midi") for o in a.data)
     open_midi = dict(enumerate(STANDARD_TUNING, 1))
     assert notes == [(pytest.approx(0.5 * i), open_midi[s] + f) for i, (s, f) in enumerate(NOTES)]
+    # the score's bars and beats (one bar of 4/4 at 120 bpm) come with the scene, and as beat
+    # and tempo labels
+    info = scene["score"]
+    assert info["beats"] == pytest.approx([0, 0.5, 1, 1.5]) and info["beat_positions"] == [1, 2, 3, 4]
+    assert info["bars"] == [0.0] and info["bar_numbers"] == [1]
+    r = post(server, "/score/labels", small_gp5(tracks=1), options={"tempo_scale": 2.0})
+    assert r.status_code == 200, brief(r)
+    jam = jams.load(io.StringIO(r.text))
+    (beat,) = jam.search(namespace="beat")
+    assert [(o.time, o.value) for o in beat.data] == [
+        (pytest.approx(0.25 * i), i + 1) for i in range(4)]
+    assert [o.value for o in jam.search(namespace="tempo")[0].data] == [240]
 
 
 # ---- bad uploads --------------------------------------------------------------------------------

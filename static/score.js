@@ -282,7 +282,7 @@
     const track = state.scene && state.scene.tracks[i];
     const notes = state.notes.filter((n) => n.track === i);
     const strings = track && track.guitar.tuning ? track.guitar.tuning.length : 0;
-    state.tab.setNotes(notes, state.duration, strings);
+    state.tab.setNotes(notes, state.duration, strings, state.scene && state.scene.score);
   }
 
   function download(id, href, name) {
@@ -388,6 +388,9 @@
     if (before) fetch(`/jobs/${before}`, { method: "DELETE" }).catch(() => {});  // its audio is not wanted
     audio.src = `/jobs/${job.id}/stream`;
     audio.play().catch(() => {});  // starts as soon as the first blocks are in
+    // playing: another Play (other tracks, tempo...) may start a new render, this one withdrawn
+    state.busy = false;
+    q("#score-render").disabled = !document.querySelector("#score-tracks input:checked");
     const bar = q("#score-progress");
     bar.value = 0;
     bar.hidden = false;

@@ -67,7 +67,7 @@ def _audio_time(page: Any) -> float:
 
 def test_a_whole_song_opens_with_its_tracks_and_warnings(page: Any, tmp_path: Path) -> None:
     page.set_input_files("#score-file", str(SONG))
-    page.wait_for_selector("#tab[data-drawn='1']", timeout=120_000)
+    page.wait_for_selector("#tab[data-drawn='1']", timeout=300_000)
     status = page.inner_text("#score-status")
     assert "3 tracks" in status and "(91.0 s)" in status, status  # drums and the choir left out
     # the grouped warnings: one line per message and track
@@ -75,6 +75,8 @@ def test_a_whole_song_opens_with_its_tracks_and_warnings(page: Any, tmp_path: Pa
     assert any("bars 22, 24, 46, 48 (6 beats)" in w for w in warnings), warnings
     assert page.eval_on_selector_all("#tab-track option", "os => os.map(o => o.textContent)") \
         == ["Rhythm Guitar", "Solo Guitar", "Bass"]
+    # the labels' bar lines: each played bar of the song (repeats unfolded)
+    assert int(page.get_attribute("#tab", "data-bars")) >= 49
 
     # "First seconds" changes the length the page says
     page.fill("#score-seconds", "20")
@@ -93,7 +95,7 @@ def test_a_5_minute_song_plays_within_5_s_while_it_renders(page: Any, tmp_path: 
     page.check("#score-all")  # K. 525 has no guitar part: its strings play on guitars
     page.set_input_files("#score-file", str(LONG_SONG))
     page.wait_for_function("document.querySelector('#score-status').textContent.includes('(327.8 s)')",
-                           timeout=120_000)
+                           timeout=400_000)
     assert "5 tracks" in page.inner_text("#score-status")
     assert page.is_enabled("#score-render")
     # the page's main-thread tasks longer than LONG_TASK_MS, from now on

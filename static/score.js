@@ -4,7 +4,8 @@
 //
 //   POST /score/scene   the file -> the scene (track list, warnings in X-Score-Warnings)
 //   POST /score/labels  the file -> its notes as JAMS (one note_midi annotation per string)
-//   POST /jobs          the file -> audio, for a song longer than one request may render
+//   POST /jobs          the file -> audio, for a song longer than one request may render,
+//   GET /jobs/{id}/stream   played as it renders (a WAV whose bytes come as they are written)
 //   POST /render/score  the file -> audio
 //
 // Self-contained: it uses nothing of app.js.
@@ -16,7 +17,7 @@
                    "#d98bb3"];
   const NAMES = ["C", "C♯", "D", "D♯", "E", "F", "F♯", "G", "G♯", "A", "A♯", "B"];
   const state = { file: null, scene: null, tracks: [], notes: [], duration: 0, samples: null,
-                  urls: {}, limits: null, raf: 0, busy: false, tab: null };
+                  urls: {}, limits: null, raf: 0, busy: false, tab: null, sceneKey: null, job: null };
 
   const noteName = (m) => `${NAMES[((Math.round(m) % 12) + 12) % 12]}${Math.floor(Math.round(m) / 12) - 1}`;
 
@@ -24,7 +25,8 @@
   function setError(text) { q("#score-error").textContent = text || ""; }
 
   // The page's own names of the fields the API names.
-  const FIELDS = { "options.max_seconds": "First seconds", "options.tempo_scale": "Tempo",
+  const FIELDS = { "options.max_seconds": "First seconds", duration: "Song length",
+                   "options.all_instruments": "Other instruments", "options.tempo_scale": "Tempo",
                    "options.tracks": "Tracks", "options.quality": "Quality", "options.model": "Model",
                    file: "Score file" };
 
@@ -71,9 +73,11 @@
     if (secs > 0) o.max_seconds = secs;
     const tempo = Number(q("#score-tempo").value);
     if (tempo > 0 && tempo !== 1) o.tempo_scale = tempo;
+    if (q("#score-all").checked) o.all_instruments = true;
     if (withTracks) {
-      const chosen = [...document.querySelectorAll("#score-tracks input:checked")].map((c) => c.value);
-      o.tracks = chosen;
+      const boxes = [...document.querySelectorAll("#score-tracks input[type=checkbox]")];
+      const chosen = boxes.filter((c) => c.checked).map((c) => c.value);
+      if (chosen.length < boxes.length) o.tracks = chosen;  // all of them: the score's default
     }
     return o;
   }
@@ -98,6 +102,7 @@
       box1.checked = true;
       box1.value = name;
       box1.dataset.tracks = members.map((m) => m.index).join(" ");
+      box1.addEventListener("change", tracksChanged);
       const swatch = document.createElement("span");
       swatch.className = "swatch";
       swatch.style.background = COLOURS[members[0].index % COLOURS.length];
@@ -108,9 +113,32 @@
       info.className = "hint";
       info.textContent = ` ${presets.join(", ")}${strings ? ", " + strings : ""}`;
       label.append(info);
+      const solo = document.createElement("button");
+      solo.type = "button";
+      solo.className = "quiet solo";
+      solo.textContent = "solo";
+      solo.title = "play this track alone (click again: all tracks)";
+      solo.addEventListener("click", (e) => { e.preventDefault(); soloTrack(name); });
+      label.append(solo);
       box.append(label);
     }
     q("#score-render").disabled = groups.size === 0;
+  }
+
+  // Solo: only this track checked; soloing it again brings every track back.
+  function soloTrack(name) {
+    const boxes = [...document.querySelectorAll("#score-tracks input[type=checkbox]")];
+    const alone = boxes.every((b) => b.checked === (b.value === name));
+    for (const b of boxes) b.checked = alone || b.value === name;
+    tracksChanged();
+  }
+
+  // Muting or soloing changes the mix: the audio is one render, so it is rendered again.
+  function tracksChanged() {
+    const none = !document.querySelector("#score-tracks input:checked");
+    q("#score-render").disabled = none || state.busy;
+    if (none) setStatus("Choose at least one track.");
+    else if (q("#score-audio").src) setStatus("Tracks changed: press Play to hear the new mix.");
   }
 
   // ---- labels (JAMS) -> notes -----------------------------------------------------------------
@@ -254,7 +282,7 @@
     const track = state.scene && state.scene.tracks[i];
     const notes = state.notes.filter((n) => n.track === i);
     const strings = track && track.guitar.tuning ? track.guitar.tuning.length : 0;
-    state.tab.setNotes(notes, state.duration, strings);
+    state.tab.setNotes(notes, state.duration, strings, state.scene && state.scene.score);
   }
 
   function download(id, href, name) {
@@ -272,6 +300,8 @@
 
   // The scene and its labels for the current choices: what the tab and the roll show.
   async function loadScene(withTracks) {
+    const key = JSON.stringify(options(withTracks));
+    if (key === state.sceneKey && state.scene) return state.scene;  // already read for these choices
     const r = await fetch("/score/scene", { method: "POST", body: form({ options: options(withTracks) }) });
     if (!r.ok) throw new PageError(await failure(r));
     showWarnings(r.headers.get("x-score-warnings-summary") || r.headers.get("x-score-warnings"));
@@ -283,6 +313,7 @@
     state.scene = scene;
     state.duration = scene.duration;
     state.notes = notesOf(JSON.parse(jamText));
+    state.sceneKey = key;
     const stem = state.file.name.replace(/\.[^.]+$/, "");
     download("#score-dl-labels", blobUrl("labels", new Blob([jamText], { type: "application/json" })), `${stem}.jams`);
     download("#score-dl-scene", blobUrl("scene", new Blob([JSON.stringify(scene, null, 1)],
@@ -301,6 +332,7 @@
     q("#score-render").disabled = true;
     if (!file) return;
     state.file = file;
+    state.sceneKey = null;
     setStatus(`Reading ${file.name}…`);
     try {
       const scene = await loadScene(false);
@@ -336,28 +368,39 @@
     }
   }
 
-  // The audio: one request up to the service's limit for a render, a job (with its progress)
-  // beyond it.
-  async function renderAudio(opts) {
-    await state.limitsReady;
-    const limit = state.limits ? state.limits.max_duration_s : Infinity;
-    const body = form({ options: opts, output: "wav" });
-    if (state.duration <= limit) {
-      const r = await fetch("/render/score", { method: "POST", body });
-      if (!r.ok) throw new PageError(await failure(r));
-      return { blob: await r.blob(), seconds: Number(r.headers.get("x-render-seconds")) };
-    }
-    const r = await fetch("/jobs", { method: "POST", body });
+  // The audio: one request up to the service's limit for a render; beyond it a job, played
+  // while it renders (GET /jobs/{id}/stream: a WAV whose bytes arrive as they are computed, so
+  // playback starts within seconds and a seek ahead of the render waits for it).
+  async function renderShort(opts) {
+    const r = await fetch("/render/score", { method: "POST", body: form({ options: opts, output: "wav" }) });
+    if (!r.ok) throw new PageError(await failure(r));
+    return { blob: await r.blob(), seconds: Number(r.headers.get("x-render-seconds")) };
+  }
+
+  async function renderStreamed(opts) {
+    const audio = q("#score-audio");
+    const r = await fetch("/jobs", { method: "POST",
+      body: form({ options: opts, output: { format: "wav", normalize: false } }) });
     if (!r.ok) throw new PageError(await failure(r));
     let job = await r.json();
+    const before = state.job;
+    state.job = job.id;
+    if (before) fetch(`/jobs/${before}`, { method: "DELETE" }).catch(() => {});  // its audio is not wanted
+    audio.src = `/jobs/${job.id}/stream`;
+    audio.play().catch(() => {});  // starts as soon as the first blocks are in
+    // playing: another Play (other tracks, tempo...) may start a new render, this one withdrawn
+    state.busy = false;
+    q("#score-render").disabled = !document.querySelector("#score-tracks input:checked");
     const bar = q("#score-progress");
     bar.value = 0;
     bar.hidden = false;
     try {
       while (job.status === "queued" || job.status === "running") {
+        const playing = !audio.paused && audio.readyState >= 3;
         setStatus(job.status === "queued" ? "Waiting for a free renderer…"
-          : `Rendering the whole song… ${Math.round(100 * job.progress)} %`);
-        await new Promise((resolve) => setTimeout(resolve, 400));
+          : `${playing ? "Playing" : "Starting"} while the rest renders: ${Math.round(100 * job.progress)} % rendered`);
+        await new Promise((resolve) => setTimeout(resolve, 500));
+        if (state.job !== job.id) return null;  // a newer render took over
         const poll = await fetch(`/jobs/${job.id}`);
         if (!poll.ok) throw new PageError(await failure(poll));
         job = await poll.json();
@@ -370,11 +413,10 @@
       throw new PageError(job.status === "cancelled" ? "The render was cancelled."
         : `The render failed: ${job.error || "no reason given"}.`);
     }
-    const audio = await fetch(job.audio_url);
-    if (!audio.ok) throw new PageError(await failure(audio));
-    return { blob: await audio.blob(), seconds: job.render_seconds };
+    return { url: job.audio_url, seconds: job.render_seconds };
   }
 
+  // Render and play: a click on Play.
   async function render() {
     setError("");
     const button = q("#score-render");
@@ -382,18 +424,34 @@
     state.busy = true;
     q("#score-roll").dataset.drawn = "0";
     q("#score-waveform").dataset.drawn = "0";
-    setStatus("Rendering…");
+    setStatus("Preparing…");
+    const stem = state.file.name.replace(/\.[^.]+$/, "");
     try {
       const opts = options(true);
-      if (!opts.tracks.length) { setError("Choose at least one track."); setStatus(""); return; }
+      if (opts.tracks && !opts.tracks.length) { setError("Choose at least one track."); setStatus(""); return; }
       const scene = await loadScene(true);
       tabTracks(scene);
       drawRoll();
-      const { blob, seconds } = await renderAudio(opts);
-      const url = blobUrl("audio", blob);
+      await state.limitsReady;
+      const limit = state.limits ? state.limits.max_duration_s : Infinity;
       const audio = q("#score-audio");
+      q("#score-dl-audio").hidden = true;
+      state.samples = null;
+      drawWave();
+      if (scene.duration > limit) {
+        const done = await renderStreamed(opts);
+        if (!done) return;
+        download("#score-dl-audio", done.url, `${stem}.wav`);
+        setStatus(`Rendered ${scene.duration.toFixed(1)} s of ${state.file.name} in ` +
+                  `${done.seconds.toFixed(1)} s (${state.notes.length} notes).`);
+        return;
+      }
+      state.job = null;
+      const { blob, seconds } = await renderShort(opts);
+      const url = blobUrl("audio", blob);
       audio.src = url;
-      download("#score-dl-audio", url, `${state.file.name.replace(/\.[^.]+$/, "")}.wav`);
+      download("#score-dl-audio", url, `${stem}.wav`);
+      audio.play().catch(() => {});
       const ctx = new OfflineAudioContext(1, 1, scene.sample_rate);
       const buffer = await ctx.decodeAudioData(await blob.arrayBuffer());
       state.rate = buffer.sampleRate;
@@ -402,13 +460,13 @@
       drawRoll();
       follow();
       setStatus(`Rendered ${scene.duration.toFixed(1)} s of ${state.file.name} in ${seconds.toFixed(1)} s ` +
-                `(${state.notes.length} notes). Press play.`);
+                `(${state.notes.length} notes).`);
     } catch (err) {
       setError(err instanceof PageError ? err.message : `Something went wrong: ${err.message || err}`);
       setStatus("Not rendered.");
     } finally {
       state.busy = false;
-      button.disabled = false;
+      button.disabled = !document.querySelector("#score-tracks input:checked");
     }
   }
 
@@ -446,6 +504,7 @@
     q("#tab-zoom-in").addEventListener("click", () => state.tab.zoom(1.5));
     q("#tab-zoom-out").addEventListener("click", () => state.tab.zoom(1 / 1.5));
     q("#score-seconds").addEventListener("change", choicesChanged);
+    q("#score-all").addEventListener("change", openFile);  // other tracks: another track list
     q("#score-tempo").addEventListener("change", choicesChanged);
     state.limitsReady = fetch("/limits").then((r) => r.json()).then((l) => {
       state.limits = l;

@@ -6,7 +6,10 @@
 // visible one by bisection.
 //
 //   const tab = new TabView(scrollBox, canvas, {onSeek: (t) => ...});
-//   tab.setNotes(notes, duration, strings);  tab.setTime(t, follow);  tab.zoom(2);
+//   tab.setNotes(notes, duration, strings, timing);  tab.setTime(t, follow);  tab.zoom(2);
+//
+// `timing`: the scene's `score` field (bar and beat start times, bar numbers), when the scene came
+// from a score: bar lines, numbered, and beat ticks; without it, a line every few seconds.
 "use strict";
 
 class TabView {
@@ -29,8 +32,11 @@ class TabView {
     window.addEventListener("resize", () => this.draw());
   }
 
-  setNotes(notes, duration, strings) {
+  setNotes(notes, duration, strings, timing) {
     this.notes = notes.slice().sort((a, b) => a.time - b.time);
+    this.bars = (timing && timing.bars) || [];
+    this.barNumbers = (timing && timing.bar_numbers) || this.bars.map((_, i) => i + 1);
+    this.beats = (timing && timing.beats) || [];
     this.duration = duration;
     this.strings = Math.max(strings || 0, ...this.notes.map((n) => n.string || 0), 1);
     // the longest note bounds how far back a note sounding at the left edge can start
@@ -67,11 +73,14 @@ class TabView {
   }
 
   // index of the first note starting at or after t
-  first(t) {
-    let lo = 0, hi = this.notes.length;
+  first(t) { return TabView.bisect(this.notes, t, (n) => n.time); }
+
+  // index of the first item of a sorted list whose key is at or after t
+  static bisect(list, t, key = (x) => x) {
+    let lo = 0, hi = list.length;
     while (lo < hi) {
       const mid = (lo + hi) >> 1;
-      if (this.notes[mid].time < t) lo = mid + 1; else hi = mid;
+      if (key(list[mid]) < t) lo = mid + 1; else hi = mid;
     }
     return lo;
   }
@@ -98,15 +107,38 @@ class TabView {
     const x = (t) => 20 + t * pps - left;
     const top = 24, gap = 18, y = (s) => top + (s - 1) * gap;
 
-    // time grid: a line every second (every 5 or 10 when zoomed out), labelled
-    const step = pps >= 60 ? 1 : pps >= 15 ? 5 : 10;
     g.font = "10px system-ui, sans-serif";
     g.textBaseline = "alphabetic";
-    for (let s = Math.max(0, Math.ceil(t0 / step) * step); s <= Math.min(t1, this.duration); s += step) {
-      g.fillStyle = "#2c2822";
-      g.fillRect(Math.round(x(s)), top - 6, 1, (this.strings - 1) * gap + 12);
-      g.fillStyle = "rgba(255,255,255,0.45)";
-      g.fillText(`${Math.floor(s / 60)}:${String(s % 60).padStart(2, "0")}`, x(s) + 3, 11);
+    const staff = (this.strings - 1) * gap;
+    if (this.bars.length) {
+      // beat ticks under the staff where they are at least 5 px apart, then the bar lines,
+      // numbered (every n-th bar when they are close)
+      const bStart = TabView.bisect(this.beats, t0), bEnd = TabView.bisect(this.beats, t1);
+      if ((bEnd - bStart) * 5 < cssW) {
+        g.fillStyle = "#4a443b";
+        for (let i = bStart; i < bEnd; i++) g.fillRect(Math.round(x(this.beats[i])), top + staff + 4, 1, 5);
+      }
+      const i0 = Math.max(0, TabView.bisect(this.bars, t0) - 1), i1 = TabView.bisect(this.bars, t1);
+      const mean = this.duration / this.bars.length * pps;  // px per bar, on average
+      const every = mean >= 28 ? 1 : Math.ceil(28 / mean / 4) * 4;
+      for (let i = i0; i < i1; i++) {
+        const bx = Math.round(x(this.bars[i]));
+        g.fillStyle = "#6d655a";
+        g.fillRect(bx, top, 1, staff);
+        if (i % every === 0) {
+          g.fillStyle = "rgba(255,255,255,0.5)";
+          g.fillText(String(this.barNumbers[i]), bx + 3, 11);
+        }
+      }
+    } else {
+      // time grid: a line every second (every 5 or 10 when zoomed out), labelled
+      const step = pps >= 60 ? 1 : pps >= 15 ? 5 : 10;
+      for (let s = Math.max(0, Math.ceil(t0 / step) * step); s <= Math.min(t1, this.duration); s += step) {
+        g.fillStyle = "#2c2822";
+        g.fillRect(Math.round(x(s)), top - 6, 1, staff + 12);
+        g.fillStyle = "rgba(255,255,255,0.45)";
+        g.fillText(`${Math.floor(s / 60)}:${String(s % 60).padStart(2, "0")}`, x(s) + 3, 11);
+      }
     }
     // strings
     g.fillStyle = "#5a5247";
@@ -157,6 +189,7 @@ class TabView {
       g.fillRect(Math.round(cx), 14, 2, (this.strings - 1) * gap + 20);
     }
     c.dataset.drawn = "1";
+    c.dataset.bars = String(this.bars.length);
     c.dataset.sounding = String(now.length);
     c.dataset.time = this.time.toFixed(3);
     this.sounding = now;

@@ -101,7 +101,7 @@ async def score_labels(
     sc = validate_scene(scene)
     _check_label_limits(sc, settings)
     raw, _ = await pool.call("labels", {"scene": scene_payload(sc)},
-                             settings.score_import_time_limit_s)
+                             _labels_time_limit(sc, settings))
     return Response(raw, media_type="application/json", headers=_score_warnings(warnings))
 
 
@@ -225,21 +225,27 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
     settings, pool = request.state.settings, request.state.pool
     _check_label_limits(scene, settings)
     raw, _ = await pool.call("labels", {"scene": scene_payload(scene)},
-                             settings.score_import_time_limit_s)
+                             _labels_time_limit(scene, settings))
     return Response(raw, media_type="application/json")
 
 
 
+def _labels_time_limit(scene: engine.Scene, settings: Any) -> float:
+    """Labels take time in proportion to the song (their pitch contours have a frame every
+    10 ms per string): a whole song gets a render's wall-time budget for its length, not the
+    fixed budget of a score import (measured: 10-22 s for Demo v5.gp5's 91 s on 2 loaded cores)."""
+    return max(settings.score_import_time_limit_s, settings.time_limit_s(scene.duration))
+
+
 def _check_label_limits(scene: engine.Scene, settings: Any) -> None:
-    """Labelling renders no audio, so a scene as long as a job may render is labelled (the demo
-    page shows the tab of a whole song before and while it renders); its events are bounded by
-    ``GUITAR_MAX_SCORE_EVENTS``."""
+    """Labelling renders no audio, so a scene as long and as large as a job may render is labelled
+    (the demo page shows the tab of a whole song before and while it renders as a job)."""
     if scene.duration > settings.job_max_duration_s:
         raise form_error("duration", f"Input should be less than or equal to "
                          f"{settings.job_max_duration_s:g} (service limit "
                          "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", scene.duration)
-    if scene.event_count() > settings.max_score_events:
+    if scene.event_count() > settings.job_max_events:
         raise form_error("tracks" if scene.tracks is not None else "events",
-                         f"List should have at most {settings.max_score_events} items (service "
-                         f"limit GUITAR_MAX_SCORE_EVENTS, counted over all tracks), not "
+                         f"List should have at most {settings.job_max_events} items (service "
+                         f"limit GUITAR_JOB_MAX_EVENTS, counted over all tracks), not "
                          f"{scene.event_count()}", "too_long", scene.event_count())

@@ -2,6 +2,9 @@
 
     python -m tools.compare REV_A REV_B [--rounds 3] [--repeat 5] [--seconds 1]
 
+A revision that names a directory is that checked-out tree as it is, with its own numba cache
+(``NUMBA_CACHE_DIR`` = its ``.numba_cache``), so a warm tree compiles nothing.
+
 Timings on this shared machine drift by more than most kernel changes are worth, between sessions
 and within one (``benchmarks.speed``'s notes), so one run of ``benchmarks.speed`` before a change
 and one after cannot tell a 10 % gain from noise.  This script checks out both git revisions into
@@ -83,12 +86,19 @@ def main() -> None:
     args = ap.parse_args()
     revs = {}
     for r in (args.rev_a, args.rev_b):
+        if Path(r).is_dir():  # a checked-out tree as it is (its own numba cache kept warm)
+            revs[r] = r
+            continue
         revs[r] = subprocess.run(["git", "rev-parse", "--short", r], cwd=ROOT, check=True,
                                  capture_output=True, text=True).stdout.strip()
     with tempfile.TemporaryDirectory(prefix="guitar-compare-") as tmp:
         trees = {}
         try:
             for r, short in revs.items():
+                if Path(r).is_dir():
+                    trees[r] = Path(r).resolve()
+                    run(trees[r], args.seconds, 1)
+                    continue
                 tree = Path(tmp) / short
                 subprocess.run(["git", "worktree", "add", "--detach", "-q", str(tree), r],
                                cwd=ROOT, check=True)
@@ -101,7 +111,9 @@ def main() -> None:
                         best[r][name] = min(best[r].get(name, float("inf")), t)
                 print(f"round {i + 1} of {args.rounds} done", file=sys.stderr, flush=True)
         finally:
-            for tree in trees.values():
+            for r, tree in trees.items():
+                if Path(r).is_dir():
+                    continue
                 subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
                                check=False)
     a, b = args.rev_a, args.rev_b

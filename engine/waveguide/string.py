@@ -54,6 +54,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from .. import calibration_store
 from ..losses import LN1000, loss_coefficients
 from ..presets import Preset, StringSpec
 
@@ -141,9 +142,19 @@ def dispersion_filter(inharmonicity: float, period: float, room: float) -> tuple
     """(a, sections) of the cascade that puts partials 2..10 of a loop of ``period`` samples at
     f_n = n f1 sqrt(1 + B n^2) / sqrt(1 + B), least squares in cents, with its delay at the
     fundamental at most ``room`` samples.  (0, 0) when the string is too flexible to need one or
-    the loop too short to hold it."""
+    the loop too short to hold it.  The fit takes milliseconds and a song's strings ask it for
+    every fret they stop: kept per process and on disk (``engine.calibration_store``, exact to
+    the bit), so a song does not fit its frets again in every render."""
     if inharmonicity < 1e-7 or room < 2.0:
         return 0.0, 0
+    a, sections = calibration_store.recall(
+        "waveguide_dispersion", (inharmonicity, period, room),
+        lambda: _fit_dispersion(inharmonicity, period, room), sources=("waveguide/string.py",))
+    return float(a), int(sections)
+
+
+def _fit_dispersion(inharmonicity: float, period: float, room: float) -> tuple[float, int]:
+    """``dispersion_filter``'s least-squares fit."""
     w1 = 2.0 * math.pi / period
     n = np.arange(2, DISPERSION_PARTIALS + 1)
     target = n * w1 * np.sqrt(1.0 + inharmonicity * n * n) / math.sqrt(1.0 + inharmonicity)

@@ -18,15 +18,17 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    "Passivity"), as a collision point forgets its arrival speed (``collision``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
 6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``;
-7. on the grid of ``BLOCK`` steps, from the step ``voice`` computes (no event, release, contact
-   or pitch breakpoint left to come), the decay stop: the pickups' output since the last test and
-   every point's velocity on the sounding grid below ``decay_velocity``, and the string stops
-   (``_still``; a stopped string costs nothing).
+7. on the grid of ``BLOCK`` steps, the decay stop: when nothing but the decay would happen in the
+   next ``LOOKAHEAD`` steps (``_may_sleep``) and the pickups' output since the last test and
+   every point's velocity on the sounding grid are below ``decay_velocity`` (``_still``), the
+   call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
+   next event, or stops when none is left (a sleeping string costs nothing).
 
 The period's stretch, the reach schedule, the live collision points and a quiet string's
 respite carry from one call to the next (``Wave.carry``): the schedules restart only on the
 global grid of ``BLOCK`` steps and where ``voice`` asks (``carry.fresh``: the start, a change of
-the stop), so a render gives the same samples however its calls are cut, and a live session
+the stop; ``carry.fresh`` = 2 resumes a string that slept on the global grid), so a render gives
+the same samples however its calls are cut, and a live session
 (``engine.live``), whose calls end at its blocks and which learns of events only as they come,
 gives the samples of the render of its events.  For that, nothing a call decides may depend on
 an event more than ``LOOKAHEAD`` steps ahead (the session acts on events that much after they
@@ -36,9 +38,11 @@ next ``BLOCK`` step, ends at a call's start if a junction or a pitch breakpoint 
 it.
 
 That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found live):
-no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a loop of
-their own up to the next step that needs the general one (a period update every ``GLIDE_EVERY``
-steps, a reach, a junction's onset), compiled apart so that its few values stay in registers; with a
+no junction acts but steady ones (``_steady``: dampers in contact, released junctions leaking away,
+which the plain loop steps with the general step's arithmetic), the period is only stepped, no
+reach is due.  Those run in ``_plain``, a loop of their own up to the next step that needs the
+general one (a period update every ``GLIDE_EVERY`` steps, a reach, a junction's onset, pulse,
+release or end), compiled apart so that its few values stay in registers; with a
 steady period (no glide or bend moving it) it stops recomputing the delay once a step has neither
 walked the termination nor moved the taps (every later step of the run would compute the same), and
 a single pickup keeps its constants and last displacement in registers; while the glide moves the

@@ -16,8 +16,10 @@ the kernels not).
 Per string-second: the render's instructions over the scene's strings times its duration (every
 string of every track, sounding or not), and over the string-seconds the strings actually ran
 (the steps the waveguide kernel ran: not stopped by the decay stop), which a native run of the
-same child counts.  callgrind cannot split the count between the kernel's functions: numba's
-compiled code has no symbols it can read.
+same child counts, with the waveguide kernel's own counts of where its steps went: the general
+step, plain runs (``kernel._plain``, steady junctions included) and asleep (``voice._sleep``),
+as shares of all the strings' steps.  callgrind cannot split the count between the kernel's
+functions: numba's compiled code has no symbols it can read.
 
 ``--windows`` (no valgrind, the waveguide only): the share of string-steps that lie in some
 junction's window (from its onset to the end of its leak, ``pluck.LEAK_HZ``), where the kernel
@@ -72,9 +74,13 @@ for sc in scenes:
     for _ in mix.blocks(4096):
         pass
     os.getppid()  # dump: this render
+    wg = [v for v in mix.voices if hasattr(v, "steps_slept")]
     info.append({"duration": mix.frames / sc.sample_rate, "ran": ran[0],
                  "rate": sc.sample_rate, "tracks": len(mix.tracks),
-                 "strings": len(mix.voices)})
+                 "strings": len(mix.voices),
+                 "general": sum(int(v.st["general"]) for v in wg),
+                 "plain": sum(int(v.st["plain"]) for v in wg),
+                 "slept": sum(v.steps_slept for v in wg)})
 print("SONGINFO " + json.dumps(info))
 """
 
@@ -166,14 +172,18 @@ def main() -> None:
                "M_per_audio_s": round(n / i["duration"] / 1e6, 1),
                "M_per_string_s": round(n / ss / 1e6, 2) if ss else None,
                "ran_string_s": round(ran_s, 1),
-               "M_per_ran_string_s": round(n / ran_s / 1e6, 2) if ran_s else None}
+               "M_per_ran_string_s": round(n / ran_s / 1e6, 2) if ran_s else None,
+               "steps": {k: round(i[k] / max(ss * i["rate"], 1), 4)
+                         for k in ("general", "plain", "slept")}}
         if args.json:
             print(json.dumps(row))
             continue
         print(f"{name}: {row['seconds']} s, {row['tracks']} tracks, {row['strings']} strings: "
               f"{n / 1e6:.1f} M instructions, {row['M_per_audio_s']} M per s of audio, "
               f"{row['M_per_string_s']} M per string-second, {row['M_per_ran_string_s']} M per "
-              f"string-second run ({row['ran_string_s']} string-s run)")
+              f"string-second run ({row['ran_string_s']} string-s run); string-steps: general "
+              f"{row['steps']['general']:.1%}, plain {row['steps']['plain']:.1%}, asleep "
+              f"{row['steps']['slept']:.1%}")
 
 
 if __name__ == "__main__":

@@ -92,6 +92,9 @@ class WaveguideOptions:
     skip_silent: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7  # m/s, as the finite-difference model's
+    # steady junctions (dampers in contact, released junctions leaking away) stepped in the
+    # kernel's plain runs (``kernel._steady``): the same samples, to the bit
+    steady_runs: bool = True
     block_frames: int = 2048
 
 
@@ -176,7 +179,7 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None, *,
         voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
                                      statics, opts.dispersion, opts.collisions, opts.glide,
                                      opts.finger_damping, opts.skip_decayed,
-                                     opts.decay_velocity))
+                                     opts.decay_velocity, opts.steady_runs))
     inst = WaveguideInstrument(scene, preset, voices, opts, out.frames, out.channels, out.pans,
                                out.body)
     inst._warnings = [w for _, w in sorted(warnings)]

@@ -39,20 +39,22 @@ GLIDE_EVERY = 256
 
 
 @njit(**JIT_INLINE)
-def _slope_sum(R, Mb, mask, s, n_lo, n_hi, js_off, js_rel, js_idx, js_np, tail):
+def _slope_sum(R, Mb, mask, s, n_lo, n_hi, act, nact, js_off, js_rel, js_idx, js_np, tail):
     """sum (u(n+1) - u(n))^2 over n_lo <= n < n_hi at step s, and u(n_hi)^2 (the step from n_hi
     to the bridge, where u = 0), leaving out the steps that touch a point of a junction leaking
-    at s (``_leaking``)."""
+    at s (``_leaking``).  Only the junctions listed in ``act[:nact]`` (the kernel's junctions
+    whose window, onset to the end of the leak, holds s) can be leaking: a song's string has
+    hundreds of junctions, a step a few."""
     leaking = False
-    for j in range(js_off.shape[0]):
-        leaking |= _leaking(j, s, js_off, js_rel, tail)
+    for a in range(nact):
+        leaking |= _leaking(act[a], s, js_off, js_rel, tail)
     acc = 0.0
     prev = R[(s - n_lo) & mask] + Mb[(s + n_lo) & mask]
     for n in range(n_lo + 1, n_hi + 1):
         u = R[(s - n) & mask] + Mb[(s + n) & mask]
         d = u - prev
         prev = u
-        if leaking and _touches(n, s, js_off, js_rel, js_idx, js_np, tail):
+        if leaking and _touches(n, s, act, nact, js_off, js_rel, js_idx, js_np, tail):
             continue
         acc += d * d
     return acc + prev * prev  # the last step, to the bridge (u = 0 there)
@@ -67,9 +69,11 @@ def _leaking(j, s, js_off, js_rel, tail):
 
 
 @njit(**JIT_INLINE)
-def _touches(n, s, js_off, js_rel, js_idx, js_np, tail):
-    """Does the step from n - 1 to n touch a point of a junction leaking at s?"""
-    for j in range(js_off.shape[0]):
+def _touches(n, s, act, nact, js_off, js_rel, js_idx, js_np, tail):
+    """Does the step from n - 1 to n touch a point of a junction (of ``act[:nact]``) leaking at
+    s?"""
+    for a in range(nact):
+        j = act[a]
         if _leaking(j, s, js_off, js_rel, tail):
             for k in range(js_np[j]):
                 if js_idx[j, k] == n or js_idx[j, k] == n - 1:

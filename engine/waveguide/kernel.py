@@ -18,15 +18,17 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    "Passivity"), as a collision point forgets its arrival speed (``collision``);
 5. the collision junctions whose bound reaches their obstacle (``collision``);
 6. the pickups: velocity (u(s) - u(s - 1)) fs at each, times its gain, summed into ``out``;
-7. on the grid of ``BLOCK`` steps, from the step ``voice`` computes (no event, release, contact
-   or pitch breakpoint left to come), the decay stop: the pickups' output since the last test and
-   every point's velocity on the sounding grid below ``decay_velocity``, and the string stops
-   (``_still``; a stopped string costs nothing).
+7. on the grid of ``BLOCK`` steps, the decay stop: when nothing but the decay would happen in the
+   next ``LOOKAHEAD`` steps (``_may_sleep``) and the pickups' output since the last test and
+   every point's velocity on the sounding grid are below ``decay_velocity`` (``_still``), the
+   call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
+   next event, or stops when none is left (a sleeping string costs nothing).
 
 The period's stretch, the reach schedule, the live collision points and a quiet string's
 respite carry from one call to the next (``Wave.carry``): the schedules restart only on the
 global grid of ``BLOCK`` steps and where ``voice`` asks (``carry.fresh``: the start, a change of
-the stop), so a render gives the same samples however its calls are cut, and a live session
+the stop; ``carry.fresh`` = 2 resumes a string that slept on the global grid), so a render gives
+the same samples however its calls are cut, and a live session
 (``engine.live``), whose calls end at its blocks and which learns of events only as they come,
 gives the samples of the render of its events.  For that, nothing a call decides may depend on
 an event more than ``LOOKAHEAD`` steps ahead (the session acts on events that much after they
@@ -36,9 +38,11 @@ next ``BLOCK`` step, ends at a call's start if a junction or a pitch breakpoint 
 it.
 
 That is a general step.  Most steps need only 1-3 and 6 (and 5 for the collision points found live):
-no junction acts, the period is only stepped, no reach is due.  Those run in ``_plain``, a loop of
-their own up to the next step that needs the general one (a period update every ``GLIDE_EVERY``
-steps, a reach, a junction's onset), compiled apart so that its few values stay in registers; with a
+no junction acts but steady ones (``_steady``: dampers in contact, released junctions leaking away,
+which the plain loop steps with the general step's arithmetic), the period is only stepped, no
+reach is due.  Those run in ``_plain``, a loop of their own up to the next step that needs the
+general one (a period update every ``GLIDE_EVERY`` steps, a reach, a junction's onset, pulse,
+release or end), compiled apart so that its few values stay in registers; with a
 steady period (no glide or bend moving it) it stops recomputing the delay once a step has neither
 walked the termination nor moved the taps (every later step of the run would compute the same), and
 a single pickup keeps its constants and last displacement in registers; while the glide moves the
@@ -108,17 +112,22 @@ CONFIG = np.dtype([
     ("fbase", _F),  # the stopped string's frequency, Hz
     ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
     ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
+    ("steady_runs", _I),  # 1: steady junctions run in plain runs (``_steady``), 0: not
 ], align=True)
 # what carries from one call to the next: one record
 CARRY = np.dtype([
     ("n_t", _I),  # the termination's grid index
     ("pb", _I),  # the pitch breakpoint in force
-    ("stop_from", _I),  # the first step the decay stop may act at (``voice``: no event to come)
+    ("next_stop", _I),  # the next change of the stop (``voice``; the call ends there)
     ("stopped", _I),  # 1 once the decay stop has acted
     ("restart", _I),  # the step the period and reach schedules last restarted at
     ("quiet", _I),  # the step until which a quiet string needs no reach (``_reach``)
     ("nlive", _I),  # how many collision points are live
-    ("fresh", _I),  # 1: the next call restarts the schedules (``voice``: the start, a new stop)
+    ("fresh", _I),  # 1: the next call restarts the schedules (``voice``: the start, a new stop);
+    # 2: it resumes a string that slept (``voice._wake``): the period exact and a reach at its
+    # first step, the schedules on the global grid (``restart`` set by ``voice``), as if it had run
+    ("general", _I),  # steps run in the general step, counted over the calls (``tools``)
+    ("plain", _I),  # and in plain runs (``_plain``)
     ("loss", _F),  # the loss one-pole's state
     ("glide", _F),  # the glide's pitch ratio
     ("d", _F),  # the delay the Lagrange taps were computed for (0: none yet)
@@ -226,7 +235,7 @@ def run_block(wave, events, step0, out):
     dcap = cf.dcap
     fbase = cf.fbase
     decay_v = cf.decay_v
-    stop_from = st.stop_from
+    next_stop = st.next_stop
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
@@ -234,13 +243,22 @@ def run_block(wave, events, step0, out):
     # and the step at which that list next changes (``_active``): a song's string has hundreds
     # of junctions, a step a few
     act = np.empty(nslot, np.int64)
+    near_n = np.empty(nslot * js_idx.shape[1], np.int64)  # ``_reach``'s scratch
+    # the steady junctions' points in a plain run (``_steady``): grid index, coefficient, state
+    sp_n = np.empty(nslot * js_idx.shape[1], np.int64)
+    sp_c = np.empty(nslot * js_idx.shape[1])
+    sp_h = np.empty(nslot * js_idx.shape[1])
+    sp_u = np.empty(nslot * js_idx.shape[1])
+    sp_cut = np.empty(nslot * js_idx.shape[1])
+    steady_runs = cf.steady_runs != 0
     nact = 0
     act_until = -1
     ncol = col_n.shape[0]
     npk = pk_n.shape[0]
     n_t = st.n_t
     ib = st.pb
-    fresh = st.fresh != 0
+    fresh = st.fresh == 1
+    wake = st.fresh == 2
     st.fresh = 0
     # the termination's filter states, in registers for the call
     ly = st.loss
@@ -264,6 +282,8 @@ def run_block(wave, events, step0, out):
             b += 1
         if b < pb_step.shape[0] and pb_step[b] < quiet_until:
             quiet_until = -1
+    if wake:  # a reach at the first step
+        quiet_until = -1
     period = st.period
     dper = st.dper
     d_taps = st.d  # the delay the taps were computed for (0 before the first call)
@@ -273,9 +293,12 @@ def run_block(wave, events, step0, out):
     inside = False
     i = 0
     stopped = False
+    plain = 0  # steps run in plain runs in this call
     while i < nsteps:
         # a general step: everything that may act at s
         s = step0 + i
+        if s >= act_until:  # the junctions whose window holds s (``_active``)
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
         # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
@@ -285,18 +308,19 @@ def run_block(wave, events, step0, out):
             st.restart = s
             if i == 0 and fresh:
                 quiet_until = -1
+        exact = restart or (i == 0 and wake)
         phase = s % GLIDE_EVERY
-        if restart or phase == 0:
+        if exact or phase == 0:
             if glide_k > 0.0 and phase == 0:
                 # between n_t + 1 and N - 1, whose values at s are final (the termination and
                 # the bridge write theirs below), and u(N) = 0
                 g_new = math.sqrt(1.0 + glide_k * _slope_sum(R, Mb, mask, s, n_t + 1, N - 1,
-                                                             js_off, js_rel, js_idx, js_np,
-                                                             tail))
+                                                             act, nact, js_off, js_rel, js_idx,
+                                                             js_np, tail))
             else:
                 g_new = st.glide
             ratio, ib = _ratio_at(s, pb_step, pb_f, ib)
-            if restart:
+            if exact:
                 period = fs / (fbase * ratio * st.glide)
             ahead = GLIDE_EVERY - phase
             r_next, _ = _ratio_at(s + ahead, pb_step, pb_f, ib)
@@ -311,8 +335,6 @@ def run_block(wave, events, step0, out):
             R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h1, h2, h3, loss_gg,
             loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3)
         # 4. junctions: those whose window holds s (``_active``)
-        if s >= act_until:
-            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
         if nact > 0:
             for a in range(nact):
                 j = act[a]
@@ -354,11 +376,11 @@ def run_block(wave, events, step0, out):
                         _blow(R, Mb, mask, s, n, N, 0.5 * x_k0 * f)
         # 5. collisions
         if ncol > 0:
-            if ri % REACH_EVERY == 0 and s >= quiet_until:
+            if (ri % REACH_EVERY == 0 or (i == 0 and wake)) and s >= quiet_until:
                 nlive, quiet_until = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref,
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
-                                            js_kappa, tail, pb_step, ib)
+                                            js_kappa, tail, pb_step, ib, near_n)
                 inside_nt = -1
             if n_t != inside_nt:
                 inside = _inside(col_n, col_list, nlive, n_t, N)
@@ -373,8 +395,11 @@ def run_block(wave, events, step0, out):
         if decay_v > 0.0:
             peak = max(peak, abs(acc))
             if (s + 1) % BLOCK == 0:
-                if s + 1 >= stop_from and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v,
-                                                 js_on, js_off, js_rel, js_idx, js_np, tail):
+                if (peak < decay_v
+                        and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
+                                       pb_step, pb_f, ib)
+                        and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, act, nact,
+                                   js_idx, js_np)):
                     stopped = True
                     break
                 peak = 0.0
@@ -390,24 +415,48 @@ def run_block(wave, events, step0, out):
             e = min(e, s1 + (REACH_EVERY - ri % REACH_EVERY) % REACH_EVERY)
         if s1 >= act_until:
             nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act)
-        e = s1 if nact > 0 else min(e, act_until)  # up to the next junction's onset
+        e = min(e, act_until)  # up to the next junction's onset or end
+        nsp = 0
+        if nact > 0:  # only steady junctions run in a plain run, up to their next change
+            nsp, until = -1, s1
+            if steady_runs:
+                nsp, until = _steady(s1, act, nact, js_on, js_off, js_rel, js_len, js_np, js_idx,
+                                     js_mp, js_rho, js_kappa, jst, sp_n, sp_c, sp_h, sp_u,
+                                     sp_cut)
+            e = min(e, until)
         if e > s1:
             (n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3,
              peak) = _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap,
                             d_taps, j0, h0, h1, h2, h3, loss_gg, loss_a, disp_a, disp_m, refl,
                             ly, x0, x1, x2, x3, y0, y1, y2, y3, pk_n, pk_w, pk_g, pk_u, fs, peak,
-                            col_n, col_ref, col_cr, col_prev, col_list, nlive)
+                            col_n, col_ref, col_cr, col_prev, col_list, nlive, sp_n, sp_c, sp_h,
+                            sp_u, sp_cut, nsp, leak)
+            if nsp > 0:  # the steady junctions' states back where the general step keeps them
+                q = 0
+                for a in range(nact):
+                    j = act[a]
+                    for k in range(js_np[j]):
+                        jst[j, k, 0] = sp_h[q]
+                        jst[j, k, 5] = sp_u[q]
+                        jst[j, k, J_CUT] = sp_cut[q]
+                        q += 1
             i += e - s1
             ri += e - s1
+            plain += e - s1
             if decay_v > 0.0 and e % BLOCK == 0:
-                if e >= stop_from and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v,
-                                             js_on, js_off, js_rel, js_idx, js_np, tail):
+                if (peak < decay_v
+                        and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
+                                       pb_f, ib)
+                        and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, act, nact,
+                                   js_idx, js_np)):
                     stopped = True
                     break
                 peak = 0.0
     if stopped:
         st.stopped = 1
         peak = 0.0
+    st.general += i - plain
+    st.plain += plain
     st.n_t = n_t
     st.pb = ib
     st.quiet = quiet_until
@@ -559,9 +608,11 @@ def _walk(period, N, n_t, tau, dcap, d_taps, j0, h0, h1, h2, h3):
 @njit(**JIT_STEP)
 def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_taps, j0, h0, h1,
            h2, h3, loss_gg, loss_a, disp_a, disp_m, refl, ly, x0, x1, x2, x3, y0, y1, y2, y3,
-           pk_n, pk_w, pk_g, pk_u, fs, peak, col_n, col_ref, col_cr, col_prev, col_list, nlive):
-    """Steps s1 .. e - 1 of ``run_block`` when no junction acts and neither the period's exact
-    value nor the reach is due: the period's linear step, the termination, the bridge, the live
+           pk_n, pk_w, pk_g, pk_u, fs, peak, col_n, col_ref, col_cr, col_prev, col_list, nlive,
+           sp_n, sp_c, sp_h, sp_u, sp_cut, nsp, leak):
+    """Steps s1 .. e - 1 of ``run_block`` when no junction acts but steady ones (``_steady``:
+    ``nsp`` points, their states in sp_*) and neither the period's exact value nor the reach is
+    due: the period's linear step, the termination, the bridge, the steady junctions, the live
     collision points and the pickups, as in the general step (a function of its own, so that the
     compiler keeps this loop's few values in registers).  Returns the state it changes."""
     mask &= NONNEG  # known >= 0 here too
@@ -616,6 +667,24 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
             m1 = Mb[(base - 1) & mask]
             m2 = Mb[(base - 2) & mask]
             m3 = Mb[(base - 3) & mask]
+        for q in range(nsp):  # the general step's junctions, for steady dampers (``_steady``)
+            n = sp_n[q]
+            if n <= n_t or n >= N:  # cut off by the termination (as in the general step)
+                sp_cut[q] = 1.0
+                continue
+            ip = (s - n) & mask
+            im = (s + n) & mask
+            uin = R[ip] + Mb[im]
+            if sp_cut[q] != 0.0:  # back on the sounding string: afresh
+                sp_h[q] = 0.0
+                sp_u[q] = uin
+                sp_cut[q] = 0.0
+            du = uin - sp_u[q]
+            sp_u[q] = uin
+            h = leak * sp_h[q] + sp_c[q] * du
+            sp_h[q] = h
+            R[ip] += 0.5 * h
+            Mb[im] += 0.5 * h
         _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list, nlive,
                     inside, fs)
         if one:  # ``_pickups`` for one pickup, the same arithmetic
@@ -634,6 +703,44 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     if one:
         pk_u[0] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
+
+
+@njit(**JIT_HELPER)
+def _steady(s, act, nact, js_on, js_off, js_rel, js_len, js_np, js_idx, js_mp, js_rho, js_kappa,
+            jst, sp_n, sp_c, sp_h, sp_u, sp_cut):
+    """Are the junctions ``act[:nact]`` all steady at step s, and until when?  A junction is
+    steady while it is a constant damper: in a steady contact after its onset (no pulse, no mass
+    or spring: a damp, a palm, a light finger, a harmonic touch; up to its end js_off), or gone,
+    its perturbation leaking away (``pluck._msd`` with no contact: up to the end of its window).
+    Then its step at a point is ``_msd``'s damper branch, h = leak h + c du with c = -2 rho /
+    (1 + rho) (rho = 0 when gone), which ``_plain`` runs with the same arithmetic (its states
+    in sp_*, in the general step's order; the damper never reads the mass branch's history, so
+    that is not kept).  Returns the number of points listed and the first step after s at which
+    one of them changes phase, or (-1, s) if some junction is not steady at s."""
+    q = 0
+    until = 1 << 62
+    for a in range(nact):
+        j = act[a]
+        gone = js_off[j] + js_rel[j]
+        if js_len[j] == 0 and js_on[j] < s < js_off[j]:
+            env = 1.0
+            for k in range(js_np[j]):
+                if js_mp[j, k] != 0.0 or js_kappa[j, k] != 0.0:
+                    return -1, s
+            until = min(until, js_off[j])
+        elif gone <= s:
+            env = 0.0
+        else:  # its onset, a pulse, a release
+            return -1, s
+        for k in range(js_np[j]):
+            rho = env * js_rho[j, k]
+            sp_n[q] = js_idx[j, k]
+            sp_c[q] = -2.0 * rho / (1.0 + rho)
+            sp_h[q] = jst[j, k, 0]
+            sp_u[q] = jst[j, k, 5]
+            sp_cut[q] = jst[j, k, J_CUT]
+            q += 1
+    return q, until
 
 
 @njit(**JIT_HELPER)
@@ -732,14 +839,41 @@ def _pickups(R, Mb, mask, s, n_t, N, pk_n, pk_w, pk_g, pk_u, fs):
     return acc
 
 
+@njit(**JIT_HELPER)
+def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib):
+    """May a still string sleep from step t (``_still``)?  Only if nothing but its decay would
+    happen in the next ``LOOKAHEAD`` steps: no junction starts there, no pulse (or its release)
+    is under way, the stop does not change there (``next_stop``, from ``voice``) and the pitch
+    ratio neither changes there nor moves (the breakpoints' segment holding t is flat).  What a
+    sleeping string skips is its decay below the threshold: ``voice`` keeps its state and wakes
+    it at its next event.  The test looks no further ahead than ``LOOKAHEAD``, so a live session,
+    which knows no more than that, decides as a render does (``voice.rebuild``)."""
+    end = t + LOOKAHEAD
+    if next_stop < end:
+        return False
+    for j in range(js_on.shape[0]):
+        if t <= js_on[j] < end:
+            return False
+        if js_len[j] > 0 and js_on[j] <= t < js_off[j] + js_rel[j]:
+            return False
+    npb = pb_step.shape[0]
+    b = ib  # the breakpoints are in order: the last at or before t
+    while b + 1 < npb and pb_step[b + 1] <= t:
+        b += 1
+    if b + 1 < npb and (pb_step[b + 1] < end or pb_f[b + 1] != pb_f[b]):
+        return False
+    return True
+
+
 @njit(**JIT_INLINE)
-def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_idx, js_np, tail):
+def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
     """Have the pickups (their largest |output| since the last test: peak) and has every point
     of the sounding string (n_t .. N) moved slower than v_max at step s?  The velocity is read
     off the rails, u(n, s) - u(n, s - 1) with u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the
     waves' values at s, one point further on, before the junctions of step s moved them; next
     to a junction that acts (a steady damper) that mixes its step-s perturbation into the
-    difference, so those points are left out: they move with their neighbours."""
+    difference, so those points are left out: they move with their neighbours.  The junctions
+    whose window holds s are ``act[:nact]`` (``_active``)."""
     if peak >= v_max:
         return False
     lim = v_max / fs
@@ -748,11 +882,11 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_id
                                                          + Mb[(s - 1 + n) & mask])
         if abs(du) >= lim:
             near = False
-            for j in range(js_on.shape[0]):
-                if js_on[j] <= s < js_off[j] + js_rel[j] + tail:
-                    for k in range(js_np[j]):
-                        if abs(js_idx[j, k] - n) <= 1:
-                            near = True
+            for a in range(nact):
+                j = act[a]
+                for k in range(js_np[j]):
+                    if abs(js_idx[j, k] - n) <= 1:
+                        near = True
             if not near:
                 return False
     return True
@@ -760,14 +894,17 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, js_on, js_off, js_rel, js_id
 
 @njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
-           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib):
+           seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
+           near_n):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
     in col_list.  Returns how many there are and the step until which no bound is needed: s if
     the next one is due in REACH_EVERY samples, or the next multiple of ``BLOCK``
     if the string is quiet: no junction acts and the pitch is steady until then, and the energy
     bound keeps every point ``QUIET_MARGIN`` times below its obstacle (the energy of the passive
-    string does not grow while nothing acts on it, so the bound holds for all that time)."""
+    string does not grow while nothing acts on it, so the bound holds for all that time).
+    ``near_n``: scratch for the points of the junctions acting before s + B (one per junction
+    point at most)."""
     mask &= NONNEG
     nlive = 0
     B = REACH_EVERY
@@ -813,12 +950,14 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
     until = (s // BLOCK + 1) * BLOCK  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B
-    near = False  # a junction acts before s + B (its points make their neighbours live)
+    # the points of the junctions that act before s + B (they make their neighbours live)
+    nnear = 0
     quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady
     for j in range(js_on.shape[0]):
         if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
-            near = True
             for q in range(js_np[j]):
+                near_n[nnear] = js_idx[j, q]
+                nnear += 1
                 if js_f[j, q] != 0.0 or js_mp[j, q] != 0.0 or js_kappa[j, q] != 0.0:
                     forced = True
         if js_on[j] < until and js_off[j] + js_rel[j] + tail > s:
@@ -848,12 +987,11 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
             if e2 < bound * bound:
                 bound = math.sqrt(e2)
         live = bound * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
-        if not live and near:
-            for j in range(js_on.shape[0]):
-                if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
-                    for q in range(js_np[j]):
-                        if abs(js_idx[j, q] - n) <= B:
-                            live = True
+        if not live:
+            for q in range(nnear):
+                if abs(near_n[q] - n) <= B:
+                    live = True
+                    break
         if live and col_live[c] == 0:
             col_prev[c] = R[(s - n) & mask] + Mb[(s + n) & mask]
         col_live[c] = 1 if live else 0

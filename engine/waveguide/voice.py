@@ -40,7 +40,7 @@ from .fingering import (
     stopped_frequency,
 )
 from .glide import GLIDE_EVERY
-from .pluck import J_STATE, LEAK_HZ, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
+from .pluck import J_STATE, MAX_MASS_RATIO, MAX_POINTS, max_damping, window
 from .string import D_LOW, Loop, Physical, design_loop, grid_size, loop_partials
 
 MAX_SECTIONS = 4
@@ -78,12 +78,16 @@ class WaveguideVoice:
     finger_damping: bool = True
     skip_decayed: bool = True
     decay_velocity: float = 1e-7
+    steady_runs: bool = True  # steady junctions in plain runs (``kernel._steady``; exact)
     step: int = 0
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
     _run: object = field(default=None, repr=False)  # engine.config.entry_point of run_block
     ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
+    asleep_from: int = -1  # the step the string fell asleep at (``_sleep``; -1: awake)
+    asleep_until: int = 0  # and the step it wakes at (``_wake``)
+    steps_slept: int = 0  # the steps it slept and woke from (``tools.song_instructions``)
     _ramped: bool = False  # the last kernel call was a step of such a move
     # the kernel's arrays' rows and fields (``_part``)
     R, Mb = _part("rails", 0), _part("rails", 1)
@@ -138,7 +142,6 @@ class WaveguideVoice:
         self.config = np.zeros(1, K.CONFIG)
         self._configure(None)
         self.st["n_t"] = self._place(self.open_loop)
-        self.st["stop_from"] = self._stop_from()
 
     # -- the timeline ----------------------------------------------------------------------------
     def _slots(self, slots: list) -> None:
@@ -208,8 +211,12 @@ class WaveguideVoice:
         self.change_i = int(np.searchsorted([c[0] for c in self.changes], self.step,
                                             side="left"))
         self.st["pb"] = self._pb_index()
-        self.st["stop_from"] = self._stop_from()
-        if self.stopped:  # it decayed or was at rest: it runs again, its schedules anew
+        if self.asleep_from >= 0:  # asleep or stopped: it wakes at its next event, as in a
+            # render, which knew that event when the string fell asleep (``_sleep``)
+            self.asleep_until = self._next_event()
+            self.stopped = self.asleep_until >= NEVER
+            self.st["stopped"] = int(self.stopped)
+        elif self.stopped:  # at rest from the start: it runs again, its schedules anew
             self.stopped = False
             self.st["stopped"] = 0
             self.st["fresh"] = 1
@@ -281,6 +288,7 @@ class WaveguideVoice:
         c["gain"], c["glide_k"] = lp.gain_bound, self.glide_k
         c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
         c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
+        c["steady_runs"] = int(self.steady_runs)
         self.stop_fret = fret
         self.stop_held = held
         if len(self.col_n):
@@ -381,29 +389,51 @@ class WaveguideVoice:
         self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
 
     # -- running ---------------------------------------------------------------------------------
-    def _stop_from(self) -> int:
-        """The first step at which the decay stop may act: after the last event, every finger's
-        release, every junction's release and the leak of what it left on the string
-        (``pluck._msd``), and the last pitch breakpoint.  A finger that stays (a held note) and a
-        steady contact (a damp with no release) hold the string and do not keep it running."""
-        tail = 8.0 * self.rate / (2.0 * math.pi * LEAK_HZ)
-        ends = [self.timeline.last_step + 2]
-        ends += [f.rel + 1 for f in self.timeline.fingers if f.rel < NEVER]
-        ends += [math.ceil(off + rel + tail) for off, rel in zip(self.js_off, self.js_rel,
-                                                                 strict=True) if off < NEVER]
-        if len(self.pb_step):
-            ends.append(int(self.pb_step[-1]) + 1)
-        return int(max(ends))
+    def _next_event(self) -> int:
+        """The first step from now at which something acts on the string: a junction starts, the
+        stop changes, a pitch breakpoint (NEVER if none): where a sleeping string wakes."""
+        s = self.step
+        later = [int(a[a >= s].min()) for a in (self.js_on, self.pb_step) if np.any(a >= s)]
+        later += [c[0] for c in self.changes[self.change_i:] if c[0] >= s][:1]
+        return int(min(later, default=NEVER))
+
+    def _sleep(self) -> None:
+        """The kernel found the string still with nothing to act on it for ``kernel.LOOKAHEAD``
+        steps (``kernel._may_sleep``): it sleeps until its next event, its state kept as it is
+        now, or stops for good when no event is left."""
+        self.st["stopped"] = 0
+        self.asleep_from = self.step
+        wake = self._next_event()
+        if wake >= NEVER:
+            self.stopped = True
+            self.st["stopped"] = 1
+        self.asleep_until = wake
+
+    def _wake(self) -> None:
+        """Resume a sleeping string at ``asleep_until`` with the state it fell asleep with: the
+        rails rotated by the steps it slept (u+(n) at step s is R[s - n], u-(n) is Mb[s + n]:
+        rotating both by the same count moves every wave's sample to the new step), the filters'
+        and junctions' states as they were."""
+        slept = self.asleep_until - self.asleep_from
+        for rail in self.rails:
+            rail[:] = np.roll(rail, slept)
+        # the schedules go on on the global grid, as if the string had run (no change of the stop
+        # or of the pitch came while it slept): the period exact now, a reach now
+        self.st["fresh"] = 2
+        self.st["restart"] = self.asleep_until // BLOCK_MULTIPLE * BLOCK_MULTIPLE
+        self.asleep_from = -1
+        self.steps_slept += slept
 
     def run(self, nsteps: int) -> np.ndarray:
         """Advance nsteps samples; the pickups' velocity mix (m/s).
 
-        With the decay skip on, the kernel tests the string for decay on the global grid of
-        ``BLOCK_MULTIPLE`` samples, as the finite-difference voice does (from ``_stop_from`` on:
-        every point of the string and the pickups slower than ``decay_velocity``), and a
-        stopped string costs nothing from then on.  The kernel's schedules carry from one call to
-        the next (``kernel``), so any blocks give the same samples."""
-        if self.stopped:
+        With the decay skip on, the kernel tests the string on the global grid of
+        ``BLOCK_MULTIPLE`` samples, as the finite-difference voice does: a string whose every
+        point and pickups move slower than ``decay_velocity``, with nothing to act on it for
+        ``kernel.LOOKAHEAD`` steps, sleeps until its next event (``_next_event``) and costs
+        nothing until then, or stops for good when no event is left.  The kernel's schedules
+        carry from one call to the next (``kernel``), so any blocks give the same samples."""
+        if self.stopped or self.step + nsteps <= self.asleep_until:
             self.step += nsteps
             return np.zeros(nsteps)
         out = np.empty(nsteps)  # the kernel writes every sample it runs (``_advance``)
@@ -416,6 +446,14 @@ class WaveguideVoice:
         done = 0
         end = self.step + nsteps
         while done < nsteps and not self.stopped:
+            if self.step < self.asleep_until:  # asleep: silence until it wakes
+                m = int(min(nsteps - done, self.asleep_until - self.step))
+                out[done:done + m] = 0.0
+                self.step += m
+                done += m
+                continue
+            if self.asleep_from >= 0:
+                self._wake()
             # the kernel restarts its schedules where the stop changes and around a move onto a
             # new rest line (the same steps however the render is cut: ``kernel``)
             fresh = False
@@ -428,10 +466,12 @@ class WaveguideVoice:
             nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
                    else NEVER)
             m = int(min(nsteps - done, nxt - self.step))
+            self.st["next_stop"] = nxt
             if self.ramp is not None:  # a finger carrying the string: one step at a time
                 self._ramp_step()
                 m = 1
                 fresh = self._ramped = True
+                self.st["next_stop"] = self.step  # no sleep while the finger moves it
             elif self._ramped:
                 fresh = True
                 self._ramped = False
@@ -452,8 +492,9 @@ class WaveguideVoice:
             self.step += ran
             done += ran
             if self.st["stopped"]:
-                self.stopped = True
-                out[done:] = 0.0  # the rest is silence
+                self._sleep()
+        if self.stopped:
+            out[done:] = 0.0  # the rest is silence
         self.step = end
 
     def energy(self) -> float:

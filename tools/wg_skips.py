@@ -1,0 +1,118 @@
+"""What the waveguide's skips change: each render with a skip on against the same render with it off.
+
+    python -m tools.wg_skips [--seconds 20] [FILE ...]
+
+Two skips of ``engine/waveguide`` are measured, on whole songs (corpus files nobody on this project
+wrote: ``make test-data``) and on ``tools.render_digest``'s waveguide scenes:
+
+* steady runs (``WaveguideOptions.steady_runs``, ``kernel._steady``): steady junctions, a
+  damper in contact or a released junction leaking away, stepped in the kernel's plain runs
+  instead of its general step.  Exact: not one sample may differ.
+* the decay stop between events (``skip_decayed``, ``kernel._may_sleep``, ``voice._sleep``): a
+  string whose every point and pickups move slower than ``decay_velocity`` (1e-7 m/s) with
+  nothing to act on it for ``kernel.LOOKAHEAD`` steps sleeps until its next event, its state
+  kept, or stops when none is left.  Its tolerance: -140 dB of full scale after the fixed gain
+  (``TOLERANCE``: 3.3e-6 m/s of the output before it, 33 x ``decay_velocity``).  A string that
+  stops for good drops less than 2 x ``decay_velocity`` (tests/engine/waveguide/
+  test_decay_stop.py); one that sleeps resumes its frozen decay at its next note, where a
+  collision grazing an obstacle may see the difference (tests/engine/waveguide/test_skips.py:
+  a 2 N pluck on a fretted string that slept, 6.5e-7 m/s, -154 dB of full scale).
+
+Each row: the largest |difference| of the mixed output (m/s), the same in dB of the render's
+peak, and the string-steps run in the kernel's general step, in plain runs and asleep (of all
+the strings' steps, skips on).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from engine.output import FIXED_GAIN
+
+CORPUS = Path(__file__).resolve().parent.parent / ".cache" / "score-corpus"
+SONGS = ("gp/Demo v5.gp5", "gp/001_Funky_Guy.gp5", "gp/Slides.gp5", "gp/Strokes.gp5")
+TOLERANCE_DB_FS = -140.0  # the decay stop's bound, dB of full scale after the fixed gain
+TOLERANCE = 10.0 ** (TOLERANCE_DB_FS / 20.0) / FIXED_GAIN  # the same in m/s of the output
+
+
+def song_scene(path: str | Path, seconds: float | None):
+    """The scene ``guitar-synth render FILE --model waveguide [--max-seconds S]`` renders."""
+    from cli.main import build_parser, load_input, validate
+
+    argv = ["render", str(path), "-o", "/dev/null", "--model", "waveguide"]
+    if seconds is not None:
+        argv += ["--max-seconds", str(seconds)]
+    scene, _ = load_input(build_parser().parse_args(argv))
+    return validate(scene, str(path))
+
+
+def render(scene, skip_decayed: bool = True, steady_runs: bool = True
+           ) -> tuple[np.ndarray, dict[str, int]]:
+    """The mixed output (``engine.mix``, as the CLI renders it) and the string-steps of each
+    kind: ``general``, ``plain``, ``slept`` and ``all``."""
+    from engine.mix import prepare
+    from engine.options import RenderOptions
+
+    mix = prepare(scene, RenderOptions(skip_decayed=skip_decayed))
+    voices = [v for t in mix.tracks for v in t.instrument.voices]
+    for v in voices:
+        v.steady_runs = steady_runs
+        v.config["steady_runs"] = int(steady_runs)
+    parts = list(mix.blocks())
+    out = np.concatenate(parts) if parts else np.zeros(0)
+    steps = {"general": sum(int(v.st["general"]) for v in voices),
+             "plain": sum(int(v.st["plain"]) for v in voices),
+             "slept": sum(v.steps_slept for v in voices),
+             "all": len(voices) * mix.frames}
+    return out, steps
+
+
+def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """max |a - b| and that in dB of b's peak (-inf when equal)."""
+    d = float(np.max(np.abs(a - b))) if a.size else 0.0
+    peak = float(np.max(np.abs(b))) if b.size else 0.0
+    return d, (20.0 * np.log10(d / peak) if d > 0.0 and peak > 0.0 else -np.inf)
+
+
+def rows(scenes: dict) -> list[str]:
+    out = []
+    for name, scene in scenes.items():
+        a, steps = render(scene)
+        n = max(steps["all"], 1)
+        share = (f"{steps['general'] / n:7.1%} {steps['plain'] / n:7.1%} "
+                 f"{steps['slept'] / n:7.1%}")
+        b, _ = render(scene, steady_runs=False)
+        d1, _ = difference(a, b)
+        c, _ = render(scene, skip_decayed=False)
+        d2, db2 = difference(a, c)
+        fs_db = 20.0 * np.log10(d2 * FIXED_GAIN) if d2 > 0.0 else -np.inf
+        out.append(f"{name[:34]:34s} | {share} | {'exact' if d1 == 0.0 else f'{d1:.2e}':>11s} | "
+                   f"{d2:9.2e} {db2:7.1f} dB {fs_db:7.1f} dB FS")
+    return out
+
+
+def main() -> None:
+    import engine
+    from tools.render_digest import WAVEGUIDE
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("files", nargs="*", help=f"songs (default: {', '.join(SONGS)} of the corpus)")
+    ap.add_argument("--seconds", type=float, default=20.0, help="each song's first S seconds")
+    args = ap.parse_args()
+    files = args.files or [str(CORPUS / s) for s in SONGS]
+    scenes = {f"{Path(f).name} ({args.seconds:g} s)": song_scene(f, args.seconds) for f in files}
+    scenes.update({name: engine.parse_scene({**sc, "model": "waveguide"})
+                   for name, sc in WAVEGUIDE.items()})
+    print(f"tolerance of the decay stop: {TOLERANCE_DB_FS:g} dB of full scale = {TOLERANCE:.1e} "
+          "m/s of the output; steady runs: exact")
+    print(f"{'scene':34s} | general   plain   slept | steady runs | decay stop: max |diff|, "
+          "re peak, re full scale")
+    for row in rows(scenes):
+        print(row)
+
+
+if __name__ == "__main__":
+    main()

@@ -67,9 +67,10 @@ $(SCORE_CORPUS)/.done: scripts/score_corpus.py | install
 test: install browser lint test-data
 	$(BIN)/pytest -q
 
-# The loop a developer runs all day: everything but the tests marked slow, first failure stops it.
+# The loop a developer runs all day: everything but the tests marked slow, on two processes
+# (pytest-xdist), first failure stops it.
 test-fast: install test-data
-	$(BIN)/pytest -q -x -m "not slow"
+	$(BIN)/pytest -q -x -n 2 -m "not slow"
 
 # Builds the Docker image without a Docker engine (podman/buildah, chroot isolation) and checks
 # /health and a render inside it; needs root.  See scripts/docker-check.

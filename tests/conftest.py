@@ -1,7 +1,10 @@
 """The whole suite's set-up: the numba kernels are loaded (or, on a fresh machine, compiled) once,
 before the first test, and the time it took is its own line of the report instead of being billed
 to whichever test happens to run first.  ``GUITAR_TEST_WARMUP=0`` leaves it out (a run of tests
-that never render, such as ``tests/test_layers.py``)."""
+that never render, such as ``tests/test_layers.py``).  Under pytest-xdist (``make test-fast``:
+``-n 2``) each worker process warms up for itself (``engine.warmup`` lets one process compile at a
+time and the others load what it cached) and reports its time to the controller, which prints
+the longest."""
 
 from __future__ import annotations
 
@@ -20,6 +23,16 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     import engine
 
     _WARMUP["seconds"] = engine.warmup()
+    if hasattr(session.config, "workeroutput"):  # a pytest-xdist worker: tell the controller
+        session.config.workeroutput["warmup_s"] = _WARMUP["seconds"]
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error) -> None:
+    """pytest-xdist's controller: a worker finished; keep the longest warm-up."""
+    seconds = getattr(node, "workeroutput", {}).get("warmup_s")
+    if seconds is not None:
+        _WARMUP["seconds"] = max(_WARMUP.get("seconds", 0.0), seconds)
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config) -> None:

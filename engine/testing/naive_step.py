@@ -39,6 +39,7 @@ dict; ``tests/engine/kernels/test_naive_step.py`` compares it with ``kernels.ste
 from __future__ import annotations
 
 import math
+from decimal import Decimal, localcontext
 
 import numpy as np
 
@@ -86,14 +87,19 @@ def finger_x(x0, x1, ms, me, step):
 
 
 def gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
-    """Sec. 4.7's gradient correction as docs/engine.md states it: in contact, gamma = 1 unless
-    the predicted mean psi, psi + gamma xi / 4 over (1 + gamma^2 s / 4), would be negative, then
-    gamma = -4 psi / xi (eq. (60)); out of contact, the root of smaller magnitude of
-    (s psi / 4) gamma^2 - (xi / 2) gamma - psi = 0 (the predicted psi^(n+1/2) is zero)."""
+    """Sec. 4.7's gradient correction as docs/engine.md states it, with the predicted mean psi
+    M_- psi = (psi + gamma xi / 4) / (1 + gamma^2 s / 4) (s >= 0):
+
+    * in contact, gamma = 1 unless that prediction would be negative at gamma = 1; then the gamma
+      that makes it zero, -4 psi / xi (eq. (60));
+    * out of contact, the gamma that drives the predicted psi^(n+1/2) = 2 M_- psi - psi to zero,
+      a root of (s psi / 4) gamma^2 - (xi / 2) gamma - psi = 0: the one of smaller magnitude
+      (``_drive_to_zero``); 0 where there is none (or where s = 0: the column is zero, and no gamma
+      moves psi)."""
     if rule == GAMMA_NONE:
         return 1.0 if in_contact else 0.0
     if in_contact:
-        if 4.0 * psi + xi < 0.0 and xi != 0.0:
+        if (psi + xi / 4.0) / (1.0 + s / 4.0) < 0.0 and xi != 0.0:
             return -4.0 * psi / xi
         return 1.0
     if rule == GAMMA_PAPER:
@@ -101,12 +107,33 @@ def gamma(psi, xi, s, in_contact, rule=GAMMA_JOINT):
             return 0.0
         g = -4.0 * psi / xi
         return (0.5 if g < 0.0 else 1.5) * g
-    a, b, c = 0.25 * psi * s, -0.5 * xi, -psi
-    disc = b * b - 4.0 * a * c
-    if a == 0.0 or disc < 0.0:
+    return _drive_to_zero(psi, xi, s)
+
+
+def _drive_to_zero(psi: float, xi: float, s: float) -> float:
+    """The real root of smaller magnitude of a g^2 + b g + c, a = s psi / 4, b = -xi / 2,
+    c = -psi, or 0 if it has none (or a = 0).  Solved by the textbook formula
+    (-b +- sqrt(b^2 - 4 a c)) / (2 a) in decimal arithmetic from the floats' exact values
+    (``Decimal(float)`` is exact), not by the kernels' cancellation-free float formula.  The small
+    root cancels about log10(b^2 / |4 a c|) digits (hundreds where a finger's residual psi has
+    decayed to 1e-110 and below, out of contact), so the precision is that many digits plus 60:
+    the rounding to float is the only error left."""
+    if s == 0.0 or psi == 0.0:
         return 0.0
-    qv = -0.5 * (b + math.copysign(math.sqrt(disc), b))
-    return 0.0 if qv == 0.0 else c / qv
+    lost = 0
+    if xi != 0.0:  # log10(b^2) - log10(|4 a c|), 4 a c = -s psi^2
+        lost = max(0, math.ceil(2.0 * math.log10(abs(xi) / 2.0) - math.log10(s)
+                                - 2.0 * math.log10(abs(psi))))
+    with localcontext() as ctx:
+        ctx.prec = 60 + lost
+        a = Decimal(s) * Decimal(psi) / 4
+        b = -Decimal(xi) / 2
+        c = -Decimal(psi)
+        disc = b * b - 4 * a * c
+        if disc < 0:
+            return 0.0
+        r = disc.sqrt()
+        return float(min(((-b + r) / (2 * a), (-b - r) / (2 * a)), key=abs))
 
 
 class _Col:

@@ -50,10 +50,11 @@ class Traits:
 
     energy_balance: bool  # a discrete energy balance (``Instrument.energy_error``, diagnostics)
     grid: bool  # strings on a grid oversampled per quality level (``options.Quality``)
+    fret_loops: bool  # a loop filter per stopping fret, designed on first use (``Voice.loop``)
 
 
-TRAITS = {"fdtd": Traits(energy_balance=True, grid=True),
-          "waveguide": Traits(energy_balance=False, grid=False)}
+TRAITS = {"fdtd": Traits(energy_balance=True, grid=True, fret_loops=False),
+          "waveguide": Traits(energy_balance=False, grid=False, fret_loops=True)}
 
 
 # The compiled functions a render of each model calls from Python: ``engine.precompile`` loads or

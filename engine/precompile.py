@@ -167,6 +167,7 @@ def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("st
     filter, the finger's damping), which a render does when the note comes.  Returns the seconds
     it took."""
     from .mix import prepare
+    from .models import TRAITS
     from .presets import PRESETS
     from .scene import Scene
 
@@ -181,7 +182,7 @@ def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("st
                     mix = prepare(Scene.model_validate(
                         {"duration": 0.5, "sample_rate": rate, "quality": quality,
                          "model": model, "guitar": {"preset": name}, "events": events}))
-                    if model == "waveguide":
+                    if TRAITS[model].fret_loops:
                         for v in mix.voices:
                             for q in range(1, preset.frets + 1):
                                 v.loop(q)

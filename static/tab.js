@@ -19,6 +19,9 @@ class TabView {
     this.spacer = box.querySelector(".tab-spacer");
     this.onSeek = onSeek || (() => {});
     this.notes = [];
+    this.bars = [];            // bar starts (s), their numbers, beats (s): the score's timing
+    this.barNumbers = [];
+    this.beats = [];
     this.duration = 0;
     this.strings = 6;
     this.pxPerSecond = 120;    // CSS pixels

@@ -348,6 +348,11 @@ def _stop(fingers: list[dict], geo: _Geometry, string: int, t: float) -> float:
     return best
 
 
+# what each string model interpolates between a bend's breakpoints: the tension (True: the
+# finite-difference string, whose pitch goes with its square root) or the pitch ratio itself
+BEND_ON_TENSION = {"fdtd": True, "waveguide": False}
+
+
 def _ratio_curve(evs: list[dict], rate: int, model: str):
     """(times, pitch ratios) of the string's bends and vibratos, linear between them as each
     model plays them: the breakpoints of ``performance.bend_points``/``vibrato_points`` at
@@ -385,7 +390,7 @@ def _ratio_curve(evs: list[dict], rate: int, model: str):
             ratios.append(r)
     times = np.asarray(steps, float) / rate
     r = np.asarray(ratios)
-    return times, (r * r if model == "fdtd" else r)
+    return times, (r * r if BEND_ON_TENSION[model] else r)
 
 
 def _contour(notes, harmonics, fingers, evs, geo: _Geometry, string: int, rate: int, model: str,
@@ -407,7 +412,7 @@ def _contour(notes, harmonics, fingers, evs, geo: _Geometry, string: int, rate: 
             continue
         times = np.arange(k0, k1) * hop
         ratio = np.interp(times, bt, br)
-        if model == "fdtd":
+        if BEND_ON_TENSION[model]:
             ratio = np.sqrt(ratio)
         stops = np.zeros(len(times))
         for j in np.nonzero((ons < end) & (rels > start))[0]:

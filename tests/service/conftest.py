@@ -130,20 +130,22 @@ def wait_ready(check: Any, timeout: float = STARTUP_TIMEOUT_S) -> None:
 
 
 @pytest.fixture(scope="session")
-def harness() -> Iterator[AppHarness]:
-    """The app with two workers and default limits."""
-    h = AppHarness(Settings(workers=2, queue_size=8)).start()
+def harness(tmp_path_factory: pytest.TempPathFactory) -> Iterator[AppHarness]:
+    """The app with two workers and default limits; its jobs in a folder of its own (the default
+    ``./data`` would resume whatever jobs an earlier run left there)."""
+    data = tmp_path_factory.mktemp("harness-data")
+    h = AppHarness(Settings(workers=2, queue_size=8, data_dir=str(data))).start()
     yield h
     h.stop()
 
 
 @pytest.fixture(scope="session")
-def tiny_harness() -> Iterator[AppHarness]:
+def tiny_harness(tmp_path_factory: pytest.TempPathFactory) -> Iterator[AppHarness]:
     """One worker, no queue and a short time limit: for 503 and 504 (a budget far above the
     default, so that a render can be sent that outlasts the time limit)."""
     settings = Settings(workers=1, queue_size=0, time_limit_base_s=0.5, time_limit_per_audio_s=0.0,
                         queue_timeout_s=5.0, retry_after_s=3, stream_block_frames=1 << 20,
-                        max_render_s=1000.0)
+                        max_render_s=1000.0, data_dir=str(tmp_path_factory.mktemp("tiny-data")))
     h = AppHarness(settings).start()
     yield h
     h.stop()
@@ -162,8 +164,11 @@ class UvicornServer:
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.log_path = tmp / f"uvicorn-{self.port}.log"
+        # jobs in the test's folder unless the test names one: the default ./data would resume
+        # the jobs an earlier run left there
         self.env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-            p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p), **(env or {})}
+            p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p),
+            "GUITAR_DATA_DIR": str(tmp / "data"), **(env or {})}
         self.proc: subprocess.Popen | None = None
 
     def start(self) -> UvicornServer:

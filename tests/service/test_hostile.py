@@ -11,6 +11,7 @@ import signal
 import socket
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import httpx
 import pytest
@@ -258,8 +259,9 @@ def test_two_heavy_renders_do_not_starve_a_small_one(harness) -> None:
 # ---- liveness and readiness; a hung worker is replaced ------------------------------------------
 
 @pytest.fixture(scope="module")
-def beat_harness() -> Iterator[AppHarness]:
-    h = AppHarness(Settings(workers=2, heartbeat_s=0.25, heartbeat_timeout_s=2.0)).start()
+def beat_harness(tmp_path_factory: pytest.TempPathFactory) -> Iterator[AppHarness]:
+    h = AppHarness(Settings(workers=2, heartbeat_s=0.25, heartbeat_timeout_s=2.0,
+                            data_dir=str(tmp_path_factory.mktemp("hung-data")))).start()
     yield h
     h.stop()
 
@@ -309,8 +311,8 @@ def test_a_stopped_worker_is_not_ready_and_is_replaced(beat_harness, stopped) ->
     assert r.status_code == 200
 
 
-def test_live_and_ready_apart_during_start_up() -> None:
-    h = AppHarness(Settings(workers=1))
+def test_live_and_ready_apart_during_start_up(tmp_path: Path) -> None:
+    h = AppHarness(Settings(workers=1, data_dir=str(tmp_path / "data")))
     h.thread.start()
     h.run(h._startup())
     try:

@@ -22,7 +22,7 @@ import numpy as np
 
 from .mix import Mix, prepare
 from .options import RenderOptions
-from .output import FIXED_GAIN, convolve_ir, output_gain, to_output_scale
+from .output import FIXED_GAIN, convolve_ir, output_gain
 from .scene import Scene, Stem, parse_scene
 
 log = logging.getLogger("engine")
@@ -100,13 +100,12 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     if impulse_response is not None:
         vel = convolve_ir(vel, impulse_response)
     seconds = time.perf_counter() - t0
-    peak = float(np.max(np.abs(vel))) if vel.size else 0.0
-    if stems_peak > peak:  # the loudest stem sets the gain (``to_output_scale``'s arithmetic)
-        gain = output_gain(stems_peak, sc.output.normalize)
-        audio = np.multiply(vel, gain, out=vel)
-    else:
-        gain = output_gain(peak, sc.output.normalize)
-        audio = to_output_scale(vel, sc.output.normalize, in_place=True)
+    # one gain for the mix and its stems: the loudest of them sets it (``to_output_scale``'s
+    # arithmetic; times 1.0 for silence leaves the samples as they are)
+    normalize = sc.output.normalize
+    peak = max(float(np.max(np.abs(vel))), stems_peak) if normalize and vel.size else 0.0
+    gain = output_gain(peak, normalize)
+    audio = np.multiply(vel, gain, out=vel)
     if strings is not None:
         strings *= gain
     return RenderResult(audio, mix.energy_error() if sc.diagnostics else None, sc.sample_rate,

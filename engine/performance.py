@@ -114,8 +114,21 @@ def expand(scene: Scene, n_strings: int) -> list:
     return out
 
 
+def events_by_string(scene: Scene, n_strings: int) -> dict[int, list]:
+    """The single-string events of every string 1..``n_strings`` (``expand``, done once), each
+    string's in time order (a stable sort: events at one time keep the scene's order)."""
+    out: dict[int, list] = {s: [] for s in range(1, n_strings + 1)}
+    for e in expand(scene, n_strings):
+        if e.string in out:
+            out[e.string].append(e)
+    for events in out.values():
+        events.sort(key=lambda e: e.time)
+    return out
+
+
 def events_on(scene: Scene, n_strings: int, string: int) -> list:
-    """The single-string events of ``string`` (``expand``), in time order."""
+    """The single-string events of ``string`` (``expand``), in time order.  For every string of
+    a scene, ``events_by_string`` expands it once instead of once a string."""
     return sorted((e for e in expand(scene, n_strings) if e.string == string),
                   key=lambda e: e.time)
 

@@ -149,8 +149,12 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             return preset.finger.press_force_n
         return max(press_force(q) for q in frets)
 
+    placed: dict[int, float] = {}
+
     def finger_at(fret: int) -> float:
-        return finger_x_m(preset, fret, spec) + shifts.get(fret, 0.0)
+        if fret not in placed:
+            placed[fret] = finger_x_m(preset, fret, spec) + shifts.get(fret, 0.0)
+        return placed[fret]
 
     def step(t: float) -> int:
         # a time past the render's end is as good as never (the schema bounds times and releases;
@@ -159,6 +163,12 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
 
     plucks: list[tuple] = []
     slots: list[dict] = []
+    # The slots and dampers that the current event or a later one may still change: those
+    # released after it.  One released at or before it is final (events come in time order, and
+    # every change below applies from the event's step on), so each event scans only these and
+    # a song's controls compile in time linear in its events.
+    held_slots: list[dict] = []
+    resting: dict[str, list[list]] = {"palm": [], "touch": [], "damp": []}
     palms: list[list] = []  # [on, off, R, points] of each mute
     touches: list[list] = []  # ... and of each harmonic touch
     bends: list[tuple[int, float]] = []
@@ -172,21 +182,31 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
         last = max(last, step(t) + ln)
 
     def lift(at: int, only=None):
-        for s in slots:
+        for s in held_slots:
             if s["rel"] > at and (only is None or s is only):
                 s["rel"] = at
 
-    def end_touch(dampers: list[list], at: int) -> None:
+    def end_touch(kind: str, at: int) -> None:
         # one palm (one touching finger) per string: a later one replaces an earlier one still
         # resting, from its start on (stacked contacts would each add a column to the kernel's
         # small solve, whose cost grows with the cube of their number)
-        for d in dampers:
+        for d in resting[kind]:
             if d[1] > at:
                 d[1] = at
 
     damps: list[list] = []  # the relaxed hand's pads (``damp``), until the string's next event
+    before = 0
     for j, e in enumerate(events):
         on = step(e.time)
+        if on < before:  # out of time order: every slot and damper may change again
+            held_slots = list(slots)
+            resting = {"palm": list(palms), "touch": list(touches), "damp": list(damps)}
+        before = on
+        if held_slots:
+            held_slots = [s for s in held_slots if s["rel"] > on]
+        for kind, ds in resting.items():
+            if ds:
+                resting[kind] = [d for d in ds if d[1] > on]
         last = max(last, on)
         if isinstance(e, Pluck):
             dur, sign = PLUCK_STYLES[e.style]
@@ -195,7 +215,7 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             if not isinstance(e, HammerOn):
                 lift(on)
             else:  # a hand has MAX_FINGERS fingers: a hammer-on beyond them lifts the oldest
-                down = [s for s in slots if s["on"] <= on < s["rel"]]
+                down = [s for s in held_slots if s["on"] <= on < s["rel"]]
                 for s in down[: max(0, len(down) - MAX_FINGERS + 1)]:
                     s["rel"] = on
             if isinstance(e, Fret) and e.fret == 0:
@@ -217,8 +237,9 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             settle = on + step(FINGER_SETTLE_S) if r != preset.finger.damping_n_s_m else on
             slots.append(dict(on=on, rel=rel, x0=x0, x1=x1, ms=ms, me=me, force=force, v0=v0,
                               gap=v0 * TAP_GAP_S, fret=fret, r=r, rs=settle))
+            held_slots.append(slots[-1])
         elif isinstance(e, PullOff):
-            held = [s for s in slots if s["fret"] == e.fret and s["on"] <= on < s["rel"]]
+            held = [s for s in held_slots if s["fret"] == e.fret and s["on"] <= on < s["rel"]]
             if held:
                 lift(on, held[-1])
                 add_pluck(e.time, held[-1]["x1"], e.force, PLUCK_STYLES["finger"][0])
@@ -226,26 +247,29 @@ def string_controls(events: list, preset: Preset, string: int, h: float, n: int,
             x = preset.fret_x_m(e.fret, spec) if e.fret is not None else e.position * length_m
             off = step(e.release) if e.release is not None else NEVER
             last = max(last, on if off == NEVER else off)
-            end_touch(touches, on)
+            end_touch("touch", on)
             touches.append([on, off, HARMONIC_DAMPING * impedance, [(x, 1.0)]])
+            resting["touch"].append(touches[-1])
         elif isinstance(e, Mute):
             off = step(e.release) if e.release is not None else NEVER
             last = max(last, on if off == NEVER else off)
             centre = e.position * length_m
             xs = centre + np.linspace(-0.5, 0.5, 5) * PALM_WIDTH_M
-            end_touch(palms, on)
+            end_touch("palm", on)
             palms.append([on, off, e.amount * PALM_DAMPING * impedance,
                           [(float(xv), 0.2) for xv in xs]])
+            resting["palm"].append(palms[-1])
         elif isinstance(e, Damp):
-            held = [s for s in slots if s["on"] <= on < s["rel"]]
+            held = [s for s in held_slots if s["on"] <= on < s["rel"]]
             x = held[-1]["x1"] if held else finger_at(DAMP_OPEN_FRET)
             lift(on)
             off = step(events[j + 1].time) if j + 1 < len(events) else NEVER
             last = max(last, on if off == NEVER else off)
-            end_touch(damps, on)  # a second damp before the next event replaces the first
+            end_touch("damp", on)  # a second damp before the next event replaces the first
             for k in range(DAMP_FINGERS):  # one pad per finger, towards the bridge
                 xk = min(x + k * DAMP_SPACING_M, 0.9 * length_m)
                 damps.append([on, off, DAMP_DAMPING * impedance, [(xk, 1.0)]])
+                resting["damp"].append(damps[-1])
         elif isinstance(e, Bend):
             points, end = bend_points(e, on, step, ratio_for_cents(100.0 * e.semitones))
             bends += points

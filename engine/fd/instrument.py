@@ -37,7 +37,7 @@ import numpy as np
 from ..instrument import FINGERS, Instrument, is_lift, lift_kept, output_of
 from ..options import FRET_MODES, GAMMA_RULES, QUALITY, RenderOptions
 from ..output import Decimator
-from ..performance import events_on
+from ..performance import events_by_string
 from ..presets import Preset
 from ..scene import Bend, Harmonic, Mute, PullOff, Scene, Slide, Vibrato
 from . import kernels
@@ -78,8 +78,9 @@ class Guitar(Instrument):
         with a finger on it has a voice)."""
         n = self.preset.n_strings
         out = []
+        by_string = events_by_string(self.scene, n)
         for v in self.voices:
-            events = events_on(self.scene, n, v.index)
+            events = by_string[v.index]
             out += finger_warnings(self.preset, v.index, events, v.model, v.tension_ratio)
             out += pull_off_warnings(v.index, events)
         return [text for _, _, text in sorted(out)]
@@ -135,8 +136,9 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
     nstr = preset.n_strings
     policy = kernels.Policy(quiet=opts.skip_contacts, held=opts.skip_contacts and opts.held_steps)
     voices = []
+    by_string = events_by_string(scene, nstr)
     for i in range(1, nstr + 1):
-        events = events_on(scene, nstr, i)
+        events = by_string[i]
         if opts.skip_silent and not events:
             continue
         os_, model, rmax = string_model(preset, i, events, rate, q, opts)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from ..options import QUALITY, RenderOptions
-from ..performance import FINGER_EVENTS, MAX_FINGERS, events_on
+from ..performance import FINGER_EVENTS, MAX_FINGERS, events_by_string
 from ..presets import Preset
 from ..scene import Fret, HammerOn, PullOff, Scene, Slide, Tap
 from .controls import frets_pressed
@@ -51,9 +51,11 @@ def pull_off_warnings(string: int, events: list) -> list[tuple[float, int, str]]
     fingers are followed as ``engine.fd.controls.string_controls`` places and lifts them (a fret, tap
     or slide replaces the finger on the string, a hammer-on adds one up to ``MAX_FINGERS``, a
     release or a pull-off lifts one)."""
-    fingers: list[list[float]] = []  # [fret, on, release]
+    fingers: list[list[float]] = []  # [fret, on, release] of the fingers not yet lifted
     out = []
     for e in events:
+        # a finger lifted at or before this event stays lifted (events come in time order)
+        fingers = [f for f in fingers if f[2] > e.time]
         if isinstance(e, Fret | Tap | Slide):
             if not isinstance(e, HammerOn):
                 for f in fingers:
@@ -95,8 +97,9 @@ def scene_warnings(scene: Scene, options: RenderOptions | None = None) -> list[s
     for t, single in enumerate(scene.track_scenes()):
         preset = single.preset()
         out = []
+        by_string = events_by_string(single, preset.n_strings)
         for i in range(1, preset.n_strings + 1):
-            events = events_on(single, preset.n_strings, i)
+            events = by_string[i]
             out += pull_off_warnings(i, events)
             if any(e.type in FINGER_EVENTS and e.force is not None for e in events):
                 _, model, ratio = string_model(preset, i, events, float(scene.sample_rate), q, opts)

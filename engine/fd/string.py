@@ -16,7 +16,7 @@ import math
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import partial
+from functools import lru_cache, partial
 
 import numpy as np
 from scipy import optimize
@@ -138,6 +138,7 @@ class _Untunable(ArithmeticError):
     """The compensated solve left the physical range (tension <= 0 or not finite)."""
 
 
+@lru_cache(maxsize=512)  # a song asks the same strings again and again (frozen in, frozen out)
 def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float = 1.0,
          compensate: bool = True, max_tension_ratio: float = 1.0) -> StringModel:
     """Build the string at internal rate ``sample_rate``, tuned so mode 1 sounds at spec's pitch.

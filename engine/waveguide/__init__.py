@@ -62,6 +62,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..instrument import FINGERS, Instrument, is_lift, lift_kept, output_of
+from ..performance import events_by_string
 from ..presets import Preset
 from ..scene import Bend, Harmonic, Mute, Scene, Vibrato
 from ..statics import PressedString
@@ -163,10 +164,11 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None, *,
     pickups, gains = out.pickups, out.gains
     voices = []
     warnings: list[tuple[float, str]] = []
+    by_string = events_by_string(scene, preset.n_strings)
     for i in range(1, preset.n_strings + 1):
         phys = physical(preset, i)
         seated = _seating(statics, preset, i, rate)
-        tl = timeline(scene, preset, i, rate, phys.impedance, seated)
+        tl = timeline(scene, preset, i, rate, phys.impedance, seated, by_string[i])
         if opts.skip_silent and not tl.slots and not tl.fingers:
             continue
         for f in tl.fingers:

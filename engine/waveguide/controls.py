@@ -173,8 +173,13 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
     def step(t: float) -> int:
         return int(round(t * rate))
 
+    # the fingers not lifted before the current event: one lifted at or before it stays lifted
+    # (events come in time order), so each event scans only these, and a song's timeline is
+    # compiled in time linear in its events
+    down: list = []
+
     def lift(at: int, only=None):
-        for f in tl.fingers:
+        for f in down:
             if f.rel > at and f.on <= at and (only is None or f is only):
                 f.rel = at
 
@@ -188,8 +193,13 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
         tl.last_step = max(tl.last_step, on + n + 1)
 
     bends: list[tuple[int, float]] = []
-    for e in events:
+    before = 0
+    for j, e in enumerate(events):
         on = step(e.time)
+        if on < before:  # out of time order (a caller's list): every finger may change again
+            down = list(tl.fingers)
+        before = on
+        down = [f for f in down if f.rel > on]
         tl.last_step = max(tl.last_step, on)
         kind = e.type
         if kind == "pluck":
@@ -215,6 +225,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             start = e.from_fret if kind == "slide" else fret
             tl.fingers.append(Finger(start, on, rel, ok, e.force if e.force is not None else 0.0,
                                      e.velocity if kind in ("tap", "hammer_on") else 0.0, slide))
+            down.append(tl.fingers[-1])
             if kind == "slide":
                 tl.fingers[-1].fret = fret
             if not ok:  # a finger touching without stopping: the light fingering junction
@@ -223,7 +234,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
                 tl.slots.append(Slot(on, rel, 0, x, 0.0, 0.0, DEAD_DAMPING * impedance, 0.0,
                                      FINGER_PAD_M, "bell"))
         elif kind == "pull_off":
-            held = [f for f in tl.fingers if f.fret == e.fret and f.on <= on < f.rel]
+            held = [f for f in down if f.fret == e.fret and f.on <= on < f.rel]
             if held:
                 lift(on, held[-1])
                 add_pluck(e.time, finger_x_m(preset, e.fret, spec), e.force, "finger")
@@ -248,7 +259,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             bends += points
             tl.last_step = max(tl.last_step, end)
         elif kind == "damp":
-            _damp(tl, e, on, events, preset, spec, length, impedance, step)
+            _damp(tl, on, down, events, j, preset, spec, length, impedance, step)
         else:
             raise ValueError(f"events: type {kind!r} has no waveguide mapping")
     for f in tl.fingers:  # a light finger's junction ends when the finger lifts
@@ -268,20 +279,25 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
     return tl
 
 
-def _damp(tl: Timeline, e, on: int, events: list, preset: Preset, spec: StringSpec,
-          length: float, impedance: float, step) -> None:
+def _damp(tl: Timeline, on: int, down: list, events: list, j: int, preset: Preset,
+          spec: StringSpec, length: float, impedance: float, step) -> None:
     """A ``damp``, as the finite-difference model has it (``engine.performance.DAMP_*``): every
     finger on the string lifts (relaxes), and the relaxed hand's fingertips rest on it from where
     the fretting finger was (fret ``DAMP_OPEN_FRET``'s place on an open string) towards the
     bridge, ``DAMP_FINGERS`` dampers of R = ``DAMP_DAMPING`` sqrt(T mu) ``DAMP_SPACING_M`` apart,
-    until the string's next event."""
-    held = [f for f in tl.fingers if f.on <= on < f.rel]
+    until the string's next event.  ``events[j]`` is the damp, of ``events`` in time order;
+    ``down``: the fingers not lifted before it."""
+    held = [f for f in down if f.on <= on < f.rel]
     fret = held[-1].fret if held else DAMP_OPEN_FRET
     x = finger_x_m(preset, fret, spec)
     for f in held:
         f.rel = on
-    later = [step(x_.time) for x_ in events if x_.time > e.time]
-    off = min(later) if later else NEVER
+    t = events[j].time
+    off = NEVER
+    for k in range(j + 1, len(events)):  # the first later event (they come in time order)
+        if events[k].time > t:
+            off = step(events[k].time)
+            break
     for k in range(DAMP_FINGERS):
         xk = min(x + k * DAMP_SPACING_M, 0.9 * length)
         tl.slots.append(Slot(on, off, 0, xk, 0.0, 0.0, DAMP_DAMPING * impedance, 0.0, 0.0,

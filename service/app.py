@@ -21,6 +21,7 @@ from .logs import setup_logging
 from .metrics import Metrics, MetricsMiddleware
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .pool import WorkerPool
+from .score_cache import ScoreCache
 from .routes import health, live, metrics, pages, presets, render, score
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
@@ -45,6 +46,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         store = jobs.Store(settings.data_dir)
         runner = jobs.JobRunner(store, pool, settings)
         await runner.start()  # jobs a crash cut off are queued again
+        scores = ScoreCache(int(settings.score_cache_mb * 1e6))
 
         def state() -> dict:
             s = pool.status()
@@ -52,12 +54,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             waiting = max(0, s["in_flight"] - (s["busy"] - runner.running))
             return {**s, "queue_depth": waiting, "jobs": store.counts(),
                     "jobs_requeued": runner.completed["requeued"],
-                    "live_late_blocks": live_pool.late_blocks}
+                    "live_late_blocks": live_pool.late_blocks,
+                    "score_cache": {"hit": scores.hits, "miss": scores.misses}}
 
         counters.watch(state)
         try:
             yield {"pool": pool, "settings": settings, "live": live_pool, "jobs": runner,
-                   "metrics": counters}
+                   "metrics": counters, "scores": scores}
         finally:
             # Uvicorn has let the requests in flight finish; running jobs go back to the queue
             # before the workers stop, so that the next start runs them again.

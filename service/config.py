@@ -79,6 +79,9 @@ class Settings(BaseSettings):
     max_score_events: int = Field(5000, ge=1, le=MAX_EVENTS)
     score_import_time_limit_s: float = Field(
         10.0, gt=0.0, description="wall time a worker may spend importing one score file")
+    score_cache_mb: float = Field(
+        64.0, ge=0.0, description="MB of imported scores kept in the API process, so that a file "
+                                  "read again with the same options is not imported again; 0: none")
     max_expanded_events: int = Field(
         3000, ge=1,
         description="events once strums and string-less mutes and damps count once per string")

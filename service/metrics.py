@@ -96,6 +96,12 @@ class _StateCollector(Collector):
         yield CounterMetricFamily("guitar_live_late_blocks", "live blocks finished after their "
                                   "play time (underruns the server caused)",
                                   value=s["live_late_blocks"])
+        imports = CounterMetricFamily("guitar_score_imports", "score imports asked for, by "
+                                      "whether an earlier import answered (hit) or a worker "
+                                      "imported the file (miss)", labels=["cache"])
+        for outcome, n in s["score_cache"].items():
+            imports.add_metric([outcome], n)
+        yield imports
 
 
 class MetricsMiddleware:

@@ -121,8 +121,14 @@ async def import_score(request: Request, data: bytes, name: str, options: dict[s
     """The scene a score becomes and the importer's warnings, from a worker.  A scene of more
     than ``max_events`` events is refused by the worker in one line (``max_events_setting``
     names the limit), so this process never parses or echoes a scene of megabytes; a client
-    gone withdraws the import."""
+    gone withdraws the import.  The same file with the same options is imported once
+    (``service.score_cache``)."""
     settings, pool = request.state.settings, request.state.pool
+    cache = request.state.scores
+    key = cache.key(data, name, options)
+    kept = cache.get(key, options, max_events)
+    if kept is not None:
+        return json.loads(kept.raw), list(kept.warnings)
     try:
         raw, meta = await while_connected(request, pool.call(
             "score", {"data": data, "filename": name, "options": options,
@@ -141,6 +147,7 @@ async def import_score(request: Request, data: bytes, name: str, options: dict[s
         if field == "file" and name and name not in msg:
             msg = f"{name}: {msg}"
         raise form_error(field, msg, "score_invalid") from None
+    cache.put(key, options, raw, meta)
     return json.loads(raw), list(meta["warnings"])
 
 

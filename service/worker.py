@@ -164,7 +164,8 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
         return
     data = json.dumps(scene, allow_nan=False).encode()
     conn.send(("done", job_id, data, {"warnings": list(getattr(result, "warnings", [])),
-                                      "seconds": time.perf_counter() - t0}))
+                                      "seconds": time.perf_counter() - t0,
+                                      "duration": scene.get("duration"), "events": events}))
 
 
 def _labels(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:

@@ -9,6 +9,9 @@
   error. Its estimated cost (fdtd, draft) is above the default job budget of 600 s
   (GUITAR_JOB_MAX_RENDER_S), so this server allows 1500 s.
 
+* test04.mid (pretty_midi's corpus: 16 parts, 4:41): the tab and the roll stay responsive (no main-thread task over LONG_TASK_MS) while the cursor runs through the whole
+  song, the tab zooms in and out and shows each part.
+
 Takes a screenshot of Demo v5's tab view (bar lines, the cursor at 40 s);
 ``GUITAR_SCREENSHOT_DIR=docs/img`` keeps it there (docs/img/score-tab.png is one), else it goes to
 the test's temporary folder.
@@ -33,6 +36,7 @@ sync_api = require_browser()
 CORPUS = ROOT / ".cache" / "score-corpus"
 SONG = CORPUS / "gp" / "Demo v5.gp5"  # 49 bars, 5 tracks, 91 s
 LONG_SONG = CORPUS / "midi" / "k525MIDIMvt1.mid"  # 5 parts, 327.8 s
+BIG_SONG = CORPUS / "midi" / "test04.mid"  # 16 parts, 280.8 s
 SHOT_NAME = "score-tab.png"
 LONG_TASK_MS = 50  # the Long Tasks API's own threshold: a task this long delays a frame
 
@@ -43,7 +47,7 @@ pytestmark = pytest.mark.skipif(not (SONG.exists() and LONG_SONG.exists()),
 @pytest.fixture(scope="module")
 def song_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[UvicornServer]:
     s = UvicornServer(tmp_path_factory.mktemp("uvicorn-songs"), {
-        "GUITAR_WORKERS": "2", "GUITAR_JOB_MAX_RENDER_S": "1500"}).start()
+        "GUITAR_WORKERS": "2", "GUITAR_JOB_MAX_RENDER_S": "1500", "GUITAR_WORKER_NICE": "10"}).start()
     yield s
     s.stop()
 
@@ -102,9 +106,6 @@ def test_a_whole_song_opens_with_its_tracks_and_warnings(page: Any, tmp_path: Pa
     assert page.errors == []
 
 
-@pytest.mark.skip(reason="issue 37's acceptance is not met yet: on this 2-core machine, quiet, K. 525's "
-                  "job had played nothing 30 s after Play (8.5 s in one run); the job imports the "
-                  "score again before its stream's first block")
 def test_a_5_minute_song_plays_within_5_s_while_it_renders(page: Any, tmp_path: Path) -> None:
     page.check("#score-all")  # K. 525 has no guitar part: its strings play on guitars
     page.set_input_files("#score-file", str(LONG_SONG))
@@ -149,6 +150,7 @@ def test_a_5_minute_song_plays_within_5_s_while_it_renders(page: Any, tmp_path: 
     assert scroll <= 20 + t_tab * pps <= scroll + width
 
     # a click on the tab seeks there (back to a rendered part) and playing goes on from it
+    page.locator(".tab-box").scroll_into_view_if_needed()  # where the mouse can reach it
     box = page.locator("#tab").bounding_box()
     x = page.evaluate("(t) => 20 + t * window.scorePlayer.state.tab.pxPerSecond"
                       " - document.querySelector('#tab-box').scrollLeft", 1.0)
@@ -168,7 +170,48 @@ def test_a_5_minute_song_plays_within_5_s_while_it_renders(page: Any, tmp_path: 
     page.screenshot(path=str(tmp_path / "long-tab.png"), clip=page.locator(".tab-box").bounding_box())
     assert page.inner_text("#score-error") == ""
     # stop: the job is cancelled when the page asks for another render; here by hand
+    # (the audio let go first: a stream cut under a playing element is a console error)
     job = page.evaluate("window.scorePlayer.state.job")
-    page.evaluate("document.querySelector('#score-audio').pause()")
+    page.evaluate("""() => { const a = document.querySelector('#score-audio');
+                             a.pause(); a.removeAttribute('src'); a.load(); }""")
     page.evaluate("(id) => fetch(`/jobs/${id}`, {method: 'DELETE'})", job)
+    page.wait_for_function("document.querySelector('#score-error').textContent.includes('cancelled')")
+    assert page.errors == []
+
+
+def test_a_16_part_song_stays_responsive(page: Any) -> None:
+    if not BIG_SONG.exists():
+        pytest.skip("test04.mid missing: make test-data")
+    page.check("#score-all")
+    page.fill("#score-seconds", "")
+    page.set_input_files("#score-file", str(BIG_SONG))
+    page.wait_for_function("document.querySelector('#score-status').textContent.includes('(280.8 s)')",
+                           timeout=120_000)
+    parts = page.eval_on_selector_all("#tab-track option", "os => os.length")
+    assert parts == 16, parts
+    notes = int(page.get_attribute("#score-roll", "data-notes"))
+    page.locator(".tab-box").scroll_into_view_if_needed()
+    page.evaluate("""() => { window.longTasks = [];
+        new PerformanceObserver((l) => window.longTasks.push(...l.getEntries().map(e => e.duration)))
+          .observe({ type: "longtask" }); }""")
+    # the cursor through the whole song, a frame at a time (as playback moves it), on every part
+    # in turn, zooming out and in on the way
+    page.evaluate("""async () => {
+        const tab = window.scorePlayer.state.tab, select = document.querySelector('#tab-track');
+        const frame = () => new Promise((r) => requestAnimationFrame(r));
+        for (let i = 0; i < select.options.length; i++) {
+          select.value = select.options[i].value;
+          select.dispatchEvent(new Event('change'));
+          await frame();
+          for (let t = 0; t < 281; t += 281 / 40) { tab.setTime(t, true); await frame(); }
+        }
+        for (const z of [1 / 1.5, 1 / 1.5, 1 / 1.5, 1.5, 1.5, 1.5, 1.5]) {
+          document.querySelector(z > 1 ? '#tab-zoom-in' : '#tab-zoom-out').click();
+          for (let t = 0; t < 281; t += 281 / 20) { tab.setTime(t, true); await frame(); }
+        }
+    }""")
+    long_tasks = page.evaluate("window.longTasks")
+    print(f"{parts} parts, {notes} notes: main-thread tasks over {LONG_TASK_MS} ms: {long_tasks}")
+    assert page.get_attribute("#tab", "data-drawn") == "1"
+    assert not [d for d in long_tasks if d > LONG_TASK_MS], long_tasks
     assert page.errors == []

@@ -39,8 +39,9 @@ from engine import RenderOptions
 from engine.scene import Scene
 seconds = float(sys.argv[1])
 scenes = json.loads(sys.argv[2])
-def engine_of(sc, duration):
-    return prepare(Scene.model_validate({**sc, "duration": duration}),
+def engine_of(sc, duration):  # the events before ``duration`` (the warm-up's is shorter)
+    events = [e for e in sc["events"] if e["time"] < duration]
+    return prepare(Scene.model_validate({**sc, "events": events, "duration": duration}),
                    RenderOptions(skip_decayed=False))
 for sc in scenes.values():  # load the kernels for every scene's types (not counted)
     for _ in engine_of(sc, 0.25).blocks():

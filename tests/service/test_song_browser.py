@@ -1,7 +1,8 @@
 """Whole multi-track songs in the demo page's score player (Debian's chromium, Playwright, uvicorn).
 
 * Demo v5.gp5 (PyGuitarPro's corpus, 91 s, 5 tracks): the tracks it plays, its grouped warnings,
-  "First seconds" changing the length the page says.
+  "First seconds" changing the length the page says; its first 12 s rendered and played at 4x, the
+  tab's cursor with the audio clock to the end.
 * k525MIDIMvt1.mid (pretty_midi's corpus: Mozart's K. 525, first movement, 5 parts, 5:28): Play
   starts the audio within 5 s of the click while the rest renders (a job played through
   GET /jobs/{id}/stream), the tab's cursor follows the audio clock, a click on the tab seeks, no
@@ -103,6 +104,39 @@ def test_a_whole_song_opens_with_its_tracks_and_warnings(page: Any, tmp_path: Pa
     page.wait_for_function("document.querySelector('#score-status').textContent.includes('(91.0 s)')",
                            timeout=60_000)
 
+    assert page.errors == []
+
+
+def test_the_tab_cursor_follows_the_audio_to_its_end(page: Any) -> None:
+    page.uncheck("#score-all")
+    page.set_input_files("#score-file", str(SONG))
+    page.wait_for_selector("#tab[data-drawn='1']", timeout=300_000)
+    page.fill("#score-seconds", "12")
+    page.dispatch_event("#score-seconds", "change")
+    page.wait_for_function("document.querySelector('#score-status').textContent.includes('(12.0 s)')",
+                           timeout=60_000)
+    page.evaluate("document.querySelector('#score-audio').muted = true")
+    page.click("#score-render")
+    page.wait_for_function("""() => { const a = document.querySelector('#score-audio');
+                                      return a.duration > 11.9 && !a.paused; }""", timeout=120_000)
+    page.evaluate("document.querySelector('#score-audio').playbackRate = 4")
+    lags = []
+    while not page.evaluate("document.querySelector('#score-audio').ended"):
+        t_audio, t_tab = page.evaluate("""() => [document.querySelector('#score-audio').currentTime,
+                                                Number(document.querySelector('#tab').dataset.time)]""")
+        lags.append(abs(t_audio - t_tab))
+        page.wait_for_timeout(250)
+    assert len(lags) >= 4 and max(lags) < 0.5, lags  # 4x: a frame is 67 ms of audio
+    duration = page.evaluate("document.querySelector('#score-audio').duration")
+    page.wait_for_function(f"Number(document.querySelector('#tab').dataset.time) >= {duration - 0.05}")
+    scroll = page.evaluate("document.querySelector('#tab-box').scrollLeft")
+    pps = page.evaluate("window.scorePlayer.state.tab.pxPerSecond")
+    width = page.evaluate("document.querySelector('#tab-box').clientWidth")
+    assert scroll <= 20 + duration * pps <= scroll + width  # the cursor in view at the end
+    page.fill("#score-seconds", "")
+    page.dispatch_event("#score-seconds", "change")
+    page.wait_for_function("document.querySelector('#score-status').textContent.includes('(91.0 s)')",
+                           timeout=60_000)
     assert page.errors == []
 
 

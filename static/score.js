@@ -216,10 +216,13 @@
       g.globalAlpha = 0.85;
       g.fillRect(x0, y, x1 - x0, Math.max(2, geo.row - 1));
       g.globalAlpha = 1;
-      // tab: string and fret on the note when there is room, else the fret alone
+      // tab: string and fret on the note when there is room, else the fret alone (a note
+      // narrower than a digit has no room: not measured, which keeps a whole song's roll fast)
+      // (a digit of the 10 px font is over 5 px wide)
+      if (n.fret === undefined || geo.row < 9 * dpr || x1 - x0 <= 9 * dpr) continue;
       const long = `s${n.string} f${n.fret}`;
       const label = x1 - x0 > g.measureText(long).width + 4 * dpr ? long : `${n.fret}`;
-      if (n.fret !== undefined && geo.row >= 9 * dpr && x1 - x0 > g.measureText(label).width + 4 * dpr) {
+      if (x1 - x0 > g.measureText(label).width + 4 * dpr) {
         g.fillStyle = "#14120f";
         g.fillText(label, x0 + 2 * dpr, y + geo.row / 2);
       }
@@ -435,6 +438,7 @@
       await state.limitsReady;
       const limit = state.limits ? state.limits.max_duration_s : Infinity;
       const audio = q("#score-audio");
+      audio.pause();  // the last render's audio stops when Play asks for a new one
       q("#score-dl-audio").hidden = true;
       state.samples = null;
       drawWave();

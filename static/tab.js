@@ -69,10 +69,10 @@ class TabView {
     this.time = t;
     const x = 20 + t * this.pxPerSecond, w = this.box.clientWidth;
     if (follow && (x < this.box.scrollLeft + 20 || x > this.box.scrollLeft + w * 0.8)) {
-      this.box.scrollLeft = Math.max(0, x - w * 0.25);  // fires "scroll", which draws
-    } else {
-      this.draw();
+      // at the song's end the box may already be scrolled as far as it goes: no "scroll" event
+      this.box.scrollLeft = Math.max(0, x - w * 0.25);
     }
+    this.draw();  // one paint a frame however often it is asked
   }
 
   // index of the first note starting at or after t

@@ -120,13 +120,16 @@ def test_the_tab_cursor_follows_the_audio_to_its_end(page: Any) -> None:
     page.wait_for_function("""() => { const a = document.querySelector('#score-audio');
                                       return a.duration > 11.9 && !a.paused; }""", timeout=120_000)
     page.evaluate("document.querySelector('#score-audio').playbackRate = 4")
-    lags = []
+    lags = []  # the tab's time against the audio clock, just after a frame was painted
     while not page.evaluate("document.querySelector('#score-audio').ended"):
-        t_audio, t_tab = page.evaluate("""() => [document.querySelector('#score-audio').currentTime,
-                                                Number(document.querySelector('#tab').dataset.time)]""")
-        lags.append(abs(t_audio - t_tab))
+        lag = page.evaluate("""() => new Promise((done) => requestAnimationFrame(() => setTimeout(() => {
+            const a = document.querySelector('#score-audio');
+            done(a.paused ? null : a.currentTime - Number(document.querySelector('#tab').dataset.time));
+        })))""")
+        if lag is not None:
+            lags.append(lag)
         page.wait_for_timeout(250)
-    assert len(lags) >= 4 and max(lags) < 0.5, lags  # 4x: a frame is 67 ms of audio
+    assert len(lags) >= 4 and max(map(abs, lags)) < 0.25, lags  # 4x: a frame is 67 ms of audio
     duration = page.evaluate("document.querySelector('#score-audio').duration")
     page.wait_for_function(f"Number(document.querySelector('#tab').dataset.time) >= {duration - 0.05}")
     scroll = page.evaluate("document.querySelector('#tab-box').scrollLeft")
@@ -143,22 +146,30 @@ def test_the_tab_cursor_follows_the_audio_to_its_end(page: Any) -> None:
 def test_a_5_minute_song_plays_within_5_s_while_it_renders(page: Any, tmp_path: Path) -> None:
     page.check("#score-all")  # K. 525 has no guitar part: its strings play on guitars
     page.set_input_files("#score-file", str(LONG_SONG))
-    page.wait_for_function("document.querySelector('#score-status').textContent.includes('(327.8 s)')",
-                           timeout=400_000)
+    try:
+        page.wait_for_function(
+            "document.querySelector('#score-status').textContent.includes('(327.8 s)')",
+            timeout=400_000)
+    except Exception:
+        print(page.inner_text("#score-status"), "|", page.inner_text("#score-error"))
+        raise
     assert "5 tracks" in page.inner_text("#score-status")
     assert page.is_enabled("#score-render")
     # the page's main-thread tasks longer than LONG_TASK_MS, from now on
     page.evaluate("""() => { window.longTasks = [];
-        new PerformanceObserver((l) => window.longTasks.push(...l.getEntries().map(e => e.duration)))
+        const since = performance.now();  // (a task that ended just before is reported too)
+        new PerformanceObserver((l) => window.longTasks.push(
+            ...l.getEntries().filter(e => e.startTime >= since).map(e => e.duration)))
           .observe({ type: "longtask" }); }""")
     page.evaluate("document.querySelector('#score-audio').muted = true")
     start = time.monotonic()
     page.click("#score-render")
     try:
-        page.wait_for_function("document.querySelector('#score-audio').currentTime > 0.2",
+        page.wait_for_function("""() => { const a = document.querySelector('#score-audio');
+                                          return a.src.endsWith('/stream') && a.currentTime > 0.2; }""",
                                timeout=30_000)
     except Exception:
-        print("DEBUG", page.inner_text("#score-status"), "|", page.inner_text("#score-error"),
+        print(page.inner_text("#score-status"), "|", page.inner_text("#score-error"),
               page.evaluate("""async () => { const a = document.querySelector('#score-audio');
                 const id = window.scorePlayer.state.job;
                 const j = id ? await (await fetch('/jobs/' + id)).json() : null;
@@ -226,7 +237,9 @@ def test_a_16_part_song_stays_responsive(page: Any) -> None:
     notes = int(page.get_attribute("#score-roll", "data-notes"))
     page.locator(".tab-box").scroll_into_view_if_needed()
     page.evaluate("""() => { window.longTasks = [];
-        new PerformanceObserver((l) => window.longTasks.push(...l.getEntries().map(e => e.duration)))
+        const since = performance.now();  // (a task that ended just before is reported too)
+        new PerformanceObserver((l) => window.longTasks.push(
+            ...l.getEntries().filter(e => e.startTime >= since).map(e => e.duration)))
           .observe({ type: "longtask" }); }""")
     # the cursor through the whole song, a frame at a time (as playback moves it), on every part
     # in turn, zooming out and in on the way

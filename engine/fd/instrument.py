@@ -111,8 +111,8 @@ class Guitar(Instrument):
         ctl, geom = v.rebuild(events)
         new = len(ctl.arrays.fs_on)
         take = [k if k < old else -1 for k in keep] + [-1] * (new - len(keep))  # -1: a new slot
-        if take != list(range(new)):
-            v.state = _with_slots(v.state, take)
+        if take != list(range(new)) or len(v.state.f_state) != new:  # (every old slot dropped:
+            v.state = _with_slots(v.state, take)  # take is empty, and the state must shrink too)
         v.ctl, v.geom = ctl, geom
         v.stopped = False
         return events

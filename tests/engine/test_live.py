@@ -100,6 +100,24 @@ def test_a_long_session_prunes_and_stays_exact():
     assert np.array_equal(live, offline(s, skip_decayed=False))
 
 
+def test_pruning_every_finger_away_leaves_no_finger_in_the_state():
+    """Fingers put down and released, then open-string plucks until the list is pruned: every
+    finger slot is dropped, and the state's finger arrays go with them (they kept the old count,
+    and the decay check, which masks the controls by the state, raised an IndexError: a live
+    session in benchmarks.mixed_load failed so after 161 s)."""
+    s = engine.Session("steel-acoustic", 44100, BLOCK)
+    plan: dict[int, list] = {}
+    for k in range(8):  # eight fingers, each lifted before the next
+        plan[2 + 3 * k] = [{"type": "fret", "string": 2, "fret": 3, "release": 0.01},
+                           {"type": "pluck", "string": 2}]
+    for k in range(70):  # open-string plucks: past _PRUNE_AT events, nothing holds a finger
+        plan[40 + 2 * k] = [{"type": "pluck", "string": 2, "force": 0.3}]
+    play(s, plan, 40 + 2 * 70 + 400)  # on until the string decays and is checked
+    v = s.instrument.voice(2)
+    assert len(v.ctl.arrays.fs_on) == 0
+    assert len(v.state.f_state) == 0 and len(v.state.f_w) == 0
+
+
 def test_silent_strings_cost_nothing():
     s = engine.Session("steel-acoustic", 44100, BLOCK)
     assert not np.any(s.block())

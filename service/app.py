@@ -21,8 +21,8 @@ from .logs import setup_logging
 from .metrics import Metrics, MetricsMiddleware
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
 from .pool import WorkerPool
-from .score_cache import ScoreCache
 from .routes import health, live, metrics, pages, presets, render, score
+from .score_cache import ScoreCache
 
 DESCRIPTION = """Physically modelled guitar synthesis over HTTP: send a scene (a guitar preset and
 timed events: pluck, fret, tap and the articulations hammer-on, pull-off, slide, bend, vibrato,

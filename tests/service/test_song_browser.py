@@ -10,8 +10,9 @@
   error. Its estimated cost (fdtd, draft) is above the default job budget of 600 s
   (GUITAR_JOB_MAX_RENDER_S), so this server allows 1500 s.
 
-* test04.mid (pretty_midi's corpus: 16 parts, 4:41): the tab and the roll stay responsive (no main-thread task over LONG_TASK_MS) while the cursor runs through the whole
-  song, the tab zooms in and out and shows each part.
+* test04.mid (pretty_midi's corpus: 16 parts, 4:41): the tab and the roll stay responsive (no
+  main-thread task over LONG_TASK_MS) while the cursor runs through the whole song, the tab
+  zooms in and out and shows each part.
 
 Takes a screenshot of Demo v5's tab view (bar lines, the cursor at 40 s);
 ``GUITAR_SCREENSHOT_DIR=docs/img`` keeps it there (docs/img/score-tab.png is one), else it goes to

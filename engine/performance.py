@@ -129,8 +129,7 @@ def events_by_string(scene: Scene, n_strings: int) -> dict[int, list]:
 def events_on(scene: Scene, n_strings: int, string: int) -> list:
     """The single-string events of ``string`` (``expand``), in time order.  For every string of
     a scene, ``events_by_string`` expands it once instead of once a string."""
-    return sorted((e for e in expand(scene, n_strings) if e.string == string),
-                  key=lambda e: e.time)
+    return events_by_string(scene, n_strings).get(string, [])
 
 
 # ---- bends and vibrato ----------------------------------------------------------------------

@@ -158,14 +158,16 @@ def warmup() -> float:
     return time.perf_counter() - t0
 
 
-def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("standard",),
+def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("draft", "standard"),
                       sample_rates=(44100,)) -> float:
     """Calibrate every stopped fret of every string of ``presets`` (default: all) for ``models``
     at ``qualities`` and ``sample_rates``, into the calibration store (``engine.calibration_store``)
     where a later render finds them: preparing a scene that frets each string at every fret does
     it, and, for the waveguide, designing the loop of every stopped and held note (its dispersion
     filter, the finger's damping), which a render does when the note comes.  Returns the seconds
-    it took."""
+    it took.  ``draft`` is the demo page's default quality (its grids, and so its calibrations,
+    are other than ``standard``'s); the waveguide has no quality levels, so its second pass finds
+    everything stored."""
     from .mix import prepare
     from .models import TRAITS
     from .presets import PRESETS

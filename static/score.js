@@ -133,9 +133,11 @@
     tracksChanged();
   }
 
+  const noTrackChosen = () => !document.querySelector("#score-tracks input:checked");
+
   // Muting or soloing changes the mix: the audio is one render, so it is rendered again.
   function tracksChanged() {
-    const none = !document.querySelector("#score-tracks input:checked");
+    const none = noTrackChosen();
     q("#score-render").disabled = none || state.busy;
     if (none) setStatus("Choose at least one track.");
     else if (q("#score-audio").src) setStatus("Tracks changed: press Play to hear the new mix.");
@@ -216,9 +218,9 @@
       g.globalAlpha = 0.85;
       g.fillRect(x0, y, x1 - x0, Math.max(2, geo.row - 1));
       g.globalAlpha = 1;
-      // tab: string and fret on the note when there is room, else the fret alone (a note
-      // narrower than a digit has no room: not measured, which keeps a whole song's roll fast)
-      // (a digit of the 10 px font is over 5 px wide)
+      // tab: string and fret on the note when there is room, else the fret alone; a note no
+      // wider than a label's padding and one digit of the 10 px font (over 5 px) has no room and
+      // is not measured, which keeps a whole song's roll fast
       if (n.fret === undefined || geo.row < 9 * dpr || x1 - x0 <= 9 * dpr) continue;
       const long = `s${n.string} f${n.fret}`;
       const label = x1 - x0 > g.measureText(long).width + 4 * dpr ? long : `${n.fret}`;
@@ -393,7 +395,7 @@
     audio.play().catch(() => {});  // starts as soon as the first blocks are in
     // playing: another Play (other tracks, tempo...) may start a new render, this one withdrawn
     state.busy = false;
-    q("#score-render").disabled = !document.querySelector("#score-tracks input:checked");
+    q("#score-render").disabled = noTrackChosen();
     const bar = q("#score-progress");
     bar.value = 0;
     bar.hidden = false;
@@ -470,7 +472,7 @@
       setStatus("Not rendered.");
     } finally {
       state.busy = false;
-      button.disabled = !document.querySelector("#score-tracks input:checked");
+      button.disabled = noTrackChosen();
     }
   }
 

@@ -51,7 +51,7 @@ from ..performance import (
     PALM_WIDTH_M,
     PLUCK_STYLES,
     bend_points,
-    expand,
+    events_on,
     finger_x_m,
     vibrato_points,
 )
@@ -166,7 +166,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
     spec = preset.strings[string - 1]  # positions from its nut, less its nut compensation
     length = preset.string_length_m(string)
     if events is None:
-        events = [e for e in expand(scene, preset.n_strings) if e.string == string]
+        events = events_on(scene, preset.n_strings, string)
     events = sorted(events, key=lambda e: e.time)
     tl = Timeline()
 

@@ -233,7 +233,7 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
 def _labels_time_limit(scene: engine.Scene, settings: Any) -> float:
     """Labels take time in proportion to the song (their pitch contours have a frame every
     10 ms per string): a whole song gets a render's wall-time budget for its length, not the
-    fixed budget of a score import (measured: 10-22 s for Demo v5.gp5's 91 s on 2 loaded cores)."""
+    fixed budget of a score import, which a whole song's labels outran."""
     return max(settings.score_import_time_limit_s, settings.time_limit_s(scene.duration))
 
 

@@ -70,6 +70,7 @@ _LAZY = {
     "Quality": "options",
     "RenderOptions": "options",
     "RenderResult": "rendering",
+    "RenderCancelled": "rendering",
     "render": "rendering",
     "render_result": "rendering",
     "blocks": "rendering",

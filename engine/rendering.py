@@ -28,6 +28,10 @@ from .scene import Scene, Stem, parse_scene
 log = logging.getLogger("engine")
 
 
+class RenderCancelled(Exception):
+    """``render_result``'s ``cancelled`` said stop: the render ended between two blocks."""
+
+
 @dataclass
 class RenderResult:
     audio: np.ndarray  # float64, (frames,) or (frames, 2), scaled as the scene's output asks
@@ -65,7 +69,8 @@ def render(scene: Scene | dict, diagnostics: bool | None = None,
 def render_result(scene: Scene | dict, options: RenderOptions | None = None,
                   impulse_response: np.ndarray | None = None, jobs: int = 1,
                   stems: bool | None = None,
-                  on_stems: Callable[[np.ndarray], None] | None = None) -> RenderResult:
+                  on_stems: Callable[[np.ndarray], None] | None = None,
+                  cancelled: Callable[[], bool] | None = None) -> RenderResult:
     """Render a scene and return the audio with what is known of the render: its warnings, wall
     time and oversampling, and the energy balance when the scene asks for diagnostics.
     ``stems`` (default: the scene's ``output.stems``): each string's signal too, scaled by the
@@ -75,7 +80,9 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     effects soften): with stems the mix may come quieter than without.  ``on_stems``: instead
     of holding them, hand each block of stems (m/s, before the output gain: times
     ``RenderResult.gain`` they are the held ones) to this function as it is computed (a long
-    song's stems written to files in bounded memory)."""
+    song's stems written to files in bounded memory).  ``cancelled``: asked after every block;
+    when it returns true the render stops there (``RenderCancelled``: whoever wanted the audio
+    has gone)."""
     sc = parse_scene(scene)
     with_stems = on_stems is not None or (sc.output.stems if stems is None else stems)
     t0 = time.perf_counter()
@@ -97,6 +104,8 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
             on_stems(string_blk)
         elif strings is not None:
             strings[at:mix.frame] = string_blk
+        if cancelled is not None and cancelled():
+            raise RenderCancelled(f"stopped after {mix.frame} of {mix.frames} frames")
     if impulse_response is not None:
         vel = convolve_ir(vel, impulse_response)
     seconds = time.perf_counter() - t0

@@ -13,9 +13,15 @@ A worker's death shows up as end-of-file on its pipe, whatever killed it.
 Admission: at most ``workers + queue_size`` renders are in flight (running or waiting); more are
 refused at once (``PoolBusy`` -> 503 with Retry-After).  A heavy render (its cost estimate above
 ``heavy_render_s``) also needs one of ``heavy_slots`` (all workers but one by default) and may
-wait for one only in a queue of its own (``heavy_queue_size``): two maximal renders cannot hold
-every worker while small renders wait.  Each job has a deadline armed when it is dispatched; past
-it the worker is killed (``RenderTimeout`` -> 504) and replaced.
+wait for one only in a queue of its own (``heavy_queue_size``); every job of ``service.jobs``
+takes one of those slots too, whatever its cost: two maximal renders, or a job and a heavy
+render, cannot hold every worker while small renders wait.  Each job has a deadline armed when it
+is dispatched; past it the worker is killed (``RenderTimeout`` -> 504) and replaced.
+
+Order: a worker that comes free goes to the waiting request of least ``cost - waited`` (its
+estimated render seconds less the seconds it has waited, ``_Waiter.rank``): the cheapest first,
+so a 0.1 s render does not wait behind a 4 s one that came a moment earlier, and none starves, as
+every second of waiting counts as a second less of cost.
 
 Liveness: every worker sends a heartbeat each ``heartbeat_s`` from a thread of its own (it beats
 while the main thread renders); a worker not heard from for ``_STALE_BEATS`` periods is not
@@ -63,6 +69,17 @@ class RenderOutput:
     frames: int
     energy_error: float | None
     warnings: list[str]
+
+
+@dataclass
+class _Waiter:
+    """A request waiting for a worker: its estimated render seconds and when it began to wait."""
+    cost: float
+    since: float
+    future: asyncio.Future
+
+    def rank(self, now: float) -> float:
+        return self.cost - (now - self.since)
 
 
 @dataclass
@@ -119,7 +136,8 @@ class WorkerPool:
         self.loop: asyncio.AbstractEventLoop
         self._ctx = mp.get_context(settings.mp_context)
         self._workers: list[_Worker] = []
-        self._idle: asyncio.Queue[_Worker] = asyncio.Queue()
+        self._idle: list[_Worker] = []  # free workers, when nobody waits for one
+        self._waiters: list[_Waiter] = []
         self._numbers = itertools.count(1)
         self._job_ids = itertools.count(1)
         self._in_flight = 0
@@ -221,7 +239,7 @@ class WorkerPool:
                 "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
             if not self._warm and sum(x.ready for x in self._workers) >= self.size:
                 self._warm = True
-            self._idle.put_nowait(w)
+            self._free(w)
             return
         job = w.job
         if job is None or job.id != msg[1]:
@@ -232,7 +250,7 @@ class WorkerPool:
             w.job = None
             w.jobs_done += 1
             if not self._closing:
-                self._idle.put_nowait(w)
+                self._free(w)
 
     def _on_exit(self, w: _Worker, exitcode: int | None) -> None:
         was_ready = w.warmed
@@ -244,6 +262,8 @@ class WorkerPool:
         if job is not None and not job.finished:
             job.messages.put_nowait(("died", job.id, exitcode))
             self._finish(job)
+        if w in self._idle:
+            self._idle.remove(w)
         if self._closing:
             return
         log.warning("worker exited", extra={"fields": {
@@ -319,13 +339,40 @@ class WorkerPool:
 
         return release
 
-    async def _acquire(self, deadline: float | None = None) -> _Worker:
+    def _free(self, w: _Worker) -> None:
+        """A worker has nothing to do: hand it to the waiting request of least rank, or keep it."""
+        now = time.monotonic()
+        while self._waiters:
+            best = min(self._waiters, key=lambda x: x.rank(now))
+            self._waiters.remove(best)
+            if not best.future.done():  # not timed out or cancelled meanwhile
+                best.future.set_result(w)
+                return
+        self._idle.append(w)
+
+    async def _next_worker(self, deadline: float, cost: float) -> _Worker:
+        if self._idle:
+            return self._idle.pop(0)
+        waiter = _Waiter(cost, time.monotonic(), self.loop.create_future())
+        self._waiters.append(waiter)
+        try:
+            return await asyncio.wait_for(asyncio.shield(waiter.future),
+                                          max(deadline - self.loop.time(), 0.0))
+        except BaseException:
+            if waiter in self._waiters:
+                self._waiters.remove(waiter)
+            if waiter.future.done() and not waiter.future.cancelled():
+                self._free(waiter.future.result())  # handed over as we gave up: pass it on
+            else:
+                waiter.future.cancel()
+            raise
+
+    async def _acquire(self, deadline: float | None = None, cost: float = 0.0) -> _Worker:
         if deadline is None:
             deadline = self.loop.time() + self.settings.queue_timeout_s
         while True:
-            remaining = deadline - self.loop.time()
             try:
-                w = await asyncio.wait_for(self._idle.get(), max(remaining, 0.0))
+                w = await self._next_worker(deadline, cost)
             except TimeoutError:
                 ready = sum(x.ready for x in self._workers)
                 why = (f"; the workers are still starting ({ready} of {self.size} ready: they "
@@ -339,15 +386,17 @@ class WorkerPool:
                 self.loop.call_later(self.settings.heartbeat_s, self._requeue, w)
 
     def _requeue(self, w: _Worker) -> None:
-        if w.alive and w.ready and w.job is None and not self._closing:
-            self._idle.put_nowait(w)
+        if w.alive and w.ready and w.job is None and not self._closing and w not in self._idle:
+            self._free(w)
 
     async def _dispatch(self, kind: str, payload: dict[str, Any], time_limit_s: float,
                         on_finish: Callable[[], None] | None = None,
-                        heavy: bool = False, wait_for_heavy: bool = False) -> _Job:
-        """Hand a job to an idle worker and arm its deadline.  A heavy job first waits for one
-        of the ``heavy_slots`` (fewer than the workers), so small renders always find one; a
-        heavy render, a heavy job and a heavy score render share those slots.  A job of the
+                        heavy: bool = False, wait_for_heavy: bool = False,
+                        cost: float = 0.0) -> _Job:
+        """Hand a job to an idle worker (the cheapest waiting first: ``cost`` is its estimated
+        render seconds) and arm its deadline.  A heavy job first waits for one of the
+        ``heavy_slots`` (fewer than the workers), so small renders always find one; a heavy
+        render, a job of the runner and a heavy score render share those slots.  A job of the
         runner (``wait_for_heavy``) waits for its slot as long as it takes."""
         deadline = self.loop.time() + self.settings.queue_timeout_s
         if heavy:
@@ -360,7 +409,7 @@ class WorkerPool:
                                f"{self.settings.queue_timeout_s:g} s") from None
         try:
             while True:
-                w = await self._acquire(deadline)
+                w = await self._acquire(deadline, cost)
                 job = _Job(next(self._job_ids), kind, on_finish=on_finish, heavy=heavy)
                 if heavy:
                     job.cleanup.append(self._heavy_running.release)
@@ -392,38 +441,37 @@ class WorkerPool:
             raise RenderFailed(msg[2], msg[3])
 
     async def render(self, payload: dict[str, Any], time_limit_s: float,
-                     heavy: bool = False) -> RenderOutput:
-        """Render a whole scene in a worker; ``payload`` is what ``worker._render`` reads.
-        Cancelled (the client went away): a render still waiting costs nothing more; a heavy one
-        running is stopped (its worker killed and replaced); a small one runs out, holding its
-        slot until its worker is done."""
+                     heavy: bool = False, cost: float = 0.0) -> RenderOutput:
+        """Render a whole scene in a worker; ``payload`` is what ``worker._render`` reads and
+        ``cost`` its estimated seconds.  Cancelled (the client went away): a render still waiting
+        costs nothing more; one running is stopped between two blocks (its worker then serves the
+        next), or killed and replaced if it has not stopped ``_CANCEL_GRACE_S`` later."""
         release = self._admit(heavy)
         try:
             job = await self._dispatch("render", payload, time_limit_s, on_finish=release,
-                                       heavy=heavy)
+                                       heavy=heavy, cost=cost)
         except BaseException:
             release()
             raise
         try:
             msg = await job.messages.get()
         except asyncio.CancelledError:
-            if heavy:
-                self._on_deadline(job, "client gone during a heavy render")
+            self._cancel(job, "render whose client left still running")
             raise
         self._raise_for(msg, time_limit_s)
         meta = msg[3]
         return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"],
                             meta["warnings"])
 
-    async def call(self, kind: str, payload: dict[str, Any], time_limit_s: float
-                   ) -> tuple[bytes, dict[str, Any]]:
+    async def call(self, kind: str, payload: dict[str, Any], time_limit_s: float,
+                   cost: float = 0.0) -> tuple[bytes, dict[str, Any]]:
         """Run one job of another ``kind`` in a worker (``score``: import a score; ``labels``: a
         scene's labels) under the same admission and deadline as a render: a hostile file is
         handled by a worker that is killed at the deadline, never by the API process.  Returns
         the worker's bytes and meta."""
         release = self._admit()
         try:
-            job = await self._dispatch(kind, payload, time_limit_s, on_finish=release)
+            job = await self._dispatch(kind, payload, time_limit_s, on_finish=release, cost=cost)
         except BaseException:
             release()
             raise
@@ -432,12 +480,12 @@ class WorkerPool:
         return msg[2], msg[3]
 
     async def stream(self, payload: dict[str, Any], time_limit_s: float,
-                     heavy: bool = False) -> RenderStream:
+                     heavy: bool = False, cost: float = 0.0) -> RenderStream:
         """Start a streamed render; returns once the first block exists (or fails before)."""
         release = self._admit(heavy)
         job: _Job | None = None
         try:
-            job = await self._dispatch("stream", payload, time_limit_s, heavy=heavy)
+            job = await self._dispatch("stream", payload, time_limit_s, heavy=heavy, cost=cost)
             first = await job.messages.get()
             self._raise_for(first, time_limit_s)
         except BaseException:
@@ -447,7 +495,7 @@ class WorkerPool:
             raise
         return RenderStream(self, job, first, time_limit_s, release)
 
-    def _cancel(self, job: _Job) -> None:
+    def _cancel(self, job: _Job, reason: str = "cancelled stream still running") -> None:
         w = job.worker
         if job.finished or w is None or w.job is not job:
             return
@@ -456,28 +504,28 @@ class WorkerPool:
         except OSError:
             return
         # A worker stuck inside one long block would ignore the cancel until the block is done.
-        self.loop.call_later(_CANCEL_GRACE_S, self._on_deadline, job,
-                             "cancelled stream still running")
+        self.loop.call_later(_CANCEL_GRACE_S, self._on_deadline, job, reason)
 
     # ---- jobs of service.jobs ---------------------------------------------------------------
 
     async def job_stream(self, payload: dict[str, Any], time_limit_s: float,
-                         heavy: bool = False) -> RenderStream:
+                         cost: float = 0.0) -> RenderStream:
         """A streamed render for the job runner (``service.jobs``), whose blocks it writes to a
         file.  It takes no admission slot of ``/render``: the runner keeps its own queue (in
-        SQLite) and bounds how many jobs run at once.  A heavy job (its estimate over
-        ``heavy_render_s``) takes one of the heavy slots that heavy renders use too, so jobs and
-        heavy renders together never hold every worker.  It waits for a worker (and a heavy
-        slot) as long as it takes (a /render waiting at the same time is served in turn: the
-        idle queue and the heavy slots are first come, first served)."""
+        SQLite) and bounds how many jobs run at once.  Every job, whatever its estimate
+        (``cost``), takes one of the heavy slots that heavy renders use too: jobs and heavy
+        renders together never hold every worker, and a worker stays for interactive requests.
+        It waits for a slot and a worker as long as it takes (with the other requests waiting
+        for a worker, by ``cost`` less the seconds waited; heavy slots are first come, first
+        served)."""
         job: _Job | None = None
         try:
             while True:
                 if self._closing:
                     raise PoolClosed("the server is shutting down")
                 try:
-                    job = await self._dispatch("stream", payload, time_limit_s, heavy=heavy,
-                                               wait_for_heavy=True)
+                    job = await self._dispatch("stream", payload, time_limit_s, heavy=True,
+                                               wait_for_heavy=True, cost=cost)
                     break
                 except PoolBusy:
                     continue  # no worker free within queue_timeout_s: keep waiting

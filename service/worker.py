@@ -12,6 +12,7 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                        ("block", job_id, pcm_bytes, seconds_so_far, warnings)
                                                                       one streamed block
                        ("end", job_id, meta) | ("cancelled", job_id)  stream finished / stopped
+                                                                      (a render: stopped)
                        ("error", job_id, kind, message)               kind: non_finite|invalid|internal
     parent -> worker   ("score", job_id, {"data": bytes, "filename": str, "options": dict,
                                           "max_events": int | None, "max_events_setting": str})
@@ -199,13 +200,19 @@ def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
     the stems kept in a temporary file while the render runs rather than in memory."""
     t0 = time.perf_counter()
     stems = bool((payload["scene"].get("output") or {}).get("stems"))
+    cancelled = lambda: _cancel_requested(conn, job_id)  # noqa: E731 - the client has gone
     with tempfile.TemporaryFile() if stems else contextlib.nullcontext() as spill:
-        if stems:
-            result = engine.render_result(
-                payload["scene"], jobs=threads,
-                on_stems=lambda b: spill.write(np.ascontiguousarray(b, dtype="<f8").tobytes()))
-        else:
-            result = engine.render_result(payload["scene"], jobs=threads, stems=False)
+        try:
+            if stems:
+                result = engine.render_result(
+                    payload["scene"], jobs=threads, cancelled=cancelled,
+                    on_stems=lambda b: spill.write(np.ascontiguousarray(b, dtype="<f8").tobytes()))
+            else:
+                result = engine.render_result(payload["scene"], jobs=threads, stems=False,
+                                              cancelled=cancelled)
+        except engine.RenderCancelled:
+            conn.send(("cancelled", job_id))
+            return
         seconds = time.perf_counter() - t0
         samples = result.audio
         _check_finite(samples)

@@ -154,11 +154,12 @@ class JobRunner:
                    "stems": bool(stems)}
         cost = job.get("cost")
         limit = self.settings.time_limit_s(job["duration"], cost)
-        heavy = cost is None or cost > self.settings.heavy_render_s
         t0 = time.perf_counter()
         stream: RenderStream | None = None
         try:
-            stream = await self.pool.job_stream(payload, limit, heavy=heavy)
+            # a row without an estimate (older store) waits as a heavy render would
+            stream = await self.pool.job_stream(
+                payload, limit, cost=self.settings.heavy_render_s if cost is None else cost)
             self._streams[job_id] = stream
             if self.store.get(job_id)["status"] != "running":  # cancelled while it waited
                 return

@@ -63,7 +63,7 @@ async def render(
             "channels": scene.output.channels,
         },
         settings.time_limit_s(scene.duration, estimated_s),
-        heavy=estimated_s > settings.heavy_render_s,
+        heavy=estimated_s > settings.heavy_render_s, cost=estimated_s,
     ), settings.disconnect_poll_s)
     audio_s = out.frames / scene.sample_rate
     request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
@@ -130,7 +130,7 @@ async def render_stream(
     stream = await while_connected(request, pool.stream(
         {"scene": scene_json, "frames": frames, "subtype": subtype, "channels": channels},
         settings.time_limit_s(scene.duration, estimated_s),
-        heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
+        heavy=estimated_s > settings.heavy_render_s, cost=estimated_s), settings.disconnect_poll_s)
     audio_s = frames / rate
     request.state.audio_seconds = audio_s
     headers = {

@@ -162,7 +162,7 @@ async def render_score(
          "subtype": sc.output.subtype, "channels": sc.output.channels,
          "name": _ascii(PurePath(name).stem or "score")},
         settings.time_limit_s(sc.duration, estimated_s),
-        heavy=estimated_s > settings.heavy_render_s), settings.disconnect_poll_s)
+        heavy=estimated_s > settings.heavy_render_s, cost=estimated_s), settings.disconnect_poll_s)
     audio_s = out.frames / sc.sample_rate
     request.state.render_seconds, request.state.audio_seconds = out.render_seconds, audio_s
     stem = PurePath(name).stem or "score"

@@ -116,8 +116,9 @@ def test_a_heavy_job_and_a_heavy_score_never_hold_both_workers(server) -> None:
 
 def test_a_score_render_whose_client_left_is_stopped(server) -> None:
     """It rendered to the end (and the log said 200); now its worker is free within a second or
-    two, as for /render."""
+    two, as for /render, and is the same worker (a heavy render's was killed and replaced)."""
     idle(server)
+    replaced = pool(server)["replaced"]
     request = httpx.Request("POST", server.url + "/render/score",
                             files={"file": ("s.gp5", LONG_SCORE)}, data=SCORE_FORM)
     body = request.read()
@@ -131,6 +132,7 @@ def test_a_score_render_whose_client_left_is_stopped(server) -> None:
     t0 = time.monotonic()
     wait_ready(lambda: pool(server)["busy"] == 0, 60)
     assert time.monotonic() - t0 < 2.0
+    assert pool(server)["replaced"] == replaced
 
 
 @pytest.mark.parametrize("output", [

@@ -233,6 +233,29 @@ def test_requests_abandoned_while_queued_stop_costing(all_heavy_server, path) ->
         assert jobs and all(ln.endswith(" 0.0") for ln in jobs), jobs  # no job made of them
 
 
+def test_a_running_render_whose_client_left_stops_and_its_worker_serves_on(all_heavy_server
+                                                                            ) -> None:
+    """A render under the heavy class ran to its end after its client left (seconds of a worker
+    for nobody); a heavy one had its worker killed and replaced (a warm-up's CPU).  Now both stop
+    between two blocks and the same worker takes the next request."""
+    server = all_heavy_server
+    client = httpx.Client(base_url=server.url, timeout=60)
+    with client:
+        wait_ready(lambda: client.get("/health").json()["pool"]["busy"] == 0, 120)
+        before = client.get("/health").json()["pool"]
+        s = _send(server.url, "/render", heavy_scene(12.0))  # seconds of work, in the budget
+        wait_ready(lambda: client.get("/health").json()["pool"]["busy"] == 1, 30)
+        time.sleep(0.5)
+        assert client.get("/health").json()["pool"]["busy"] == 1  # rendering
+        s.close()
+        t0 = time.monotonic()
+        wait_ready(lambda: client.get("/health").json()["pool"]["busy"] == 0, 30)
+        assert time.monotonic() - t0 < 2.0
+        after = client.get("/health").json()["pool"]
+        assert after["replaced"] == before["replaced"], (before, after)  # stopped, not killed
+        assert client.post("/render", json=pluck_scene(0.05)).status_code == 200
+
+
 # ---- heavy renders leave a worker to small ones --------------------------------------------------
 
 def test_two_heavy_renders_do_not_starve_a_small_one(harness) -> None:

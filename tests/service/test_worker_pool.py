@@ -10,6 +10,7 @@ import time
 from types import SimpleNamespace
 
 import pytest
+from conftest import AppHarness
 from svc_helpers import brief, chord_scene, decode, heavy_scene, pluck_scene, same_bytes
 
 from service.config import Settings
@@ -173,3 +174,127 @@ def test_health_says_what_a_warming_worker_is_doing() -> None:
     assert pool.status()["warming"] == "compiling kernels, first run only"
     pool._on_message(w, ("ready", 123, 42.0))
     assert pool.status()["warming"] is None
+
+
+# ---- who gets a worker that comes free ----------------------------------------------------------
+
+def test_a_free_worker_goes_to_the_cheapest_waiting_request_then_to_the_oldest() -> None:
+    """Waiting requests took workers first come, first served: a 0.1 s render waited behind a
+    4 s one that came a moment before it.  Now the least ``cost - seconds waited`` goes first."""
+    pool = WorkerPool(Settings(workers=1, queue_timeout_s=5.0))
+    w = SimpleNamespace(alive=True, ready=True, job=None)
+    pool._responsive = lambda w: True
+
+    async def scenario():
+        pool.loop = asyncio.get_running_loop()
+        order: list[str] = []
+
+        async def want(name: str, cost: float) -> None:
+            got = await pool._acquire(cost=cost)
+            order.append(name)
+            pool.loop.call_soon(pool._free, got)  # done at once: the next waiter's turn
+
+        big = asyncio.ensure_future(want("4 s", 4.0))
+        await asyncio.sleep(0.01)
+        small = asyncio.ensure_future(want("0.1 s", 0.1))
+        await asyncio.sleep(0.01)
+        pool._free(w)
+        await asyncio.gather(big, small)
+        assert order == ["0.1 s", "4 s"]
+        await asyncio.sleep(0.01)
+        assert pool._idle == [w]  # back once nobody waits
+        pool._idle.clear()
+        # waiting counts: a 1 s request that has waited 2 s goes before a fresh 0.5 s one
+        order.clear()
+        older = asyncio.ensure_future(want("1 s, waited", 1.0))
+        await asyncio.sleep(0.01)
+        pool._waiters[0].since -= 2.0
+        newer = asyncio.ensure_future(want("0.5 s, new", 0.5))
+        await asyncio.sleep(0.01)
+        pool._free(w)
+        await asyncio.gather(older, newer)
+        assert order == ["1 s, waited", "0.5 s, new"]
+        await asyncio.sleep(0.01)
+        # a waiter that gave up (timed out, client gone) never swallows the worker
+        pool._idle.clear()
+        gone = asyncio.ensure_future(want("gone", 0.0))
+        await asyncio.sleep(0.01)
+        gone.cancel()
+        await asyncio.sleep(0.01)
+        pool._free(w)
+        assert pool._idle == [w] and not pool._waiters
+
+    asyncio.run(scenario())
+
+
+@pytest.fixture(scope="module")
+def one_worker(tmp_path_factory: pytest.TempPathFactory):
+    """One worker that any render may hold (no heavy class), a queue of four."""
+    h = AppHarness(Settings(workers=1, queue_size=4, heavy_render_s=1000.0,
+                            data_dir=str(tmp_path_factory.mktemp("one-worker-data")))).start()
+    yield h
+    h.stop()
+
+
+def test_a_small_render_waits_behind_the_running_one_only(one_worker) -> None:
+    """Over HTTP, with one worker: a small render sent after a larger one that waits is served
+    before it (each route tells the pool its render's estimate)."""
+    h = one_worker
+    wait_for(lambda: h.pool.status()["workers_ready"] == 1)
+
+    async def run():
+        done: list[str] = []
+
+        async def post(name: str, scene: dict) -> int:
+            r = await h.client.post("/render", json=scene)
+            done.append(name)
+            return r.status_code
+
+        async def until(check) -> None:
+            for _ in range(3000):
+                if check():
+                    return
+                await asyncio.sleep(0.01)
+            raise TimeoutError(h.pool.status())
+
+        running = asyncio.ensure_future(post("running", heavy_scene(3.0)))
+        await until(h.pool.busy_pids)
+        larger = asyncio.ensure_future(post("larger", heavy_scene(2.0)))
+        await until(lambda: h.pool.status()["in_flight"] == 2)
+        small = asyncio.ensure_future(post("small", pluck_scene(0.1)))
+        await until(lambda: h.pool.status()["in_flight"] == 3)
+        codes = await asyncio.gather(running, larger, small)
+        return codes, done
+
+    codes, done = h.run(run(), timeout=180)
+    assert codes == [200, 200, 200]
+    assert done == ["running", "small", "larger"], done
+
+
+def test_a_job_of_any_cost_takes_a_heavy_slot() -> None:
+    """A job estimated under ``heavy_render_s`` took no heavy slot: with a heavy render beside
+    it, both workers were held and small renders waited.  Now every job takes one, so a heavy
+    render waits for it and a small render finds the other worker."""
+    pool = WorkerPool(Settings(workers=2, queue_timeout_s=0.2))
+    sent: list[tuple] = []
+    workers = [SimpleNamespace(number=i, pid=i, alive=True, ready=True, job=None,
+                               send=lambda msg, i=i: sent.append((i, msg[0])))
+               for i in (1, 2)]
+    pool._responsive = lambda w: True
+
+    async def scenario():
+        pool.loop = asyncio.get_running_loop()
+        pool._idle = list(workers)
+        job = asyncio.ensure_future(pool.job_stream({}, 60.0, cost=0.01))
+        await asyncio.sleep(0.05)
+        assert sent == [(1, "stream")] and pool._heavy_running.locked()
+        with pytest.raises(PoolBusy, match="heavy"):
+            await pool.render({}, 60.0, heavy=True, cost=10.0)
+        small = asyncio.ensure_future(pool.render({}, 60.0, cost=0.1))
+        await asyncio.sleep(0.05)
+        assert sent[-1] == (2, "render")
+        for t in (job, small):
+            t.cancel()
+        await asyncio.gather(job, small, return_exceptions=True)
+
+    asyncio.run(scenario())

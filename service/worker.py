@@ -96,14 +96,25 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
         if not engine.kernels_cached(engine.KERNEL_SCENES):
             conn.send(("warming", os.getpid(), "compiling kernels, first run only (one worker "
                        "compiles, the others wait and load them)"))
-        engine.warmup()  # every numba kernel path, compiled or loaded from NUMBA_CACHE_DIR
-        for fmt in ("wav", "flac", "ogg"):  # and libsndfile with its codecs
-            audio.encode(np.zeros(64), 44100, fmt)
+        warm_up(engine)
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0))
         _serve(conn, engine, block_frames, threads)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass  # the parent has gone away
+
+
+def warm_up(engine: Any) -> None:
+    """Load what the requests use, before the worker says ready: every numba kernel path
+    (compiled, or loaded from NUMBA_CACHE_DIR), libsndfile with its codecs, and the labels'
+    libraries (jams, with pandas and mir_eval: seconds and tens of MiB), which every job uses.
+    No request pays for an import, and the worker's memory is flat from here
+    (``benchmarks/worker_memory.py``)."""
+    engine.warmup()
+    for fmt in ("wav", "flac", "ogg"):
+        audio.encode(np.zeros(64), 44100, fmt)
+    engine.scene_labels({"duration": 0.1, "events": [
+        {"type": "pluck", "time": 0.0, "string": 1, "force": 1.0}]}).dumps()
 
 
 def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -> None:

@@ -216,7 +216,7 @@ async def create_job(request: Request) -> JSONResponse:
                                        "finish, or cancel some (DELETE /jobs/{id})"},
                             status_code=429, headers={"Retry-After": "60"})
     if jobs.store.total() >= s.max_jobs:
-        jobs.cleanup()
+        await asyncio.to_thread(jobs.cleanup)
         if jobs.store.total() >= s.max_jobs:
             return JSONResponse({"detail": f"{s.max_jobs} jobs are stored and none can be "
                                            "deleted yet (GUITAR_MAX_JOBS); try again later"},
@@ -393,5 +393,5 @@ async def delete_job(job_id: str, request: Request) -> Response:
     if before in ("queued", "running"):
         jobs.cancel(job_id)
         return JSONResponse(_public(_job_or_404(request, job_id)))
-    jobs.store.delete(job_id)
+    await asyncio.to_thread(jobs.store.delete, job_id)  # its folder: up to a song's files
     return Response(status_code=204)

@@ -89,15 +89,18 @@ class JobRunner:
         return len(self._streams)
 
     def cleanup(self) -> None:
+        """Old jobs and their folders deleted, the store's WAL checkpointed: file-system work
+        that ``_cleanup_loop`` runs in a thread."""
         gone = self.store.cleanup(self.settings.job_retention_s, self.settings.max_jobs)
         if gone:
             log.info("old jobs deleted", extra={"fields": {"jobs": len(gone)}})
+        self.store.checkpoint()
 
     async def _cleanup_loop(self) -> None:
         while True:
             await asyncio.sleep(CLEANUP_INTERVAL_S)
             try:
-                self.cleanup()
+                await asyncio.to_thread(self.cleanup)
             except Exception as exc:  # a full disk must not stop the service
                 log.error("job cleanup failed", extra={"fields": {"error": str(exc)}})
 
@@ -225,19 +228,30 @@ class JobRunner:
 
     async def _write(self, job_id: str, stream: RenderStream, part: Path, header: bytes,
                      total: int) -> int:
+        """Write the stream's blocks to ``part`` as they come.  The file's calls run in a thread:
+        a write that the kernel holds back (dirty pages over their limit) or the final fsync of
+        tens of MB may take seconds, and on the event loop they would stall every request and
+        live session of the process for as long."""
         last = time.monotonic()
-        with open(part, "wb") as f:
-            f.write(header)
+        f = await asyncio.to_thread(open, part, "wb")
+        try:
+            await asyncio.to_thread(f.write, header)
             written = len(header)
             async for chunk in stream.chunks():
-                f.write(chunk)
+                await asyncio.to_thread(f.write, chunk)
                 written += len(chunk)
                 if time.monotonic() - last > PROGRESS_INTERVAL_S:
                     last = time.monotonic()
                     self.store.set_progress(job_id, min(written / total, 0.999))
-            f.flush()
-            os.fsync(f.fileno())
+            await asyncio.to_thread(_flush_and_sync, f)
+        finally:
+            await asyncio.to_thread(f.close)
         return written
+
+
+def _flush_and_sync(f) -> None:
+    f.flush()
+    os.fsync(f.fileno())
 
 
 STEMS_ZIP = "stems.zip"  # beside the audio (Store.stems_path)

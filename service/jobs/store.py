@@ -7,7 +7,10 @@
 A job is ``done`` only after its audio file has been renamed into place, so a file that a crash
 cut short is never served.  The database runs in WAL mode: a commit survives the death of the
 process (not necessarily a power cut: ``synchronous=NORMAL``).  Every call is short and runs on
-the event loop, serialised by a lock (the runner and the routes share one connection).
+the event loop, serialised by a lock (the runner and the routes share one connection); none of
+them syncs the disk: the WAL is copied into the database (and the file synced) by ``checkpoint``,
+which the runner calls from a thread once a minute, not by SQLite's automatic checkpoint inside
+whichever commit filled the WAL (on the loop, for as long as the disk took).
 """
 
 from __future__ import annotations
@@ -65,12 +68,23 @@ class Store:
         with self._lock:
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
+            self._db.execute("PRAGMA wal_autocheckpoint=0")  # ``checkpoint``, off the loop
             self._db.executescript(_SCHEMA)
             have = {r[1] for r in self._db.execute("PRAGMA table_info(jobs)")}
             for column, kind in _ADDED.items():
                 if column not in have:
                     self._db.execute(f"ALTER TABLE jobs ADD COLUMN {column} {kind}")
             self._db.execute("CREATE INDEX IF NOT EXISTS jobs_client ON jobs (client, started)")
+
+    def checkpoint(self) -> tuple[int, int, int]:
+        """Copy the WAL into the database on a connection of its own (a thread may call it while
+        the loop uses the store: PASSIVE waits for no reader or writer).  Returns SQLite's
+        (busy, WAL frames, frames checkpointed)."""
+        db = sqlite3.connect(self.root / "jobs.sqlite3", isolation_level=None)
+        try:
+            return tuple(db.execute("PRAGMA wal_checkpoint(PASSIVE)").fetchone())
+        finally:
+            db.close()
 
     def close(self) -> None:
         with self._lock:

@@ -61,6 +61,31 @@ def test_a_job_renders_the_stream_s_bytes_and_labels(jobs_app: AppHarness, tmp_p
         pytest.fail(f"no labels: {done['labels_error']}")
 
 
+def test_a_job_s_slow_disk_never_stalls_the_event_loop(jobs_app: AppHarness,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The job's writes and its fsync ran on the event loop: a disk that took seconds to sync
+    (tens of MB of a song's samples, other writers) stalled every request of the process, and
+    live sessions' blocks with them, for as long.  Here a sync takes 1.5 s."""
+    import service.jobs.runner as runner
+
+    real = os.fsync
+    monkeypatch.setattr(runner.os, "fsync", lambda fd: (time.sleep(1.5), real(fd)))
+    r = jobs_app.post("/jobs", json=chord_scene(0.3))
+    assert r.status_code == 202, r.text
+    waits = []
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        t0 = time.monotonic()
+        status = jobs_app.get(f"/jobs/{r.json()['id']}").json()["status"]
+        jobs_app.get("/health/live")
+        waits.append(time.monotonic() - t0)
+        if status in ("done", "failed", "cancelled"):
+            break
+        time.sleep(0.02)
+    assert status == "done"
+    assert max(waits) < 0.75, max(waits)  # two requests, never behind a 1.5 s sync
+
+
 def test_a_normalized_wav_job_peaks_at_minus_1_dbfs(jobs_app: AppHarness) -> None:
     r = jobs_app.post("/jobs", json=chord_scene(0.2, output={"subtype": "PCM_24"}))
     done = wait_for(jobs_app.get, r.json()["id"])
@@ -186,6 +211,24 @@ def test_retention_deletes_old_results(tmp_path: Path) -> None:
     time.sleep(0.01)
     assert sorted(store.cleanup(retention_s=0.001, max_jobs=10)) == sorted(
         j["id"] for j in jobs[1:])
+    store.close()
+
+
+def test_the_store_s_disk_syncs_happen_in_its_checkpoint_only(tmp_path: Path) -> None:
+    """SQLite's automatic checkpoint synced the database inside whichever commit filled the WAL,
+    on the event loop; commits now only append to the WAL, and ``checkpoint`` (called from a
+    thread by the runner) copies it, while the store is in use."""
+    from service.jobs.store import Store
+
+    store = Store(tmp_path)
+    scene = {"duration": 1.0, "events": [{"type": "pluck", "time": 0.0, "string": 1}] * 2000}
+    for _ in range(40):  # about 5 MB of scenes: past SQLite's default 1000-page checkpoint
+        store.create(scene, "wav", 1.0)
+    wal = tmp_path / "jobs.sqlite3-wal"
+    assert wal.stat().st_size > 4_000_000  # nothing checkpointed on the way
+    busy, frames, done = store.checkpoint()
+    assert busy == 0 and frames == done > 1000, (busy, frames, done)
+    assert store.total() == 40
     store.close()
 
 

@@ -127,6 +127,7 @@ class Stats:
     def __init__(self) -> None:
         self.status: Counter[str] = Counter()
         self.small_s: list[float] = []
+        self.small_server_s: list[float] = []  # the same renders' Server-Timing
         self.unexpected: list[str] = []
 
     def record(self, kind: str, r: httpx.Response | None, error: str | None = None) -> None:
@@ -143,6 +144,14 @@ class Stats:
             self.unexpected.append(f"{kind}: {code} {r.text[:200]}")
 
 
+def server_seconds(r: httpx.Response) -> float | None:
+    """The server's own time for a request, from its ``Server-Timing: app;dur=MS`` header."""
+    for part in r.headers.get("server-timing", "").split(";"):
+        if part.strip().startswith("dur="):
+            return float(part.strip()[4:]) / 1000
+    return None
+
+
 async def _retry_pause(r: httpx.Response) -> None:
     if r.status_code == 503:
         await asyncio.sleep(min(float(r.headers.get("retry-after", 1)), 2.0) * random.random())
@@ -153,6 +162,9 @@ async def small_render(c: httpx.AsyncClient, st: Stats, i: int) -> None:
     r = await c.post("/render", json=small_scene(i))
     if r.status_code == 200:
         st.small_s.append(time.perf_counter() - t0)
+        server = server_seconds(r)
+        if server is not None:
+            st.small_server_s.append(server)
     st.record("small render", r)
     await _retry_pause(r)
 

@@ -20,12 +20,19 @@ costs them, against which the mixed phase shows what other clients' work costs t
 
 The server runs at niceness ``--server-nice`` (default -10; its live workers inherit it) with its
 render workers put back at 0 (``GUITAR_WORKER_NICE``): the API process, which relays every live
-block, and the live workers run ahead of renders.  ``--server-nice 0`` runs them all at 0.
+block, and the live workers run ahead of renders.  ``--server-nice 0`` runs them all at 0.  The
+live worker's audio thread runs on SCHED_RR at ``--live-realtime`` (default 10,
+``GUITAR_LIVE_REALTIME_PRIORITY``; 0: normal scheduling), as audio servers' threads do.
 
-Printed: one table: small renders' p50/p99, live underruns (client and server) in both phases,
-how long ``GET /health/live`` takes (the API process's event loop), status counts per kind (a 5xx
-other than 503 with Retry-After counts as an error), jobs done, and the RSS of the server and of
-every process below it before and after, with the CPU each used.
+Printed: one table: small renders' p50/p99 as this load generator saw them and as the server
+timed them (``Server-Timing``: from the request's arrival to the answer's headers; the load
+generator, one Python process at the default niceness running every client, competes for the
+same two cores, and its own delays are in the first figure only), live underruns (client and
+server) in both phases, the API process's event-loop lag as the server measures it
+(``guitar_event_loop_lag_seconds``) and how long ``GET /health/live`` takes as the load generator
+sees it, status counts per kind (a 5xx other than 503 with Retry-After counts as an error), jobs
+done, and the RSS of the server and of every process below it before and after, with the CPU
+each used.
 
     python -m benchmarks.mixed_load [--seconds 180] [--clients 16] [--live 2] [--server-nice 0]
 """
@@ -166,6 +173,33 @@ def _pids(mem: dict[str, int]) -> list[int]:
 
 def late_blocks(url: str) -> int | None:
     return httpx.get(url + "/live/status", timeout=10).json().get("late_blocks")
+
+
+def loop_lag_buckets(url: str) -> dict[float, float]:
+    """The server's ``guitar_event_loop_lag_seconds`` histogram: cumulative count per bound."""
+    out = {}
+    for line in httpx.get(url + "/metrics", timeout=10).text.splitlines():
+        if line.startswith("guitar_event_loop_lag_seconds_bucket{"):
+            le = line.split('le="', 1)[1].split('"', 1)[0]
+            out[float(le)] = float(line.rsplit(" ", 1)[1])
+    return out
+
+
+def loop_lag_summary(before: dict[float, float], after: dict[float, float]) -> str:
+    """The lag over a phase from two scrapes: the bound p50 and p99 fall under, and how many
+    probes were over 0.1 s and over 1 s."""
+    delta = {le: after[le] - before.get(le, 0.0) for le in sorted(after)}
+    total = delta.get(float("inf"), 0.0)
+    if not total:
+        return "n/a (no probes)"
+
+    def bound(q: float) -> str:
+        le = next(le for le, n in delta.items() if n >= q * total)
+        return "over 30 s" if le == float("inf") else f"under {le * 1e3:g} ms"
+
+    over = lambda x: int(total - delta[x])  # noqa: E731
+    return (f"{int(total)} probes: p50 {bound(0.5)}, p99 {bound(0.99)}; {over(0.1)} late by "
+            f"over 100 ms, {over(1.0)} by over 1 s")
 
 
 # ---- scores and jobs ----------------------------------------------------------------------------
@@ -322,6 +356,9 @@ def main() -> None:
     ap.add_argument("--server-nice", type=int, default=-10,
                     help="niceness of the server (its live workers inherit it); its render "
                          "workers are put back at 0 by GUITAR_WORKER_NICE (0: all at 0)")
+    ap.add_argument("--live-realtime", type=int, default=10,
+                    help="GUITAR_LIVE_REALTIME_PRIORITY of the server: its live workers' audio "
+                         "thread on SCHED_RR at this priority (0: normal scheduling)")
     ap.add_argument("--jitter-ms", type=float, default=40.0)
     ap.add_argument("--live-client-nice", type=int, default=-10,
                     help="niceness of the live client process (0: the default)")
@@ -333,6 +370,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="mixed-load-") as tmp:
         env = {"GUITAR_DATA_DIR": tmp, "GUITAR_LIVE_WORKERS": "1", "GUITAR_LIVE_PRESTART": "1",
                "GUITAR_MAX_LIVE_SESSIONS": str(max(4, a.live)),
+               "GUITAR_LIVE_REALTIME_PRIORITY": str(a.live_realtime),
                **dict(kv.split("=", 1) for kv in a.env)}
         # The server ahead of other processes, its render workers back at the default
         # (GUITAR_WORKER_NICE): its API process, which relays every live block, and its live
@@ -377,6 +415,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     base = live_result(start_live(url, a.live, a.baseline_seconds, a.jitter_ms,
                                   a.live_client_nice), a.baseline_seconds + 120)
     late1 = late_blocks(url)
+    lag1 = loop_lag_buckets(url)
 
     live = start_live(url, a.live, a.seconds, a.jitter_ms, a.live_client_nice)
     t0 = time.monotonic()
@@ -384,6 +423,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     wall = time.monotonic() - t0
     mixed_live = live_result(live, 120)
     late2 = late_blocks(url)
+    lag2 = loop_lag_buckets(url)
     drain = time.monotonic() + 120
     while time.monotonic() < drain:
         pool = httpx.get(url + "/health", timeout=10).json()["pool"]
@@ -398,11 +438,14 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     def server_late(x: int | None, y: int | None) -> str:
         return "n/a" if x is None or y is None else str(y - x)
 
-    xs = st.small_s
+    xs, sv = st.small_s, st.small_server_s
     errors = [k for k in st.status if any(f": {c}" in k for c in (500, 502, 504))]
     rows += [
         ("small renders", f"{len(xs)} answered 200: p50 {_pct(xs, 50) * 1e3:.0f} ms, "
                           f"p99 {_pct(xs, 99) * 1e3:.0f} ms, max {max(xs, default=0) * 1e3:.0f} ms"),
+        ("small renders, the server's own time (Server-Timing)",
+         f"p50 {_pct(sv, 50) * 1e3:.0f} ms, p99 {_pct(sv, 99) * 1e3:.0f} ms, "
+         f"max {max(sv, default=0) * 1e3:.0f} ms"),
         (f"live, {a.live} sessions alone ({a.baseline_seconds:g} s)",
          f"{base['late']} underruns in {base['blocks']} blocks (worst "
          f"{base.get('worst_late_ms', 0)} ms late); server late blocks "
@@ -412,6 +455,8 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
          f"{mixed_live.get('worst_late_ms', 0)} ms late); server late blocks "
          f"{server_late(late1, late2)}; {mixed_live.get('refused', 0)} events refused, "
          f"{len(mixed_live.get('failed', []))} sessions failed"),
+        ("API loop lag in the mixed load, the server's own probe",
+         loop_lag_summary(lag1, lag2)),
         ("API loop: GET /health/live during the load",
          f"p50 {_pct(st.probe_s, 50) * 1e3:.0f} ms, p99 {_pct(st.probe_s, 99) * 1e3:.0f} ms, "
          f"max {max(st.probe_s, default=0) * 1e3:.0f} ms"),
@@ -425,9 +470,10 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     print(f"\nMixed load: {a.clients} HTTP clients, {a.score_clients} score clients "
           f"({len(songs)} corpus songs at 96 kHz, high, up to the cost budget), {a.job_clients} "
           f"job clients, {a.live} live sessions (niceness: server {a.server_nice}, render workers "
-          f"0, live client {a.live_client_nice}); {a.seconds:g} s ({wall:.0f} s with the last "
-          f"answers), {a.workers} render workers, 1 live worker; load average "
-          f"{load0[0]:.1f} before, {load1[0]:.1f} after ({os.cpu_count()} CPUs, shared)\n")
+          f"0, live client {a.live_client_nice}; live audio thread "
+          f"{f'SCHED_RR {a.live_realtime}' if a.live_realtime else 'normal'}); {a.seconds:g} s "
+          f"({wall:.0f} s with the last answers), {a.workers} render workers, 1 live worker; "
+          f"load average {load0[0]:.1f} before, {load1[0]:.1f} after ({os.cpu_count()} CPUs, shared)\n")
     print("| measure | result |")
     print("| --- | --- |")
     for name, value in rows:

@@ -8,6 +8,7 @@ Handlers live in ``service.routes``; the worker pool in ``service.pool``; settin
 
 from __future__ import annotations
 
+import asyncio
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -58,10 +59,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                     "score_cache": {"hit": scores.hits, "miss": scores.misses}}
 
         counters.watch(state)
+        loop_watch = asyncio.create_task(counters.watch_loop(), name="loop-lag")
         try:
             yield {"pool": pool, "settings": settings, "live": live_pool, "jobs": runner,
                    "metrics": counters, "scores": scores}
         finally:
+            loop_watch.cancel()
             # Uvicorn has let the requests in flight finish; running jobs go back to the queue
             # before the workers stop, so that the next start runs them again.
             await runner.stop()

@@ -119,6 +119,11 @@ class Settings(BaseSettings):
     live_nice: int = Field(0, ge=-20, le=19,
                            description="niceness of the live workers (negative: ahead of renders "
                                        "and other load; needs CAP_SYS_NICE, else ignored)")
+    live_realtime_priority: int = Field(
+        0, ge=0, le=99, description="SCHED_RR priority of the live workers' audio thread (1-99: "
+                                    "it preempts every normally scheduled process at once, as "
+                                    "audio servers' threads do; 0: normal scheduling; needs "
+                                    "CAP_SYS_NICE, else ignored)")
     live_max_events_per_s: int = Field(200, ge=1, description="events a session may send per "
                                                               "second; more are refused")
     live_max_messages_per_s: int = Field(

@@ -54,7 +54,8 @@ class _LiveWorker(PipedProcess):
         self.sessions: dict[int, LiveSession] = {}
         s = pool.settings
         super().__init__(pool, ctx, number, live_worker.main,
-                         (s.warmup, s.live_lead_ms / 1000.0, s.live_nice),
+                         (s.warmup, s.live_lead_ms / 1000.0, s.live_nice,
+                          s.live_realtime_priority),
                          f"live-worker-{number}")
 
 

@@ -37,6 +37,7 @@ and applied then, in order.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import heapq
 import json
@@ -123,7 +124,8 @@ class _Live:
         return self.due + self.lead_s
 
 
-def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
+def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0,
+         realtime: int = 0) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if nice:
         # An audio process needs little CPU but needs it on time: a negative niceness puts it
@@ -147,11 +149,33 @@ def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0) -> None:
                 s.push({"type": "fret", "string": 1, "fret": 2})
                 s.push({"type": "pluck", "string": 1})
                 s.block()
+    if realtime:
+        _realtime(realtime)
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0))
         _serve(conn, engine, lead_s)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass
+
+
+def _realtime(priority: int) -> None:
+    """The audio thread (this one: it computes every block) on SCHED_RR at ``priority``: a block
+    due runs at once, ahead of every normally scheduled process, whatever their niceness (the
+    kernel still keeps 5 % of each second for them: sched_rt_runtime_us).  The session
+    preparer's thread goes back to normal scheduling (``_normal_scheduling``): preparing a guitar
+    takes a fifth of a second, which must not hold a core at real-time priority."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(priority))
+    except (OSError, AttributeError) as exc:
+        print(f"live worker: real-time priority {priority} not set ({exc}); running with "
+              "normal scheduling", flush=True)
+
+
+def _normal_scheduling() -> None:
+    """For a thread of an audio thread: Linux threads inherit the real-time policy."""
+    with contextlib.suppress(OSError, AttributeError):
+        if os.sched_getscheduler(0) != os.SCHED_OTHER:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
 PREPARING_POLL_S = 0.01  # how often the loop looks whether a preparation has finished
@@ -160,7 +184,8 @@ PREPARING_POLL_S = 0.01  # how often the loop looks whether a preparation has fi
 def _serve(conn: Connection, engine: Any, lead_s: float) -> None:
     sessions: dict[int, _Live] = {}
     preparing: dict[int, _Preparing] = {}
-    with ThreadPoolExecutor(1, thread_name_prefix="prepare") as preparer:
+    with ThreadPoolExecutor(1, thread_name_prefix="prepare",
+                            initializer=_normal_scheduling) as preparer:
         while True:
             now = time.monotonic()
             wait = min((s.due for s in sessions.values()), default=now + 1.0) - now

@@ -1,13 +1,16 @@
 """GET /metrics: the service's counters in Prometheus' text format (``prometheus_client``).
 
 Counted as requests end (``MetricsMiddleware``): requests by route and status, renders by endpoint
-and outcome, render wall time and audio seconds.  Read when scraped (``_StateCollector``): jobs by
+and outcome, render wall time and audio seconds.  Measured all along (``Metrics.watch_loop``): the
+event loop's lag.  Read when scraped (``_StateCollector``): jobs by
 status, the pool's queue depth, busy and ready workers, worker restarts.  Each app has a registry
 of its own, so several apps in one process (tests) do not share counters.
 """
 
 from __future__ import annotations
 
+import asyncio
+import logging
 import re
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -18,6 +21,9 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
 from prometheus_client.registry import Collector
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+log = logging.getLogger("service.metrics")
+
+LOOP_PROBE_S = 0.1  # the event loop's lag is measured this often (``Metrics.watch_loop``)
 RENDER_PATHS = frozenset({"/render", "/render/stream", "/render/score"})
 _KNOWN = frozenset({"/", "/health", "/limits", "/presets", "/metrics", "/jobs", "/docs",
                     "/openapi.json", *RENDER_PATHS})
@@ -49,6 +55,24 @@ class Metrics:
             registry=self.registry)
         self.audio_seconds = Counter("guitar_audio_seconds", "seconds of audio rendered",
                                      ["endpoint"], registry=self.registry)
+        self.loop_lag = Histogram(
+            "guitar_event_loop_lag_seconds", "how late the API process's event loop ran a "
+            f"callback due every {LOOP_PROBE_S:g} s (what every request and live block waited "
+            "on top of its own work)",
+            buckets=(0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0),
+            registry=self.registry)
+
+    async def watch_loop(self) -> None:
+        """Measure the event loop's lag for as long as the app runs: a callback due every
+        ``LOOP_PROBE_S``, how late it ran.  A lag over a second is logged as a warning."""
+        loop = asyncio.get_running_loop()
+        while True:
+            due = loop.time() + LOOP_PROBE_S
+            await asyncio.sleep(LOOP_PROBE_S)
+            lag = max(0.0, loop.time() - due)
+            self.loop_lag.observe(lag)
+            if lag > 1.0:
+                log.warning("event loop stalled", extra={"fields": {"lag_s": round(lag, 3)}})
 
     def watch(self, state: Callable[[], dict[str, Any]]) -> None:
         """Report ``state()`` (the pool's and the job store's figures) at every scrape."""

@@ -41,7 +41,10 @@ def _only_stream_aborted(exc: BaseException) -> bool:
 
 
 class RequestContextMiddleware:
-    """Gives every request an id (``X-Request-ID``, echoed) and writes one JSON access line.
+    """Gives every request an id (``X-Request-ID``, echoed) and writes one JSON access line;
+    tells the client how long the server held the request before its answer's headers
+    (``Server-Timing: app;dur=MS``, the W3C header: from the request's arrival at this
+    middleware, so a client can tell the server's time from its own and the network's).
 
     Handlers add ``render_seconds`` and ``audio_seconds`` to ``request.state``; the line then
     carries the real-time factor (audio seconds per second of rendering).
@@ -66,6 +69,8 @@ class RequestContextMiddleware:
                 info["status"] = message["status"]
                 headers = list(message.get("headers", []))
                 headers.append((REQUEST_ID_HEADER.encode(), rid.encode()))
+                dur_ms = 1000 * (time.perf_counter() - t0)
+                headers.append((b"server-timing", f"app;dur={dur_ms:.1f}".encode()))
                 message = {**message, "headers": headers}
             elif message["type"] == "http.response.body":
                 info["bytes"] += len(message.get("body", b""))

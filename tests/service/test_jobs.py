@@ -196,6 +196,27 @@ def test_metrics(jobs_app: AppHarness) -> None:
     assert 'guitar_http_requests_total{method="GET",route="/jobs/{id}",status="404"}' in text
 
 
+def test_the_event_loop_s_lag_is_measured(jobs_app: AppHarness) -> None:
+    """guitar_event_loop_lag_seconds: a probe every 0.1 s; a loop held for 0.6 s shows in the
+    buckets above 0.25 s."""
+    def over_quarter() -> float:
+        text = jobs_app.get("/metrics").text
+        count = next(float(x.split()[-1]) for x in text.splitlines()
+                     if x.startswith("guitar_event_loop_lag_seconds_count"))
+        le = next(float(x.split()[-1]) for x in text.splitlines()
+                  if x.startswith('guitar_event_loop_lag_seconds_bucket{le="0.25"}'))
+        return count - le
+
+    before = over_quarter()
+
+    async def hold_the_loop() -> None:
+        time.sleep(0.6)  # noqa: ASYNC251 - a stall on purpose
+
+    jobs_app.run(hold_the_loop())
+    time.sleep(0.3)
+    assert over_quarter() == before + 1
+
+
 def test_retention_deletes_old_results(tmp_path: Path) -> None:
     from service.jobs.store import Store
 

@@ -278,3 +278,61 @@ def test_a_normal_close_logs_no_traceback(live_server):
     time.sleep(1.0)  # a task's lost exception is logged when it is collected
     log = "\n".join(live_server.log_lines())
     assert "never retrieved" not in log and "Traceback" not in log, log[-3000:]
+
+
+def _may_use_realtime() -> bool:
+    """Whether this machine lets a process put a thread on SCHED_RR (CAP_SYS_NICE)."""
+    import os
+    import threading
+
+    ok = []
+
+    def probe() -> None:
+        try:
+            os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(1))
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+            ok.append(True)
+        except (OSError, AttributeError):
+            pass
+
+    t = threading.Thread(target=probe)
+    t.start()
+    t.join()
+    return bool(ok)
+
+
+def test_the_live_audio_thread_runs_at_real_time_priority_and_its_preparer_does_not(
+        tmp_path_factory):
+    """GUITAR_LIVE_REALTIME_PRIORITY: the thread that computes every block on SCHED_RR (in the
+    mixed load, blocks the live worker finished late went from hundreds to those of the session
+    alone), the thread that prepares a new guitar (a fifth of a second to seconds) on normal
+    scheduling, so that it cannot hold a core ahead of everything else."""
+    import os
+
+    if not _may_use_realtime():
+        pytest.skip("no CAP_SYS_NICE here: SCHED_RR cannot be set")
+    s = UvicornServer(tmp_path_factory.mktemp("live-rt"), {
+        "GUITAR_WORKERS": "1", "GUITAR_LIVE_WORKERS": "1", "GUITAR_LIVE_PRESTART": "1",
+        "GUITAR_LIVE_REALTIME_PRIORITY": "10"}).start()
+    try:
+        wait_ready(lambda: httpx.get(s.url + "/live/status", timeout=2.0).json()["ready"])
+        pid = httpx.get(s.url + "/live/status", timeout=5).json()["pids"][0]
+        assert os.sched_getscheduler(pid) == os.SCHED_RR
+        assert os.sched_getparam(pid).sched_priority == 10
+        new = {**OPEN, "model": "waveguide", "guitar": {  # prepared by the preparer, seconds
+            "action_12th_m": 3e-3 + (time.time_ns() % 10**6) * 1e-12, "frets": 12}}
+
+        async def play() -> dict:
+            async with websockets.connect(ws_url(s)) as ws:
+                await ws.send(json.dumps(new))
+                while True:
+                    m = await asyncio.wait_for(ws.recv(), 120.0)
+                    if isinstance(m, str):
+                        return json.loads(m)
+
+        assert asyncio.run(play())["type"] == "opened"
+        others = [int(t) for t in os.listdir(f"/proc/{pid}/task") if int(t) != pid]
+        assert others  # the preparer's thread, at least
+        assert all(os.sched_getscheduler(t) == os.SCHED_OTHER for t in others)
+    finally:
+        s.stop()

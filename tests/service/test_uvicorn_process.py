@@ -93,8 +93,14 @@ def test_concurrent_requests_over_http(server: UvicornServer) -> None:
 
 
 def test_request_id_and_json_access_log(client: httpx.Client, server: UvicornServer) -> None:
+    t0 = time.perf_counter()
     r = client.post("/render", json=pluck_scene(0.3), headers={"X-Request-ID": "test-rid-42"})
+    elapsed = time.perf_counter() - t0
     assert r.headers["x-request-id"] == "test-rid-42"
+    # the server's own time: at least the render's, at most what the client waited
+    m = re.fullmatch(r"app;dur=(\d+\.\d)", r.headers["server-timing"])
+    assert m, r.headers["server-timing"]
+    assert float(r.headers["x-render-seconds"]) <= float(m.group(1)) / 1000 <= elapsed
     generated = client.get("/health").headers["x-request-id"]
     assert re.fullmatch("[0-9a-f]{32}", generated), generated  # a fresh uuid4, as hex
     time.sleep(0.2)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import json
 import os
 import random
 import signal
@@ -177,20 +178,33 @@ async def small_stream(c: httpx.AsyncClient, st: Stats, i: int) -> None:
 
 
 async def abandoned(c: httpx.AsyncClient, st: Stats, i: int, path: str, before: bool) -> None:
+    """A request whose client leaves: before the first byte or after the first bytes.  Leaving
+    before is a request on a socket of its own, closed after a random wait (as a client that goes
+    away closes its socket): cancelling a request inside ``c``'s pool could leave a connection
+    there that no later request got back (httpx's PoolTimeout, minutes later)."""
     kind = f"{'stream' if 'stream' in path else 'render'} left " + ("early" if before else "late")
     scene = maximal_scene(2.0) if i % 2 else small_scene(i)
+    if not before:
+        async with c.stream("POST", path, json=scene) as r:
+            async for _ in r.aiter_raw():
+                break  # the first bytes, then gone (the response closes its connection)
+        st.record(kind, r)
+        return
+    body = json.dumps(scene).encode()
+    url = c.base_url
+    reader, writer = await asyncio.open_connection(url.host, url.port)
     try:
-        if before:  # gone before the first byte
-            await asyncio.wait_for(c.post(path, json=scene), timeout=0.05 + random.random() * 0.3)
-            st.status[f"{kind}: answered first"] += 1
-        else:
-            async with c.stream("POST", path, json=scene) as r:
-                async for _ in r.aiter_raw():
-                    break  # the first bytes, then gone
-            st.record(kind, r)
-            return
-    except TimeoutError:
-        st.record(kind, None, "left")
+        writer.write(f"POST {path} HTTP/1.1\r\nHost: {url.host}:{url.port}\r\n"
+                     "Content-Type: application/json\r\n"
+                     f"Content-Length: {len(body)}\r\nConnection: close\r\n\r\n".encode() + body)
+        await writer.drain()
+        try:
+            first = await asyncio.wait_for(reader.readline(), 0.05 + random.random() * 0.3)
+            st.status[f"{kind}: answered first" if first else f"{kind}: closed by the server"] += 1
+        except TimeoutError:
+            st.record(kind, None, "left")
+    finally:
+        writer.close()
 
 
 async def maximal_render(c: httpx.AsyncClient, st: Stats, duration: float) -> None:

@@ -195,6 +195,9 @@
     return { lo, hi, row, x: (t) => (t / state.duration) * w, y: (p) => h - (p - lo + 1) * row };
   }
 
+  // Lets the browser run what waits (input, painting, the audio element) before going on.
+  const nextTask = () => new Promise((resolve) => setTimeout(resolve, 0));
+
   function drawRoll() {
     const canvas = q("#score-roll");
     const [g, w, h, dpr] = fit(canvas);
@@ -435,7 +438,10 @@
       const opts = options(true);
       if (opts.tracks && !opts.tracks.length) { setError("Choose at least one track."); setStatus(""); return; }
       const scene = await loadScene(true);
+      // each drawing of a whole song in a task of its own: one long task would hold the page
+      await nextTask();
       tabTracks(scene);
+      await nextTask();
       drawRoll();
       await state.limitsReady;
       const limit = state.limits ? state.limits.max_duration_s : Infinity;

@@ -163,8 +163,13 @@ def test_jobs_take_turns_by_client_and_cost(server) -> None:
     alice, bob = {"X-API-Key": "alice"}, {"X-API-Key": "bob"}
     post = lambda scene, key: httpx.post(server.url + "/jobs", json=scene, headers=key,  # noqa: E731
                                          timeout=30)
+    # the job runner busy first (a job of a third client, seconds), so that all four queue
+    # before any is claimed, however fast each one renders
+    blocker = httpx.post(server.url + "/jobs", json=heavy_scene(3.0), timeout=30).json()
+    wait_job(server, blocker["id"], ("running",))
     a = [post(chord_scene(1.0 + 0.01 * i), alice).json() for i in range(3)]
     b = post(chord_scene(1.0), bob).json()
+    assert wait_job(server, blocker["id"])["status"] == "done"
     jobs = {j["id"]: wait_job(server, j["id"]) for j in [*a, b]}
     assert all(j["status"] == "done" for j in jobs.values()), jobs
     order = sorted(jobs, key=lambda k: jobs[k]["started"])

@@ -35,8 +35,11 @@ except ImportError:
         from engine.instrument import prepare
     except ImportError:
         from engine.guitar import prepare
+import engine
 from engine import RenderOptions
 from engine.scene import Scene
+# the engine of the tree being counted, not of wherever this script was started
+assert os.path.realpath(engine.__file__).startswith(os.path.realpath(os.getcwd())), engine.__file__
 seconds = float(sys.argv[1])
 scenes = json.loads(sys.argv[2])
 def engine_of(sc, duration):  # the events before ``duration`` (the warm-up's is shorter)
@@ -67,7 +70,7 @@ def count_tree(tree: Path, chosen: dict, seconds: float) -> list[int]:
     native = subprocess.run(argv, env=env, cwd=tree, capture_output=True, text=True)
     if native.returncode != 0:
         sys.exit(f"the native warm-up run in {tree} failed:\n{native.stderr[-3000:]}")
-    return callgrind_marked(argv, env, len(chosen))
+    return callgrind_marked(argv, env, len(chosen), tree)
 
 
 def main() -> None:

@@ -128,14 +128,16 @@ def _totals(path: Path) -> int:
     raise ValueError(f"no totals line in {path}")
 
 
-def callgrind_marked(argv: list[str], env: dict, n: int) -> list[int]:
-    """Run ``argv`` under callgrind and return the instructions between its first n + 1 calls of
-    ``os.getppid()`` (the markers): one count per stretch, in order."""
+def callgrind_marked(argv: list[str], env: dict, n: int, cwd: Path | None = None) -> list[int]:
+    """Run ``argv`` under callgrind (in ``cwd``) and return the instructions between its first
+    n + 1 calls of ``os.getppid()`` (the markers): one count per stretch, in order.  A
+    ``python -c`` child puts its working directory ahead of ``PYTHONPATH``: run it in the tree
+    whose engine it is meant to import."""
     with tempfile.TemporaryDirectory(prefix="guitar-callgrind-") as tmp:
         out = Path(tmp) / "cg.out"
         run = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
                               "--dump-before=getppid", *argv], env=env, capture_output=True,
-                             text=True)
+                             text=True, cwd=cwd)
         if run.returncode != 0:
             sys.exit(f"the run under valgrind failed:\n{run.stderr[-3000:]}")
         # dump 1 is everything before the first marker, dump i + 2 the stretch after marker i + 1

@@ -194,29 +194,26 @@ def test_a_free_worker_goes_to_the_cheapest_waiting_request_then_to_the_oldest()
             order.append(name)
             pool.loop.call_soon(pool._free, got)  # done at once: the next waiter's turn
 
-        big = asyncio.ensure_future(want("4 s", 4.0))
-        await asyncio.sleep(0.01)
-        small = asyncio.ensure_future(want("0.1 s", 0.1))
-        await asyncio.sleep(0.01)
-        pool._free(w)
-        await asyncio.gather(big, small)
-        assert order == ["0.1 s", "4 s"]
-        await asyncio.sleep(0.01)
-        assert pool._idle == [w]  # back once nobody waits
-        pool._idle.clear()
+        async def race(first: tuple, second: tuple, waited_s: float = 0.0) -> list[str]:
+            """Two requests wait (the first for ``waited_s`` more), then one worker comes free."""
+            order.clear()
+            a = asyncio.ensure_future(want(*first))
+            await asyncio.sleep(0.01)
+            pool._waiters[0].since -= waited_s
+            b = asyncio.ensure_future(want(*second))
+            await asyncio.sleep(0.01)
+            pool._free(w)
+            await asyncio.gather(a, b)
+            await asyncio.sleep(0.01)
+            assert pool._idle == [w]  # back once nobody waits
+            pool._idle.clear()
+            return list(order)
+
+        assert await race(("4 s", 4.0), ("0.1 s", 0.1)) == ["0.1 s", "4 s"]
         # waiting counts: a 1 s request that has waited 2 s goes before a fresh 0.5 s one
-        order.clear()
-        older = asyncio.ensure_future(want("1 s, waited", 1.0))
-        await asyncio.sleep(0.01)
-        pool._waiters[0].since -= 2.0
-        newer = asyncio.ensure_future(want("0.5 s, new", 0.5))
-        await asyncio.sleep(0.01)
-        pool._free(w)
-        await asyncio.gather(older, newer)
-        assert order == ["1 s, waited", "0.5 s, new"]
-        await asyncio.sleep(0.01)
+        assert await race(("1 s, waited", 1.0), ("0.5 s, new", 0.5), 2.0) == [
+            "1 s, waited", "0.5 s, new"]
         # a waiter that gave up (timed out, client gone) never swallows the worker
-        pool._idle.clear()
         gone = asyncio.ensure_future(want("gone", 0.0))
         await asyncio.sleep(0.01)
         gone.cancel()

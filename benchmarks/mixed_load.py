@@ -197,7 +197,9 @@ def loop_lag_summary(before: dict[float, float], after: dict[float, float]) -> s
         le = next(le for le, n in delta.items() if n >= q * total)
         return "over 30 s" if le == float("inf") else f"under {le * 1e3:g} ms"
 
-    over = lambda x: int(total - delta[x])  # noqa: E731
+    def over(x: float) -> int:
+        return int(total - delta[x])
+
     return (f"{int(total)} probes: p50 {bound(0.5)}, p99 {bound(0.99)}; {over(0.1)} late by "
             f"over 100 ms, {over(1.0)} by over 1 s")
 

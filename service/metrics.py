@@ -2,8 +2,8 @@
 
 Counted as requests end (``MetricsMiddleware``): requests by route and status, renders by endpoint
 and outcome, render wall time and audio seconds.  Measured all along (``Metrics.watch_loop``): the
-event loop's lag.  Read when scraped (``_StateCollector``): jobs by
-status, the pool's queue depth, busy and ready workers, worker restarts.  Each app has a registry
+event loop's lag.  Read when scraped (``_StateCollector``): jobs by status, the pool's queue depth,
+busy and ready workers, worker restarts.  Each app has a registry
 of its own, so several apps in one process (tests) do not share counters.
 """
 

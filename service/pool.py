@@ -463,15 +463,16 @@ class WorkerPool:
         return RenderOutput(msg[2], meta["render_seconds"], meta["frames"], meta["energy_error"],
                             meta["warnings"])
 
-    async def call(self, kind: str, payload: dict[str, Any], time_limit_s: float,
-                   cost: float = 0.0) -> tuple[bytes, dict[str, Any]]:
+    async def call(self, kind: str, payload: dict[str, Any], time_limit_s: float
+                   ) -> tuple[bytes, dict[str, Any]]:
         """Run one job of another ``kind`` in a worker (``score``: import a score; ``labels``: a
         scene's labels) under the same admission and deadline as a render: a hostile file is
         handled by a worker that is killed at the deadline, never by the API process.  Returns
-        the worker's bytes and meta."""
+        the worker's bytes and meta.  It waits for a worker as a request of no cost (its cost is
+        not known before it runs)."""
         release = self._admit()
         try:
-            job = await self._dispatch(kind, payload, time_limit_s, on_finish=release, cost=cost)
+            job = await self._dispatch(kind, payload, time_limit_s, on_finish=release)
         except BaseException:
             release()
             raise

@@ -134,8 +134,8 @@ def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -
                 _score(conn, job_id, msg[2])
             elif kind == "labels":
                 _labels(conn, job_id, msg[2])
-        except (BrokenPipeError, ConnectionResetError):
-            raise
+        except (BrokenPipeError, ConnectionResetError, EOFError):
+            raise  # the parent has gone, or asked this worker to stop during a render's cancel check
         except Exception as exc:  # reported to the parent, which maps it to a status code
             conn.send(("error", job_id, *_classify(exc)))
 

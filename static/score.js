@@ -8,7 +8,8 @@
 //   GET /jobs/{id}/stream   played as it renders (a WAV whose bytes come as they are written)
 //   POST /render/score  the file -> audio
 //
-// Self-contained: it uses nothing of app.js.
+// The scene and the labels are fetched and parsed in a worker (score-reader.js): a whole song's
+// are megabytes of JSON. Self-contained otherwise: it uses nothing of app.js.
 "use strict";
 
 (() => {
@@ -33,11 +34,15 @@
   // A refusal in the page's words: a 422's detail is a list of {field, msg, message}, each said
   // as "<the page's field name>: <what is wrong>"; anything else is a plain sentence.
   async function failure(r) {
-    const body = await r.json().catch(() => ({ detail: r.statusText }));
-    const d = body.detail;
+    return refusalText({ status: r.status, statusText: r.statusText,
+                         body: await r.json().catch(() => null) });
+  }
+
+  function refusalText({ status, statusText, body }) {
+    const d = body ? body.detail : statusText;
     if (!Array.isArray(d)) {
-      if (r.status === 429 || r.status === 503) return "The service is busy: try again in a moment.";
-      return String(d || `The service answered ${r.status}.`);
+      if (status === 429 || status === 503) return "The service is busy: try again in a moment.";
+      return String(d || `The service answered ${status}.`);
     }
     return d.map((e) => {
       const field = e.field || "";
@@ -143,21 +148,24 @@
     else if (q("#score-audio").src) setStatus("Tracks changed: press Play to hear the new mix.");
   }
 
-  // ---- labels (JAMS) -> notes -----------------------------------------------------------------
-  function notesOf(jam) {
-    const notes = [];
-    for (const ann of jam.annotations) {
-      if (ann.namespace !== "note_midi") continue;
-      const extra = (ann.sandbox && ann.sandbox.notes) || [];
-      ann.data.forEach((obs, i) => {
-        const n = extra[i] || {};
-        notes.push({ time: obs.time, duration: obs.duration, pitch: obs.value,
-                     track: n.track ?? ann.sandbox.track ?? 0, trackName: n.track_name ?? ann.sandbox.track_name ?? "",
-                     string: n.string ?? ann.sandbox.string, fret: n.fret,
-                     articulations: n.articulations || [] });
-      });
-    }
-    return notes.sort((a, b) => a.time - b.time || a.pitch - b.pitch);
+  // ---- reading a score: the scene and its labels, parsed in score-reader.js -------------------
+  let reader = null;
+  let reads = 0;
+  function readScore(opts) {
+    reader = reader || new Worker("/static/score-reader.js");
+    const id = ++reads;
+    return new Promise((resolve, reject) => {
+      const done = (event) => {
+        if (event.type === "message" && event.data.id !== id) return;  // an older read's answer
+        reader.removeEventListener("message", done);
+        reader.removeEventListener("error", done);
+        if (event.type === "error") reject(new Error(event.message || "the score reader failed"));
+        else resolve(event.data);
+      };
+      reader.addEventListener("message", done);
+      reader.addEventListener("error", done);
+      reader.postMessage({ id, file: state.file, options: opts });
+    });
   }
 
   // ---- drawing --------------------------------------------------------------------------------
@@ -308,25 +316,21 @@
 
   // The scene and its labels for the current choices: what the tab and the roll show.
   async function loadScene(withTracks) {
-    const key = JSON.stringify(options(withTracks));
+    const opts = options(withTracks);
+    const key = JSON.stringify(opts);
     if (key === state.sceneKey && state.scene) return state.scene;  // already read for these choices
-    const r = await fetch("/score/scene", { method: "POST", body: form({ options: options(withTracks) }) });
-    if (!r.ok) throw new PageError(await failure(r));
-    showWarnings(r.headers.get("x-score-warnings-summary") || r.headers.get("x-score-warnings"));
-    const scene = await r.json();
-    // from the score itself: a whole song's scene may be larger than a request body may be
-    const jamR = await fetch("/score/labels", { method: "POST", body: form({ options: options(withTracks) }) });
-    if (!jamR.ok) throw new PageError(await failure(jamR));
-    const jamText = await jamR.text();
-    state.scene = scene;
-    state.duration = scene.duration;
-    state.notes = notesOf(JSON.parse(jamText));
+    const got = await readScore(opts);
+    if (got.warnings !== undefined) showWarnings(got.warnings);
+    if (got.refused) throw new PageError(refusalText(got.refused));
+    if (got.error) throw new Error(got.error);
+    state.scene = got.scene;
+    state.duration = got.scene.duration;
+    state.notes = got.notes;
     state.sceneKey = key;
     const stem = state.file.name.replace(/\.[^.]+$/, "");
-    download("#score-dl-labels", blobUrl("labels", new Blob([jamText], { type: "application/json" })), `${stem}.jams`);
-    download("#score-dl-scene", blobUrl("scene", new Blob([JSON.stringify(scene, null, 1)],
-                                                          { type: "application/json" })), `${stem}.json`);
-    return scene;
+    download("#score-dl-labels", blobUrl("labels", got.jamBlob), `${stem}.jams`);
+    download("#score-dl-scene", blobUrl("scene", got.sceneBlob), `${stem}.json`);
+    return state.scene;
   }
 
   class PageError extends Error {}

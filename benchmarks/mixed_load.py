@@ -29,7 +29,8 @@ timed them (``Server-Timing``: from the request's arrival to the answer's header
 generator, one Python process at the default niceness running every client, competes for the
 same two cores, and its own delays are in the first figure only), live underruns (client and
 server) in both phases, the API process's event-loop lag as the server measures it
-(``guitar_event_loop_lag_seconds``) and how long ``GET /health/live`` takes as the load generator
+(``guitar_event_loop_lag_seconds``) and its garbage collector's pauses (``guitar_gc_pause_seconds``),
+how long ``GET /health/live`` takes as the load generator
 sees it, status counts per kind (a 5xx other than 503 with Retry-After counts as an error), jobs
 done, and the RSS of the server and of every process below it before and after, with the CPU
 each used.
@@ -175,14 +176,39 @@ def late_blocks(url: str) -> int | None:
     return httpx.get(url + "/live/status", timeout=10).json().get("late_blocks")
 
 
+def histogram(url: str, name: str) -> dict[str, dict[float, float]]:
+    """A histogram of the server's ``/metrics``: cumulative count per bound, for each value of
+    its label other than ``le`` ("" when it has none)."""
+    out: dict[str, dict[float, float]] = {}
+    for line in httpx.get(url + "/metrics", timeout=10).text.splitlines():
+        if line.startswith(name + "_bucket{"):
+            labels = line[len(name) + 8:line.index("}")]
+            le = labels.split('le="', 1)[1].split('"', 1)[0]
+            other = ",".join(x for x in labels.split(",") if not x.startswith("le="))
+            out.setdefault(other.split('"')[1] if '"' in other else "", {})[float(le)] = \
+                float(line.rsplit(" ", 1)[1])
+    return out
+
+
 def loop_lag_buckets(url: str) -> dict[float, float]:
     """The server's ``guitar_event_loop_lag_seconds`` histogram: cumulative count per bound."""
-    out = {}
-    for line in httpx.get(url + "/metrics", timeout=10).text.splitlines():
-        if line.startswith("guitar_event_loop_lag_seconds_bucket{"):
-            le = line.split('le="', 1)[1].split('"', 1)[0]
-            out[float(le)] = float(line.rsplit(" ", 1)[1])
-    return out
+    return histogram(url, "guitar_event_loop_lag_seconds").get("", {})
+
+
+def gc_pause_summary(before: dict[str, dict[float, float]],
+                     after: dict[str, dict[float, float]]) -> str:
+    """The garbage collector's pauses over a phase (``guitar_gc_pause_seconds``) per generation:
+    how many, and the bound the longest falls under."""
+    parts = []
+    for gen in sorted(after):
+        delta = {le: n - before.get(gen, {}).get(le, 0.0) for le, n in sorted(after[gen].items())}
+        total = delta.get(float("inf"), 0.0)
+        if not total:
+            continue
+        le = next(le for le, n in delta.items() if n >= total)
+        parts.append(f"generation {gen}: {int(total)}, longest "
+                     + ("over 1 s" if le == float("inf") else f"under {le * 1e3:g} ms"))
+    return "; ".join(parts) or "none"
 
 
 def loop_lag_summary(before: dict[float, float], after: dict[float, float]) -> str:
@@ -429,6 +455,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
                                   a.live_client_nice), a.baseline_seconds + 120)
     late1 = late_blocks(url)
     lag1 = loop_lag_buckets(url)
+    gc1 = histogram(url, "guitar_gc_pause_seconds")
 
     live = start_live(url, a.live, a.seconds, a.jitter_ms, a.live_client_nice)
     t0 = time.monotonic()
@@ -437,6 +464,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     mixed_live = live_result(live, 120)
     late2 = late_blocks(url)
     lag2 = loop_lag_buckets(url)
+    gc2 = histogram(url, "guitar_gc_pause_seconds")
     drain = time.monotonic() + 120
     while time.monotonic() < drain:
         pool = httpx.get(url + "/health", timeout=10).json()["pool"]
@@ -470,6 +498,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
          f"{len(mixed_live.get('failed', []))} sessions failed"),
         ("API loop lag in the mixed load, the server's own probe",
          loop_lag_summary(lag1, lag2)),
+        ("API garbage collector's pauses in the mixed load", gc_pause_summary(gc1, gc2)),
         ("API loop: GET /health/live during the load",
          f"p50 {_pct(st.probe_s, 50) * 1e3:.0f} ms, p99 {_pct(st.probe_s, 99) * 1e3:.0f} ms, "
          f"max {max(st.probe_s, default=0) * 1e3:.0f} ms"),

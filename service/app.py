@@ -9,6 +9,7 @@ Handlers live in ``service.routes``; the worker pool in ``service.pool``; settin
 from __future__ import annotations
 
 import asyncio
+import gc
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
@@ -60,11 +61,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
         counters.watch(state)
         loop_watch = asyncio.create_task(counters.watch_loop(), name="loop-lag")
+        gc_unwatch = counters.watch_gc()
+        # What exists now (modules, routes, schemas, settings) lives as long as the process: out
+        # of the collector's sight, a full collection no longer walks it: each collection stops
+        # the event loop, which relays live blocks within a jitter budget of tens of ms
+        # (guitar_gc_pause_seconds; benchmarks/mixed_load.py prints them).
+        gc.freeze()
         try:
             yield {"pool": pool, "settings": settings, "live": live_pool, "jobs": runner,
                    "metrics": counters, "scores": scores}
         finally:
             loop_watch.cancel()
+            gc_unwatch()
             # Uvicorn has let the requests in flight finish; running jobs go back to the queue
             # before the workers stop, so that the next start runs them again.
             await runner.stop()

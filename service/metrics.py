@@ -2,16 +2,19 @@
 
 Counted as requests end (``MetricsMiddleware``): requests by route and status, renders by endpoint
 and outcome, render wall time and audio seconds.  Measured all along (``Metrics.watch_loop``): the
-event loop's lag.  Read when scraped (``_StateCollector``): jobs by status, the pool's queue depth,
-busy and ready workers, worker restarts.  Each app has a registry
+event loop's lag.  Measured as they happen (``Metrics.watch_gc``): the pauses of Python's garbage
+collector, each a stall of the event loop.  Read when scraped (``_StateCollector``): jobs by
+status, the pool's queue depth, busy and ready workers, worker restarts.  Each app has a registry
 of its own, so several apps in one process (tests) do not share counters.
 """
 
 from __future__ import annotations
 
 import asyncio
+import gc
 import logging
 import re
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -61,6 +64,26 @@ class Metrics:
             "on top of its own work)",
             buckets=(0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0),
             registry=self.registry)
+        self.gc_pause = Histogram(
+            "guitar_gc_pause_seconds", "pauses of the API process's garbage collector by "
+            "generation (the event loop stands still for each)", ["generation"],
+            buckets=(0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1.0),
+            registry=self.registry)
+
+    def watch_gc(self) -> Callable[[], None]:
+        """Time every collection of the garbage collector from now on; returns the function that
+        stops it."""
+        started = [0.0]
+
+        def callback(phase: str, info: dict[str, int]) -> None:
+            if phase == "start":
+                started[0] = time.perf_counter()
+            else:
+                self.gc_pause.labels(str(info["generation"])).observe(
+                    time.perf_counter() - started[0])
+
+        gc.callbacks.append(callback)
+        return lambda: gc.callbacks.remove(callback)
 
     async def watch_loop(self) -> None:
         """Measure the event loop's lag for as long as the app runs: a callback due every

@@ -3,6 +3,7 @@ data directory) and as a real uvicorn process killed mid-job and started again."
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import time
@@ -215,6 +216,24 @@ def test_the_event_loop_s_lag_is_measured(jobs_app: AppHarness) -> None:
     jobs_app.run(hold_the_loop())
     time.sleep(0.3)
     assert over_quarter() == before + 1
+
+
+def test_the_garbage_collector_s_pauses_are_measured(jobs_app: AppHarness) -> None:
+    """guitar_gc_pause_seconds: every collection, by generation; and what the app held when it
+    had started is frozen out of the collector's sight (gc.freeze)."""
+    assert gc.get_freeze_count() > 0
+
+    def full_collections() -> float:
+        return next((float(x.split()[-1]) for x in jobs_app.get("/metrics").text.splitlines()
+                     if x.startswith('guitar_gc_pause_seconds_count{generation="2"}')), 0.0)
+
+    before = full_collections()
+
+    async def collect() -> None:
+        gc.collect()
+
+    jobs_app.run(collect())
+    assert full_collections() >= before + 1
 
 
 def test_retention_deletes_old_results(tmp_path: Path) -> None:

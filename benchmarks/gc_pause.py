@@ -1,0 +1,64 @@
+"""How long a full collection of Python's garbage collector stops the API process, with what the
+process holds at startup in the collector's sight and frozen out of it (``gc.freeze``, as the
+app's lifespan does once it has started).
+
+One process imports the app (``service.app``: FastAPI, the routes, the engine and its schemas)
+and runs its lifespan as uvicorn does (workers started and warm), then times full collections
+(``gc.collect()``, the median and the longest of ``--rounds``) before and after ``gc.freeze()``.
+Each such collection runs on the event loop and stops every request and live block for its
+length; ``guitar_gc_pause_seconds`` counts those of a running server.
+
+    python -m benchmarks.gc_pause [--rounds 9]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import gc
+import os
+import statistics
+import tempfile
+import time
+
+
+def collections(rounds: int) -> tuple[float, float]:
+    times = []
+    for _ in range(rounds):
+        t0 = time.perf_counter()
+        gc.collect()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), max(times)
+
+
+async def measure(rounds: int) -> list[tuple[str, int, float, float]]:
+    from service.app import create_app
+
+    app = create_app()
+    rows = []
+    async with app.router.lifespan_context(app):
+        gc.unfreeze()  # the lifespan froze what it holds: first, as without it
+        rows.append(("everything in sight", len(gc.get_objects()), *collections(rounds)))
+        gc.freeze()
+        rows.append(("after gc.freeze()", len(gc.get_objects()), *collections(rounds)))
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=9)
+    a = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="gc-pause-") as tmp:
+        os.environ.setdefault("GUITAR_DATA_DIR", tmp)
+        os.environ.setdefault("GUITAR_WORKERS", "1")
+        os.environ.setdefault("GUITAR_LIVE_WORKERS", "0")
+        rows = asyncio.run(measure(a.rounds))
+    print(f"\nFull collections of the API process's heap after startup ({a.rounds} rounds)\n")
+    print("| objects the collector tracks | count | median pause, ms | longest, ms |")
+    print("| --- | ---: | ---: | ---: |")
+    for name, n, med, most in rows:
+        print(f"| {name} | {n} | {med * 1e3:.1f} | {most * 1e3:.1f} |")
+
+
+if __name__ == "__main__":
+    main()

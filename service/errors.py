@@ -141,8 +141,34 @@ def _short_input(value: Any) -> Any:
     return f"(a {type(value).__name__}, not echoed)"
 
 
+def portable_errors(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Pydantic's errors as plain JSON data, for a worker to send to the API process: the first
+    ``MAX_ERRORS``, each input and context shortened as the answer shows them (a score's scene
+    can be megabytes), and the count of the others as the answer says it."""
+    out = []
+    for err in errors[:MAX_ERRORS]:
+        item = {k: v for k, v in err.items() if k != "url"}
+        if "input" in item:
+            item["input"] = _short_input(item["input"])
+        if "ctx" in item:
+            item["ctx"] = {k: _short_input(v) for k, v in dict(item["ctx"]).items()}
+        out.append(item)
+    if len(errors) > MAX_ERRORS:
+        out.append(_too_many(len(errors) - MAX_ERRORS))
+    return safe_json(jsonable_encoder(out))
+
+
+def _too_many(more: int) -> dict[str, Any]:
+    return {"type": "too_many_errors", "loc": ["body"], "field": "",
+            "msg": f"and {more} more errors", "message": f"and {more} more errors like "
+            f"these (the first {MAX_ERRORS} are listed)"}
+
+
 def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
     out = []
+    counted = errors[-1] if errors and errors[-1].get("type") == "too_many_errors" else None
+    if counted is not None:  # cut short by ``portable_errors``
+        errors = errors[:-1]
     more = len(errors) - MAX_ERRORS
     for err in errors[:MAX_ERRORS]:
         item = dict(err)
@@ -171,9 +197,9 @@ def _detail(errors: list[dict[str, Any]]) -> list[dict[str, Any]]:
         item.pop("url", None)
         out.append(item)
     if more > 0:
-        out.append({"type": "too_many_errors", "loc": ["body"], "field": "",
-                    "msg": f"and {more} more errors", "message": f"and {more} more errors like "
-                    f"these (the first {MAX_ERRORS} are listed)"})
+        out.append(_too_many(more))
+    elif counted is not None:
+        out.append(counted)
     return safe_json(jsonable_encoder(out))
 
 

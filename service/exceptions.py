@@ -28,7 +28,8 @@ class WorkerDied(PoolError):
 
 
 class RenderFailed(PoolError):
-    """The engine refused or failed the scene; ``kind`` is non_finite, invalid or internal."""
+    """The engine refused or failed the scene; ``kind`` is non_finite, invalid, internal or fields
+    (a score's prepared scene is invalid: ``message`` is pydantic's errors as JSON)."""
 
     def __init__(self, kind: str, message: str):
         super().__init__(message)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import dataclass
 from pathlib import PurePath
 from typing import Any
 
@@ -19,6 +20,7 @@ from engine.scene import MAX_EVENTS, SAMPLE_RATE_MAX, SAMPLE_RATE_MIN
 from . import audio
 from .exceptions import RenderFailed, RenderTimeout
 from .responses import while_connected
+from .validation import Figures
 
 SCORE_SUFFIXES = engine.SCORE_SUFFIXES  # every score format the engine reads
 _OPTION_IN_MESSAGE = re.compile(r"^(options\.[a-z_]+): (.*)$", re.S)
@@ -114,31 +116,51 @@ async def read_upload(file: UploadFile) -> tuple[bytes, str]:
     return data, name
 
 
-async def import_score(request: Request, data: bytes, name: str, options: dict[str, Any],
-                       max_events: int = MAX_EVENTS,
-                       max_events_setting: str = "the engine's limit"
-                       ) -> tuple[dict[str, Any], list[str]]:
-    """The scene a score becomes and the importer's warnings, from a worker.  A scene of more
-    than ``max_events`` events is refused by the worker in one line (``max_events_setting``
-    names the limit), so this process never parses or echoes a scene of megabytes; a client
-    gone withdraws the import.  The same file with the same options is imported once
-    (``service.score_cache``)."""
+@dataclass(frozen=True)
+class Prepared:
+    """A score's scene as a worker made it ready: its JSON (the client's options and output
+    fields set, valid), the importer's warnings and the figures the limits read."""
+
+    raw: bytes
+    warnings: list[str]
+    figures: Figures
+
+
+async def prepare_score(request: Request, data: bytes, name: str, opts: ScoreOptions,
+                        importer: dict[str, Any], output: dict[str, Any] | None = None,
+                        max_events: int = MAX_EVENTS,
+                        max_events_setting: str = "the engine's limit") -> Prepared:
+    """The scene a score becomes, from a worker: imported (``importer``: the importer's options),
+    the scene's own options (``opts.quality``, ``opts.model``) and ``output`` fields set,
+    validated and measured there; this process never parses a whole song's scene.  A scene of
+    more than ``max_events`` events is refused by the worker in one line (``max_events_setting``
+    names the limit); a client gone withdraws the work.  The same file with the same importer
+    options is imported once (``service.score_cache``): the worker then starts from the import
+    kept here."""
     settings, pool = request.state.settings, request.state.pool
     cache = request.state.scores
-    key = cache.key(data, name, options)
-    kept = cache.get(key, options, max_events)
+    key = cache.key(data, name, importer)
+    kept = cache.get(key, importer, max_events)
+    prepare = {"quality": opts.quality, "model": opts.model, "output": output or {}}
+    job: dict[str, Any] = {"filename": name, "options": importer, "max_events": max_events,
+                           "max_events_setting": max_events_setting, "prepare": prepare}
     if kept is not None:
-        return json.loads(kept.raw), list(kept.warnings)
+        job["imported"] = kept.raw
+    else:
+        job["data"] = data
     try:
         raw, meta = await while_connected(request, pool.call(
-            "score", {"data": data, "filename": name, "options": options,
-                      "max_events": max_events, "max_events_setting": max_events_setting},
-            settings.score_import_time_limit_s), settings.disconnect_poll_s)
+            "score", job, settings.score_import_time_limit_s), settings.disconnect_poll_s)
     except RenderTimeout:
         raise RenderTimeout(f"importing the score took longer than its time limit of "
                             f"{settings.score_import_time_limit_s:g} s "
                             "(GUITAR_SCORE_IMPORT_TIME_LIMIT_S) and was stopped") from None
     except RenderFailed as exc:
+        if exc.kind == "fields":
+            raise RequestValidationError([
+                e if e.get("type") == "too_many_errors"
+                else {**e, "loc": ("body", *_scene_loc(tuple(e["loc"])))}
+                for e in json.loads(exc.message)]) from None
         if exc.kind != "invalid":
             raise
         # The importer's one line names an option (``options.presets: ...``) or the file.
@@ -147,29 +169,14 @@ async def import_score(request: Request, data: bytes, name: str, options: dict[s
         if field == "file" and name and name not in msg:
             msg = f"{name}: {msg}"
         raise form_error(field, msg, "score_invalid") from None
-    cache.put(key, options, raw, meta)
-    return json.loads(raw), list(meta["warnings"])
+    if kept is None:
+        cache.put(key, importer, meta["imported"], meta)
+    warnings = list(kept.warnings) if kept is not None else list(meta["warnings"])
+    return Prepared(raw, warnings, Figures(**meta["figures"]))
 
 
 def importer_options(opts: ScoreOptions) -> dict[str, Any]:
     return opts.model_dump(exclude_none=True, exclude={"quality", "model"})
-
-
-def apply_scene_options(scene: dict[str, Any], opts: ScoreOptions) -> None:
-    """The options that are the scene's own fields, not the importer's."""
-    if opts.quality is not None:
-        scene["quality"] = opts.quality
-    if opts.model is not None:
-        scene["model"] = opts.model
-
-
-def validate_scene(scene: dict[str, Any]) -> engine.Scene:
-    try:
-        return engine.Scene.model_validate(scene)
-    except ValidationError as exc:
-        raise RequestValidationError([
-            {**e, "loc": ("body", *_scene_loc(e["loc"]))} for e in exc.errors(include_url=False)
-        ]) from None
 
 
 def _scene_loc(loc: tuple) -> tuple:

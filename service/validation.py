@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable, Coroutine, Iterator
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from fastapi import Request, Response
@@ -112,18 +113,58 @@ class StrictJSONRoute(APIRoute):
         return strict_handler
 
 
+@dataclass(frozen=True)
+class Figures:
+    """What the limits and the routes read of a valid scene.  A score's scene is parsed, checked
+    and measured in a worker (``service.worker``, job ``score``), which sends these figures and
+    the scene's JSON: the API process never holds a whole song's scene, whose parsing would stop
+    its event loop for tens of milliseconds."""
+
+    duration: float
+    sample_rate: int
+    events: int  # over all tracks
+    expanded: int  # single-string events (``engine.expanded_event_count``)
+    tracks: bool  # a scene of tracks (the field a count is reported at)
+    quality: str
+    work: float  # ``engine.estimate_cost``
+    per_second: float
+    strings: int
+    format: str
+    subtype: str | None
+    channels: int
+    stems: bool
+    diagnostics: bool
+
+    @classmethod
+    def of(cls, scene: engine.Scene) -> Figures:
+        cost = engine.estimate_cost(scene)
+        return cls(duration=scene.duration, sample_rate=scene.sample_rate,
+                   events=scene.event_count(), expanded=engine.expanded_event_count(scene),
+                   tracks=scene.tracks is not None, quality=scene.quality, work=cost.work,
+                   per_second=cost.per_second, strings=len(cost.strings),
+                   format=scene.output.format, subtype=scene.output.subtype,
+                   channels=scene.output.channels, stems=bool(scene.output.stems),
+                   diagnostics=bool(scene.diagnostics))
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
 def _error(field: str, kind: str, msg: str, value: Any, ctx: dict[str, Any]) -> dict[str, Any]:
     return {"type": kind, "loc": ("body", *field.split(".")), "msg": msg, "input": value,
             "ctx": ctx}
 
 
-def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None = None) -> float:
-    """Raise a 422 for a valid scene that is outside this server's limits (``max_events``: a
-    limit other than ``settings.max_events``, e.g. a score's), its estimated cost included;
-    return the estimated seconds of its render (``engine.estimate_cost``)."""
+def check_limits(scene: engine.Scene | Figures, settings: Settings,
+                 max_events: int | None = None) -> float:
+    """Raise a 422 for a valid scene (or a worker's figures of one) that is outside this server's
+    limits (``max_events``: a limit other than ``settings.max_events``, e.g. a score's), its
+    estimated cost included; return the estimated seconds of its render."""
+    if isinstance(scene, engine.Scene):
+        scene = Figures.of(scene)
     errors = []
     limit = settings.max_events if max_events is None else max_events
-    events = scene.event_count()  # over all tracks
+    events = scene.events
     if scene.duration > settings.max_duration_s:
         errors.append(_error(
             "duration", "less_than_equal",
@@ -133,7 +174,7 @@ def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None
     if events > limit:
         which = "GUITAR_MAX_EVENTS" if max_events is None else "GUITAR_MAX_SCORE_EVENTS"
         errors.append(_error(
-            "events" if scene.tracks is None else "tracks", "too_long",
+            "tracks" if scene.tracks else "events", "too_long",
             f"List should have at most {limit} items "
             f"(service limit {which}, counted over all tracks), not {events}", events,
             {"max_length": limit}))
@@ -145,7 +186,7 @@ def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None
             "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate,
             {"ge": settings.min_sample_rate, "le": settings.max_sample_rate}))
     if not errors:
-        expanded = engine.expanded_event_count(scene)
+        expanded = scene.expanded
         if expanded > settings.max_expanded_events:
             errors.append(_error(
                 "events", "too_long",
@@ -155,15 +196,14 @@ def check_limits(scene: engine.Scene, settings: Settings, max_events: int | None
                 expanded, {"max_length": settings.max_expanded_events}))
     if errors:
         raise RequestValidationError(errors)
-    cost = engine.estimate_cost(scene)
-    seconds = settings.estimated_seconds(cost.work)
+    seconds = settings.estimated_seconds(scene.work)
     if seconds > settings.max_render_s:
-        most = settings.max_render_s * settings.work_per_second / cost.per_second
+        most = settings.max_render_s * settings.work_per_second / scene.per_second
         raise RequestValidationError([_error(
             "duration", "render_cost",
-            f"this scene would take about {seconds:.0f} s to render ({len(cost.strings)} strings "
+            f"this scene would take about {seconds:.0f} s to render ({scene.strings} strings "
             f"simulated at quality {scene.quality!r} and {scene.sample_rate} Hz cost about "
-            f"{cost.per_second / settings.work_per_second:.2f} s per second of audio); the "
+            f"{scene.per_second / settings.work_per_second:.2f} s per second of audio); the "
             f"server renders at most {settings.max_render_s:g} s per request (GUITAR_MAX_RENDER_S):"
             f" at these settings the duration must be at most {most:.2f} s, or lower the quality, "
             "the sample rate or the strings played", scene.duration,

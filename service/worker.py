@@ -4,6 +4,7 @@ A worker owns one end of a duplex pipe.  It warms up (``engine.warmup()`` compil
 numba kernel, so no real render pays for that), says ``ready``, then serves one job at a time:
 
     parent -> worker   ("render", job_id, payload) | ("stream", job_id, payload)
+                       (a payload's ``scene``: a dict, or its JSON as bytes)
                        | ("cancel", job_id) | None (stop)
     worker -> parent   ("beat", pid)                                  every heartbeat_s, always
                        ("warming", pid, what it is doing), before a long warm-up
@@ -13,11 +14,14 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                                                                       one streamed block
                        ("end", job_id, meta) | ("cancelled", job_id)  stream finished / stopped
                                                                       (a render: stopped)
-                       ("error", job_id, kind, message)               kind: non_finite|invalid|internal
+                       ("error", job_id, kind, message)    kind: non_finite|invalid|internal|fields
     parent -> worker   ("score", job_id, {"data": bytes, "filename": str, "options": dict,
-                                          "max_events": int | None, "max_events_setting": str})
-    worker -> parent   ("done", job_id, scene_json_bytes, {"warnings": [...], "seconds": s})
-    parent -> worker   ("labels", job_id, {"scene": dict})
+                                          "max_events": int | None, "max_events_setting": str,
+                                          "imported": bytes | None, "prepare": dict | None})
+    worker -> parent   ("done", job_id, scene_json_bytes, {"warnings": [...], "seconds": s,
+                                                           "figures": dict, "imported": bytes})
+                       ("error", job_id, "fields", errors_json)   the prepared scene is invalid
+    parent -> worker   ("labels", job_id, {"scene": dict | json_bytes})
     a ``stream`` payload's ``subtype`` may be ``FLOAT64`` (raw float64 samples, for jobs) and
     ``raw`` true (the pickup velocity before any gain: a job normalizes it as /render does)
     and ``stems`` true (each block's stems as columns after the mix's: a job's stems)
@@ -141,29 +145,31 @@ def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -
 
 
 def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
-    """Import a score (``engine.score_to_scene``) from the uploaded bytes.  A file the importer
-    refuses (``ScoreError``) is the client's problem; so is one that trips the importer in any
-    other way (a hostile or corrupt file reaching a path its checks missed): both are ``invalid``
-    (422) with the reason, and the worker carries on."""
+    """Import a score (``engine.score_to_scene``) from the uploaded bytes, or take the JSON of an
+    import the parent kept (``imported``).  A file the importer refuses (``ScoreError``) is the
+    client's problem; so is one that trips the importer in any other way (a hostile or corrupt
+    file reaching a path its checks missed): both are ``invalid`` (422) with the reason, and the
+    worker carries on.
+
+    With ``prepare`` (the scene's own options and output fields), the scene is also made ready to
+    render here: the options set, validated (``fields``: pydantic's errors as JSON) and measured
+    (``service.validation.Figures``), so the API process never parses a whole song's scene.  The
+    answer is then that scene's JSON, with the import's own JSON in ``meta["imported"]`` (for the
+    parent's cache) when it was imported now."""
     import engine
 
     t0 = time.perf_counter()
-    source = io.BytesIO(payload["data"])
-    source.name = payload.get("filename") or ""  # the importer's messages name the file
-    try:
-        result = engine.score_to_scene(source, **payload["options"])
-    except engine.ScoreError as exc:
-        conn.send(("error", job_id, "invalid", str(exc)))
-        return
-    except MemoryError:
-        conn.send(("error", job_id, "invalid", "the score needs more memory than a worker has"))
-        return
-    except Exception as exc:
-        name = payload.get("filename") or "the file"
-        conn.send(("error", job_id, "invalid",
-                   f"{name} could not be read as a score ({type(exc).__name__}: {exc})"))
-        return
-    scene = dict(result)
+    raw = payload.get("imported")
+    warnings: list[str] = []
+    if raw is None:
+        result = _import(conn, job_id, payload, engine)
+        if result is None:
+            return
+        scene = dict(result)
+        warnings = list(getattr(result, "warnings", []))
+        raw = json.dumps(scene, allow_nan=False).encode()
+    else:
+        scene = json.loads(raw)
     events = len(scene.get("events") or []) + sum(
         len(t.get("events") or []) for t in scene.get("tracks") or [])
     most = payload.get("max_events")
@@ -174,10 +180,53 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
                    f"({payload.get('max_events_setting', 'the limit')}): choose fewer tracks "
                    "(options.tracks) or a shorter part (options.max_seconds)"))
         return
-    data = json.dumps(scene, allow_nan=False).encode()
-    conn.send(("done", job_id, data, {"warnings": list(getattr(result, "warnings", [])),
-                                      "seconds": time.perf_counter() - t0,
-                                      "duration": scene.get("duration"), "events": events}))
+    meta = {"warnings": warnings, "duration": scene.get("duration"), "events": events}
+    prepare = payload.get("prepare")
+    if prepare is None:
+        conn.send(("done", job_id, raw, {**meta, "seconds": time.perf_counter() - t0}))
+        return
+    from pydantic import ValidationError
+
+    from .errors import portable_errors
+    from .validation import Figures
+
+    for key in ("quality", "model"):
+        if prepare.get(key) is not None:
+            scene[key] = prepare[key]
+    scene["output"] = {**scene.get("output", {}), **(prepare.get("output") or {})}
+    try:
+        sc = engine.Scene.model_validate(scene)
+    except ValidationError as exc:
+        conn.send(("error", job_id, "fields",
+                   json.dumps(portable_errors(exc.errors(include_url=False)))))
+        return
+    ready = json.dumps(scene, allow_nan=False).encode()
+    conn.send(("done", job_id, ready, {
+        **meta, "figures": Figures.of(sc).as_dict(), "seconds": time.perf_counter() - t0,
+        "imported": raw if payload.get("imported") is None else None}))
+
+
+def _import(conn: Connection, job_id: int, payload: dict[str, Any], engine: Any) -> Any:
+    """The importer's result, or None when it refused the file (the refusal sent)."""
+    source = io.BytesIO(payload["data"])
+    source.name = payload.get("filename") or ""  # the importer's messages name the file
+    try:
+        return engine.score_to_scene(source, **payload["options"])
+    except engine.ScoreError as exc:
+        conn.send(("error", job_id, "invalid", str(exc)))
+    except MemoryError:
+        conn.send(("error", job_id, "invalid", "the score needs more memory than a worker has"))
+    except Exception as exc:
+        name = payload.get("filename") or "the file"
+        conn.send(("error", job_id, "invalid",
+                   f"{name} could not be read as a score ({type(exc).__name__}: {exc})"))
+    return None
+
+
+def _scene(payload: dict[str, Any]) -> Any:
+    """The payload's scene: a dict, or its JSON (a score's scene as ``_score`` made it)."""
+    scene = payload["scene"]
+    return json.loads(scene) if isinstance(scene, bytes | str) else scene
 
 
 def _labels(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
@@ -185,7 +234,7 @@ def _labels(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
     import engine
 
     t0 = time.perf_counter()
-    jam = engine.scene_labels(payload["scene"])
+    jam = engine.scene_labels(_scene(payload))
     conn.send(("done", job_id, jam.dumps().encode(), {"seconds": time.perf_counter() - t0}))
 
 
@@ -210,16 +259,17 @@ def _render(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
     """The scene's file; with ``output.stems``, a zip of it and its stems (``audio.stems_zip``),
     the stems kept in a temporary file while the render runs rather than in memory."""
     t0 = time.perf_counter()
-    stems = bool((payload["scene"].get("output") or {}).get("stems"))
+    scene = _scene(payload)
+    stems = bool((scene.get("output") or {}).get("stems"))
     cancelled = lambda: _cancel_requested(conn, job_id)  # noqa: E731 - the client has gone
     with tempfile.TemporaryFile() if stems else contextlib.nullcontext() as spill:
         try:
             if stems:
                 result = engine.render_result(
-                    payload["scene"], jobs=threads, cancelled=cancelled,
+                    scene, jobs=threads, cancelled=cancelled,
                     on_stems=lambda b: spill.write(np.ascontiguousarray(b, dtype="<f8").tobytes()))
             else:
-                result = engine.render_result(payload["scene"], jobs=threads, stems=False,
+                result = engine.render_result(scene, jobs=threads, stems=False,
                                               cancelled=cancelled)
         except engine.RenderCancelled:
             conn.send(("cancelled", job_id))
@@ -267,7 +317,10 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
     frames, subtype, channels = payload["frames"], payload["subtype"], payload["channels"]
     stems = payload.get("stems", False)
     sent = 0
-    blocks = engine.blocks(payload["scene"], block_frames=block_frames,
+    scene = _scene(payload)
+    if "diagnostics" in payload:  # a job's stream: its own, not the scene's
+        scene["diagnostics"] = payload["diagnostics"]
+    blocks = engine.blocks(scene, block_frames=block_frames,
                            raw=payload.get("raw", False), jobs=threads, stems=stems)
     warnings = blocks.warnings  # sent with the first block, before the response's headers
     if stems:  # a job's: its stems ride as columns after the mix's

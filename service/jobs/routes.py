@@ -24,15 +24,13 @@ from .. import audio
 from ..clients import client_id
 from ..responses import scene_payload
 from ..score_form import (
-    apply_scene_options,
-    import_score,
     importer_options,
     parse_options,
     parse_output,
+    prepare_score,
     read_upload,
-    validate_scene,
 )
-from ..validation import reject_nonfinite_json
+from ..validation import Figures, reject_nonfinite_json
 
 router = APIRouter(tags=["jobs"])
 
@@ -88,18 +86,22 @@ def _field_error(field: str, kind: str, msg: str, value: Any) -> RequestValidati
                                     "msg": msg, "input": value}])
 
 
-async def _scene_from_json(request: Request) -> engine.Scene:
+async def _scene_from_json(request: Request) -> tuple[str, Figures]:
+    """The scene of a JSON body: the JSON the job keeps (only the fields the client set, as
+    /render sends them: ``responses.scene_payload``) and its figures."""
     await reject_nonfinite_json(request)
     body = await request.body()
     try:
-        return engine.Scene.model_validate_json(body)
+        scene = engine.Scene.model_validate_json(body)
     except ValidationError as exc:
         raise _errors_with_body(exc) from None
+    return json.dumps(scene_payload(scene)), Figures.of(scene)
 
 
-async def _scene_from_score(request: Request) -> engine.Scene:
+async def _scene_from_score(request: Request) -> tuple[str, Figures]:
     """A multipart form as ``POST /render/score`` takes (``file``, ``options``, ``output``), read
-    by the same code: the score is imported in a worker, never in this process."""
+    by the same code: the score is imported, made ready and measured in a worker, never in this
+    process."""
     s = request.state.settings
     form = await request.form()
     upload = form.get("file")
@@ -122,32 +124,28 @@ async def _scene_from_score(request: Request) -> engine.Scene:
     # never import more than a job may render: a longer score is cut just past the limit and
     # refused by the duration check, unless the client asked for its beginning
     importer["max_seconds"] = asked if asked is not None else s.job_max_duration_s + 0.5
-    scene, _warnings = await import_score(request, data, name, importer, s.job_max_events,
-                                          "GUITAR_JOB_MAX_EVENTS")
-    apply_scene_options(scene, opts)
-    scene["output"] = {**scene.get("output", {}), **out_fields}
-    return validate_scene(scene)
+    ready = await prepare_score(request, data, name, opts, importer, out_fields,
+                                s.job_max_events, "GUITAR_JOB_MAX_EVENTS")
+    return ready.raw.decode(), ready.figures
 
 
-def _check_job_limits(scene: engine.Scene, request: Request) -> float:
+def _check_job_limits(scene: Figures, request: Request) -> float:
     """Raise a 422 for a scene outside the job limits; return its estimated render seconds."""
     s = request.state.settings
     if scene.duration > s.job_max_duration_s:
         raise _field_error("duration", "less_than_equal", f"duration: at most "
                            f"{s.job_max_duration_s:g} s for a job (GUITAR_JOB_MAX_DURATION_S)",
                            scene.duration)
-    if scene.event_count() > s.job_max_events:
+    if scene.events > s.job_max_events:
         raise _field_error("events", "too_long", f"events: at most {s.job_max_events} for a job "
-                           f"(GUITAR_JOB_MAX_EVENTS), not {scene.event_count()}",
-                           scene.event_count())
+                           f"(GUITAR_JOB_MAX_EVENTS), not {scene.events}", scene.events)
     if not s.min_sample_rate <= scene.sample_rate <= s.max_sample_rate:
         raise _field_error("sample_rate", "range", f"sample_rate: between {s.min_sample_rate} and "
                            f"{s.max_sample_rate} Hz (GUITAR_MIN_SAMPLE_RATE, "
                            "GUITAR_MAX_SAMPLE_RATE)", scene.sample_rate)
-    cost = engine.estimate_cost(scene)
-    seconds = s.estimated_seconds(cost.work)
+    seconds = s.estimated_seconds(scene.work)
     if seconds > s.job_max_render_s:
-        most = s.job_max_render_s * s.work_per_second / cost.per_second
+        most = s.job_max_render_s * s.work_per_second / scene.per_second
         raise _field_error("duration", "render_cost", f"duration: this scene would take about "
                            f"{seconds:.0f} s to render; a job may take at most "
                            f"{s.job_max_render_s:g} s (GUITAR_JOB_MAX_RENDER_S): at these "
@@ -204,9 +202,9 @@ async def create_job(request: Request) -> JSONResponse:
     ``output``, as ``POST /render/score``).  Answers 202 with the job and its ``Location``."""
     jobs = request.state.jobs
     if request.headers.get("content-type", "").startswith("multipart/form-data"):
-        scene = await _scene_from_score(request)
+        scene_json, scene = await _scene_from_score(request)
     else:
-        scene = await _scene_from_json(request)
+        scene_json, scene = await _scene_from_json(request)
     estimated_s = _check_job_limits(scene, request)
     s = request.state.settings
     client = client_id(request, s)
@@ -221,9 +219,8 @@ async def create_job(request: Request) -> JSONResponse:
             return JSONResponse({"detail": f"{s.max_jobs} jobs are stored and none can be "
                                            "deleted yet (GUITAR_MAX_JOBS); try again later"},
                                 status_code=503, headers={"Retry-After": "60"})
-    # only the fields the client set, as /render sends them (responses.scene_payload)
-    job = jobs.store.create(scene_payload(scene), scene.output.format, scene.duration,
-                            cost=estimated_s, client=client)
+    job = jobs.store.create(scene_json, scene.format, scene.duration, cost=estimated_s,
+                            client=client, stems=scene.stems)
     jobs.wake()
     return JSONResponse(_public(job), status_code=202, headers={"Location": f"/jobs/{job['id']}"})
 
@@ -281,7 +278,7 @@ async def stream_audio(job_id: str, request: Request) -> Response:
     /jobs/{id}/audio`` gives them when done, are those of ``POST /render/stream``)."""
     store = request.state.jobs.store
     job = _job_or_404(request, job_id)
-    layout = _stream_layout(job)
+    layout = await asyncio.to_thread(_stream_layout, job)  # a whole song's JSON: off the loop
     if layout is None:
         raise _NotReady(f"job {job_id} is not streamed: only a wav job with output.normalize "
                         "false is written as it renders; GET /jobs/{id}/audio once it is done")

@@ -133,18 +133,16 @@ class JobRunner:
 
     async def _run(self, job: dict[str, Any]) -> None:
         job_id = job["id"]
-        scene = json.loads(job["scene"])
-        out = scene.get("output") or {}
+        # a whole song's JSON is parsed beside the event loop; the worker gets the text
+        out, rate, stems = await asyncio.to_thread(_layout, job["scene"])
         subtype = out.get("subtype", "PCM_16")
         normalize = out.get("normalize", True)
         # A file to be normalized or converted is streamed as raw float64 samples (the pickup
         # velocity when it is normalized), then scaled and encoded block by block as /render
         # scales and encodes the whole signal: the same bytes.
-        stems = engine.parse_scene(scene).stems() if out.get("stems") else []
         rewrite = normalize or job["format"] != "wav" or bool(stems)
         stream_subtype = "FLOAT64" if rewrite else subtype
         channels = out.get("channels", 1)
-        rate = scene.get("sample_rate", 44100)
         frames = round(job["duration"] * rate)
         folder = self.store.job_dir(job_id)
         folder.mkdir(parents=True, exist_ok=True)
@@ -152,7 +150,7 @@ class JobRunner:
         header = b"" if rewrite else audio.wav_header(frames, rate, stream_subtype, channels)
         total = len(header) + frames * (channels + len(stems)) * (
             8 if rewrite else audio.BYTES_PER_SAMPLE[stream_subtype])
-        payload = {"scene": {**scene, "diagnostics": False}, "frames": frames,
+        payload = {"scene": job["scene"], "diagnostics": False, "frames": frames,
                    "subtype": stream_subtype, "channels": channels, "raw": normalize,
                    "stems": bool(stems)}
         cost = job.get("cost")
@@ -172,7 +170,7 @@ class JobRunner:
             final = folder / f"audio.{job['format']}"
             await asyncio.to_thread(_finalize, part, final, job["format"], subtype, normalize,
                                     rewrite, rate, channels, stems, stream.scale)
-            labels_error = await self._labels(scene, self.store.labels_path(job_id))
+            labels_error = await self._labels(job["scene"], self.store.labels_path(job_id))
             self._finish(job_id, "done", progress=1.0, audio_seconds=frames / rate,
                          render_seconds=time.perf_counter() - t0, warnings=stream.warnings,
                          labels=int(labels_error is None), labels_error=labels_error)
@@ -205,7 +203,7 @@ class JobRunner:
             with contextlib.suppress(OSError):
                 part.unlink()
 
-    async def _labels(self, scene: dict[str, Any], path: Path) -> str | None:
+    async def _labels(self, scene: str, path: Path) -> str | None:
         """The scene's JAMS labels, made in a worker (``engine.scene_labels``, as
         ``POST /scene/labels``) and renamed into place; the reason when there are none (the
         audio is still the job's result)."""
@@ -247,6 +245,15 @@ class JobRunner:
         finally:
             await asyncio.to_thread(f.close)
         return written
+
+
+def _layout(text: str) -> tuple[dict[str, Any], int, list]:
+    """A job's scene JSON: its output fields, its sample rate and its stems (when it asks for
+    them)."""
+    scene = json.loads(text)
+    out = scene.get("output") or {}
+    stems = engine.parse_scene(scene).stems() if out.get("stems") else []
+    return out, scene.get("sample_rate", 44100), stems
 
 
 def _flush_and_sync(f) -> None:

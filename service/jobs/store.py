@@ -118,16 +118,21 @@ class Store:
 
     # ---- writing ------------------------------------------------------------------------------
 
-    def create(self, scene: dict[str, Any], fmt: str, duration: float, cost: float | None = None,
-               client: str | None = None) -> dict[str, Any]:
-        """A queued job; ``cost`` is its estimated render seconds, ``client`` who asked for it."""
+    def create(self, scene: dict[str, Any] | str, fmt: str, duration: float,
+               cost: float | None = None, client: str | None = None,
+               stems: bool | None = None) -> dict[str, Any]:
+        """A queued job of ``scene`` (a dict, or its JSON with ``stems`` said); ``cost`` is its
+        estimated render seconds, ``client`` who asked for it."""
         job_id = uuid.uuid4().hex
-        stems = int(bool((scene.get("output") or {}).get("stems")))
+        if stems is None:
+            d = json.loads(scene) if isinstance(scene, str) else scene
+            stems = bool((d.get("output") or {}).get("stems"))
+        text = scene if isinstance(scene, str) else json.dumps(scene)
         with self._lock:
             self._db.execute(
                 "INSERT INTO jobs (id, status, created, scene, format, duration, cost, client, "
                 "stems) VALUES (?, 'queued', ?, ?, ?, ?, ?, ?, ?)",
-                (job_id, time.time(), json.dumps(scene), fmt, duration, cost, client, stems))
+                (job_id, time.time(), text, fmt, duration, cost, client, int(stems)))
         job = self.get(job_id)
         assert job is not None
         return job

@@ -12,7 +12,6 @@ claiming 10^9 measures, a zip renamed .gp5, a truncated file) costs a worker at 
 
 from __future__ import annotations
 
-import json
 from pathlib import PurePath
 from typing import Annotated, Any
 
@@ -31,16 +30,14 @@ from ..responses import (
     while_connected,
 )
 from ..score_form import (
-    apply_scene_options,
     form_error,
-    import_score,
     importer_options,
     parse_options,
     parse_output,
+    prepare_score,
     read_upload,
-    validate_scene,
 )
-from ..validation import StrictJSONRoute, check_limits
+from ..validation import Figures, StrictJSONRoute, check_limits
 
 router = APIRouter(tags=["scores"])
 labels_router = APIRouter(route_class=StrictJSONRoute, tags=["scores"])
@@ -69,11 +66,10 @@ async def score_scene(
 ) -> Response:
     opts = parse_options(options)
     data, name = await read_upload(file)
-    scene, warnings = await import_score(request, data, name, importer_options(opts))
-    apply_scene_options(scene, opts)
-    validate_scene(scene)  # what goes out is a scene /render accepts (up to its limits)
-    return Response(json.dumps(scene), media_type="application/json",
-                    headers=_score_warnings(warnings))
+    # what goes out is a scene /render accepts (up to its limits)
+    ready = await prepare_score(request, data, name, opts, importer_options(opts))
+    return Response(ready.raw, media_type="application/json",
+                    headers=_score_warnings(ready.warnings))
 
 
 @router.post(
@@ -96,13 +92,12 @@ async def score_labels(
     settings, pool = request.state.settings, request.state.pool
     opts = parse_options(options)
     data, name = await read_upload(file)
-    scene, warnings = await import_score(request, data, name, importer_options(opts))
-    apply_scene_options(scene, opts)
-    sc = validate_scene(scene)
-    _check_label_limits(sc, settings)
-    raw, _ = await pool.call("labels", {"scene": scene_payload(sc)},
-                             _labels_time_limit(sc, settings))
-    return Response(raw, media_type="application/json", headers=_score_warnings(warnings))
+    ready = await prepare_score(request, data, name, opts, importer_options(opts))
+    _check_label_limits(ready.figures, settings)
+    raw, _ = await pool.call("labels", {"scene": ready.raw},
+                             _labels_time_limit(ready.figures.duration, settings))
+    return Response(raw, media_type="application/json",
+                    headers=_score_warnings(ready.warnings))
 
 
 @router.post(
@@ -140,16 +135,14 @@ async def render_score(
                           f"{limit:g} (service limit GUITAR_MAX_DURATION_S)", "less_than_equal",
                           asked)
     importer["max_seconds"] = asked if asked is not None else limit + 0.5
-    scene, warnings = await import_score(request, data, name, importer, settings.max_score_events,
-                                         "GUITAR_MAX_SCORE_EVENTS")
-    if scene["duration"] > limit:
+    ready = await prepare_score(request, data, name, opts, importer, out_fields,
+                                settings.max_score_events, "GUITAR_MAX_SCORE_EVENTS")
+    sc = ready.figures
+    if sc.duration > limit:
         raise form_error("options.max_seconds",
                           f"the score plays longer than this service's limit of {limit:g} s "
                           "(GUITAR_MAX_DURATION_S); give options.max_seconds to render its "
                           "beginning", "less_than_equal", asked)
-    apply_scene_options(scene, opts)
-    scene["output"] = {**scene.get("output", {}), **out_fields}
-    sc = validate_scene(scene)
     # admitted by its estimated cost as /render is: a heavy score takes a heavy slot, and its
     # time limit follows the estimate; a client gone withdraws it (a heavy one running stops)
     try:
@@ -157,9 +150,8 @@ async def render_score(
     except RequestValidationError as exc:
         raise _as_score_option(exc) from None
     out = await while_connected(request, pool.render(
-        {"scene": scene_payload(sc), "diagnostics": sc.diagnostics,
-         "sample_rate": sc.sample_rate, "format": sc.output.format,
-         "subtype": sc.output.subtype, "channels": sc.output.channels,
+        {"scene": ready.raw, "diagnostics": sc.diagnostics, "sample_rate": sc.sample_rate,
+         "format": sc.format, "subtype": sc.subtype, "channels": sc.channels,
          "name": _ascii(PurePath(name).stem or "score")},
         settings.time_limit_s(sc.duration, estimated_s),
         heavy=estimated_s > settings.heavy_render_s, cost=estimated_s), settings.disconnect_poll_s)
@@ -170,13 +162,13 @@ async def render_score(
         "X-Render-Seconds": seconds(out.render_seconds),
         "X-Realtime-Factor": realtime_factor(audio_s, out.render_seconds),
         "Content-Disposition": 'inline; filename="'
-                               f'{_ascii(stem)}.{"zip" if sc.output.stems else sc.output.format}"',
+                               f'{_ascii(stem)}.{"zip" if sc.stems else sc.format}"',
         **warnings_header(out.warnings),
-        **_score_warnings(warnings),
+        **_score_warnings(ready.warnings),
     }
     if out.energy_error is not None:
         headers["X-Energy-Error"] = repr(out.energy_error)
-    return Response(out.data, media_type=audio.media_type(sc.output.format, sc.output.stems),
+    return Response(out.data, media_type=audio.media_type(sc.format, sc.stems),
                     headers=headers)
 
 
@@ -223,29 +215,29 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
     """The note labels of a scene (for example one from `POST /score/scene`): which note sounds on
     which string and fret, when, as JAMS (`jams.load` reads it)."""
     settings, pool = request.state.settings, request.state.pool
-    _check_label_limits(scene, settings)
+    _check_label_limits(Figures.of(scene), settings)
     raw, _ = await pool.call("labels", {"scene": scene_payload(scene)},
-                             _labels_time_limit(scene, settings))
+                             _labels_time_limit(scene.duration, settings))
     return Response(raw, media_type="application/json")
 
 
 
-def _labels_time_limit(scene: engine.Scene, settings: Any) -> float:
+def _labels_time_limit(duration: float, settings: Any) -> float:
     """Labels take time in proportion to the song (their pitch contours have a frame every
     10 ms per string): a whole song gets a render's wall-time budget for its length, not the
     fixed budget of a score import, which a whole song's labels outran."""
-    return max(settings.score_import_time_limit_s, settings.time_limit_s(scene.duration))
+    return max(settings.score_import_time_limit_s, settings.time_limit_s(duration))
 
 
-def _check_label_limits(scene: engine.Scene, settings: Any) -> None:
+def _check_label_limits(scene: Figures, settings: Any) -> None:
     """Labelling renders no audio, so a scene as long and as large as a job may render is labelled
     (the demo page shows the tab of a whole song before and while it renders as a job)."""
     if scene.duration > settings.job_max_duration_s:
         raise form_error("duration", f"Input should be less than or equal to "
                          f"{settings.job_max_duration_s:g} (service limit "
                          "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", scene.duration)
-    if scene.event_count() > settings.job_max_events:
-        raise form_error("tracks" if scene.tracks is not None else "events",
+    if scene.events > settings.job_max_events:
+        raise form_error("tracks" if scene.tracks else "events",
                          f"List should have at most {settings.job_max_events} items (service "
                          f"limit GUITAR_JOB_MAX_EVENTS, counted over all tracks), not "
-                         f"{scene.event_count()}", "too_long", scene.event_count())
+                         f"{scene.events}", "too_long", scene.events)

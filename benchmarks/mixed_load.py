@@ -29,11 +29,11 @@ timed them (``Server-Timing``: from the request's arrival to the answer's header
 generator, one Python process at the default niceness running every client, competes for the
 same two cores, and its own delays are in the first figure only), live underruns (client and
 server) in both phases, the API process's event-loop lag as the server measures it
-(``guitar_event_loop_lag_seconds``) and its garbage collector's pauses (``guitar_gc_pause_seconds``),
-how long ``GET /health/live`` takes as the load generator
-sees it, status counts per kind (a 5xx other than 503 with Retry-After counts as an error), jobs
-done, and the RSS of the server and of every process below it before and after, with the CPU
-each used.
+(``guitar_event_loop_lag_seconds``), its garbage collector's pauses (``guitar_gc_pause_seconds``)
+and how long it took to relay each live block (``guitar_live_relay_seconds``), how long
+``GET /health/live`` takes as the load generator sees it, status counts per kind (a 5xx other
+than 503 with Retry-After counts as an error), jobs done, and the RSS of the server and of every
+process below it before and after, with the CPU each used.
 
     python -m benchmarks.mixed_load [--seconds 180] [--clients 16] [--live 2] [--server-nice 0]
 """
@@ -193,6 +193,22 @@ def histogram(url: str, name: str) -> dict[str, dict[float, float]]:
 def loop_lag_buckets(url: str) -> dict[float, float]:
     """The server's ``guitar_event_loop_lag_seconds`` histogram: cumulative count per bound."""
     return histogram(url, "guitar_event_loop_lag_seconds").get("", {})
+
+
+def relay_summary(before: dict[float, float], after: dict[float, float]) -> str:
+    """Live blocks' relay through the API process over a phase (``guitar_live_relay_seconds``):
+    how many, the bounds their p99 and p99.9 fall under, and the longest's."""
+    delta = {le: after[le] - before.get(le, 0.0) for le in sorted(after)}
+    total = delta.get(float("inf"), 0.0)
+    if not total:
+        return "n/a (no blocks)"
+
+    def bound(q: float) -> str:
+        le = next(le for le, n in delta.items() if n >= q * total)
+        return "over 1 s" if le == float("inf") else f"under {le * 1e3:g} ms"
+
+    return (f"{int(total)} blocks: p99 {bound(0.99)}, p99.9 {bound(0.999)}, longest {bound(1.0)}; "
+            f"{int(total - delta[0.02])} over 20 ms")
 
 
 def gc_pause_summary(before: dict[str, dict[float, float]],
@@ -456,6 +472,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     late1 = late_blocks(url)
     lag1 = loop_lag_buckets(url)
     gc1 = histogram(url, "guitar_gc_pause_seconds")
+    relay1 = histogram(url, "guitar_live_relay_seconds").get("", {})
 
     live = start_live(url, a.live, a.seconds, a.jitter_ms, a.live_client_nice)
     t0 = time.monotonic()
@@ -465,6 +482,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     late2 = late_blocks(url)
     lag2 = loop_lag_buckets(url)
     gc2 = histogram(url, "guitar_gc_pause_seconds")
+    relay2 = histogram(url, "guitar_live_relay_seconds").get("", {})
     drain = time.monotonic() + 120
     while time.monotonic() < drain:
         pool = httpx.get(url + "/health", timeout=10).json()["pool"]
@@ -499,6 +517,8 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
         ("API loop lag in the mixed load, the server's own probe",
          loop_lag_summary(lag1, lag2)),
         ("API garbage collector's pauses in the mixed load", gc_pause_summary(gc1, gc2)),
+        ("live blocks' relay through the API process in the mixed load (from the live worker to "
+         "the socket)", relay_summary(relay1, relay2)),
         ("API loop: GET /health/live during the load",
          f"p50 {_pct(st.probe_s, 50) * 1e3:.0f} ms, p99 {_pct(st.probe_s, 99) * 1e3:.0f} ms, "
          f"max {max(st.probe_s, default=0) * 1e3:.0f} ms"),

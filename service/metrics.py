@@ -2,10 +2,11 @@
 
 Counted as requests end (``MetricsMiddleware``): requests by route and status, renders by endpoint
 and outcome, render wall time and audio seconds.  Measured all along (``Metrics.watch_loop``): the
-event loop's lag.  Measured as they happen (``Metrics.watch_gc``): the pauses of Python's garbage
-collector, each a stall of the event loop.  Read when scraped (``_StateCollector``): jobs by
-status, the pool's queue depth, busy and ready workers, worker restarts.  Each app has a registry
-of its own, so several apps in one process (tests) do not share counters.
+event loop's lag.  Measured as they happen: the pauses of Python's garbage collector
+(``Metrics.watch_gc``), each a stall of the event loop, and each live block's relay through this
+process.  Read when scraped (``_StateCollector``): jobs by status, the pool's queue depth, busy and
+ready workers, worker restarts.  Each app has a registry of its own, so several apps in one
+process (tests) do not share counters.
 """
 
 from __future__ import annotations
@@ -63,6 +64,11 @@ class Metrics:
             f"callback due every {LOOP_PROBE_S:g} s (what every request and live block waited "
             "on top of its own work)",
             buckets=(0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0),
+            registry=self.registry)
+        self.live_relay = Histogram(
+            "guitar_live_relay_seconds", "from a live block's arrival in the API process (from "
+            "its live worker) to its hand-over to the client's WebSocket",
+            buckets=(0.001, 0.0025, 0.005, 0.01, 0.02, 0.04, 0.1, 0.25, 1.0),
             registry=self.registry)
         self.gc_pause = Histogram(
             "guitar_gc_pause_seconds", "pauses of the API process's garbage collector by "

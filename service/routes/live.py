@@ -32,6 +32,7 @@ from collections import deque
 from typing import Any
 
 from fastapi import APIRouter, Request, WebSocket
+from prometheus_client import Histogram
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 import engine
@@ -174,7 +175,8 @@ async def live(ws: WebSocket) -> None:
             preset = engine.Scene(duration=1.0, guitar=opened.scene_guitar()).preset()
             block_frames = opened.block_frames
         backlog = max(8, int(BACKLOG_S * opened.sample_rate / block_frames))
-        sender = _reaped(asyncio.create_task(_send(ws, session, backlog)))
+        sender = _reaped(asyncio.create_task(_send(ws, session, backlog,
+                                                   ws.state.metrics.live_relay)))
         try:
             await _events(ws, pool, session, preset, block_frames, idle_s,
                           settings.live_max_events_per_s, sender, rate)
@@ -252,7 +254,9 @@ async def _events(ws: WebSocket, pool: LivePool, session: LiveSession, preset: A
         pool.event(session, body)
 
 
-async def _send(ws: WebSocket, session: LiveSession, backlog: int) -> None:
+async def _send(ws: WebSocket, session: LiveSession, backlog: int, relay: Histogram) -> None:
+    """The session's messages to the client; each block's relay timed (``relay``: from its
+    arrival from the live worker to its hand-over to the socket)."""
     while True:
         if session.messages.qsize() > backlog:
             raise _SlowClient(f"the client fell more than {BACKLOG_S:g} s behind reading the blocks")
@@ -261,6 +265,7 @@ async def _send(ws: WebSocket, session: LiveSession, backlog: int) -> None:
         try:
             if kind == "block":
                 await ws.send_bytes(_HEADER.pack(msg[2]) + msg[3])
+                relay.observe(time.monotonic() - msg[4])
             elif kind == "ack":
                 await ws.send_json({"type": "ack", "id": msg[2], "frame": msg[3]})
             elif kind == "error":

@@ -40,6 +40,11 @@ def ws_url(server: UvicornServer) -> str:
 OPEN = {"type": "open", "preset": "steel-acoustic", "sample_rate": 44100, "block_frames": 256}
 
 
+def relay_count(server: UvicornServer) -> float:
+    return next((float(x.split()[-1]) for x in httpx.get(server.url + "/metrics").text.splitlines()
+                 if x.startswith("guitar_live_relay_seconds_count")), 0.0)
+
+
 async def _next_text(ws) -> dict:
     while True:
         m = await asyncio.wait_for(ws.recv(), 10.0)
@@ -83,10 +88,13 @@ def test_streamed_audio_is_the_offline_render_of_the_acknowledged_events(live_se
             await task
         return blocks, acks
 
+    relayed = relay_count(live_server)
     blocks, acks = asyncio.run(play())
     assert set(acks) == {"f", "p1", "s", "b", "r"}
     frames = sorted(blocks)
     assert frames == list(range(0, 256 * len(frames), 256))  # every block, in order
+    # each block's relay through the API process is timed (guitar_live_relay_seconds)
+    assert relay_count(live_server) - relayed >= len(frames)
     audio = np.concatenate([blocks[f] for f in frames])
     rate = 44100
     t = {k: f / rate for k, f in acks.items()}

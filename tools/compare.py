@@ -1,6 +1,6 @@
 """Two versions of the engine timed against each other, interleaved, on this machine.
 
-    python -m tools.compare REV_A REV_B [--rounds 3] [--repeat 5] [--seconds 1]
+    python -m tools.compare REV_A REV_B [--rounds 3] [--repeat 5] [--seconds 1] [--each-round]
 
 A revision that names a directory is that checked-out tree as it is, with its own numba cache
 (``NUMBA_CACHE_DIR`` = its ``.numba_cache``), so a warm tree compiles nothing.
@@ -9,9 +9,12 @@ Timings on this shared machine drift by more than most kernel changes are worth,
 and within one (``benchmarks.speed``'s notes), so one run of ``benchmarks.speed`` before a change
 and one after cannot tell a 10 % gain from noise.  This script checks out both git revisions into
 temporary worktrees, each with a numba cache of its own, and times the same scenes with each in
-turn, ``--rounds`` times: drift then moves both columns alike.  Each cell is the best CPU time of
-``--repeat`` renders (scene preparation excluded, as in ``benchmarks.speed``), and the table gives
-the best of all rounds per version, and B's time as a share of A's.
+turn, ``--rounds`` times, the order of the two swapped every round: drift then moves both
+columns alike.  Each cell is the best CPU time of ``--repeat`` renders (scene preparation
+excluded, as in ``benchmarks.speed``), and the table gives the best of all rounds per version,
+and B's time as a share of A's.  ``--each-round`` also prints every round's cells: this machine
+runs for seconds at a time about 1.5 times slower than at other times, whatever it runs, and a
+version whose rounds all fell in such stretches shows it there.
 
 Scenes: each string fretted at fret 5 with an 8 N pluck (the fretted full model of
 ``benchmarks.speed``'s first table, at the oversampling factor the ``standard`` level gives it),
@@ -83,6 +86,8 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--seconds", type=float, default=1.0)
+    ap.add_argument("--each-round", action="store_true",
+                    help="also print every round's time of each scene for both versions")
     args = ap.parse_args()
     revs = {}
     for r in (args.rev_a, args.rev_b):
@@ -104,11 +109,12 @@ def main() -> None:
                                cwd=ROOT, check=True)
                 trees[r] = tree
                 run(tree, args.seconds, 1)  # compile (or load) the kernels
-            best: dict[str, dict[str, float]] = {r: {} for r in revs}
+            rounds: dict[str, dict[str, list[float]]] = {r: {} for r in revs}
             for i in range(args.rounds):
-                for r, tree in trees.items():
+                order = list(trees.items())
+                for r, tree in order if i % 2 == 0 else order[::-1]:
                     for name, t in run(tree, args.seconds, args.repeat).items():
-                        best[r][name] = min(best[r].get(name, float("inf")), t)
+                        rounds[r].setdefault(name, []).append(t)
                 print(f"round {i + 1} of {args.rounds} done", file=sys.stderr, flush=True)
         finally:
             for r, tree in trees.items():
@@ -117,6 +123,13 @@ def main() -> None:
                 subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
                                check=False)
     a, b = args.rev_a, args.rev_b
+    best = {r: {name: min(ts) for name, ts in rounds[r].items()} for r in revs}
+    if args.each_round:
+        print("\nms of compute per second of audio in each round (A first in odd rounds)")
+        print(f"A = {revs[a]}, B = {revs[b]}")
+        for name in scenes():
+            print(f"{name:30s} | A " + " ".join(f"{t * 1e3:7.2f}" for t in rounds[a][name])
+                  + " | B " + " ".join(f"{t * 1e3:7.2f}" for t in rounds[b][name]))
     print(f"\nms of compute per second of audio, best of {args.rounds} interleaved rounds of "
           f"{args.repeat} renders ({args.seconds:g} s each), quality 'standard'")
     print(f"A = {revs[a]}, B = {revs[b]}")

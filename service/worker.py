@@ -112,13 +112,15 @@ def warm_up(engine: Any) -> None:
     """Load what the requests use, before the worker says ready: every numba kernel path
     (compiled, or loaded from NUMBA_CACHE_DIR), libsndfile with its codecs, and the labels'
     libraries (jams, with pandas and mir_eval: seconds and tens of MiB), which every job uses.
-    No request pays for an import, and the worker's memory is flat from here
+    No request pays for an import (a score's preparation: ``service.validation`` and
+    ``service.errors``, with FastAPI's modules), and the worker's memory is flat from here
     (``benchmarks/worker_memory.py``)."""
     engine.warmup()
     for fmt in ("wav", "flac", "ogg"):
         audio.encode(np.zeros(64), 44100, fmt)
     engine.scene_labels({"duration": 0.1, "events": [
         {"type": "pluck", "time": 0.0, "string": 1, "force": 1.0}]}).dumps()
+    from . import errors, validation  # noqa: F401 - a score's preparation (_score): fastapi's modules
 
 
 def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -> None:

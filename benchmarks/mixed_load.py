@@ -195,19 +195,27 @@ def loop_lag_buckets(url: str) -> dict[float, float]:
     return histogram(url, "guitar_event_loop_lag_seconds").get("", {})
 
 
+def _phase(before: dict[float, float], after: dict[float, float]
+           ) -> tuple[dict[float, float], float]:
+    """A histogram's cumulative counts over a phase (two scrapes' difference), and their total."""
+    delta = {le: after[le] - before.get(le, 0.0) for le in sorted(after)}
+    return delta, delta.get(float("inf"), 0.0)
+
+
+def _bound(delta: dict[float, float], total: float, q: float, beyond: str) -> str:
+    """The bucket bound a share ``q`` of the counts falls under (``beyond`` past the last)."""
+    le = next(le for le, n in delta.items() if n >= q * total)
+    return beyond if le == float("inf") else f"under {le * 1e3:g} ms"
+
+
 def relay_summary(before: dict[float, float], after: dict[float, float]) -> str:
     """Live blocks' relay through the API process over a phase (``guitar_live_relay_seconds``):
     how many, the bounds their p99 and p99.9 fall under, and the longest's."""
-    delta = {le: after[le] - before.get(le, 0.0) for le in sorted(after)}
-    total = delta.get(float("inf"), 0.0)
+    delta, total = _phase(before, after)
     if not total:
         return "n/a (no blocks)"
-
-    def bound(q: float) -> str:
-        le = next(le for le, n in delta.items() if n >= q * total)
-        return "over 1 s" if le == float("inf") else f"under {le * 1e3:g} ms"
-
-    return (f"{int(total)} blocks: p99 {bound(0.99)}, p99.9 {bound(0.999)}, longest {bound(1.0)}; "
+    p99, p999, most = (_bound(delta, total, q, "over 1 s") for q in (0.99, 0.999, 1.0))
+    return (f"{int(total)} blocks: p99 {p99}, p99.9 {p999}, longest {most}; "
             f"{int(total - delta[0.02])} over 20 ms")
 
 
@@ -217,27 +225,22 @@ def gc_pause_summary(before: dict[str, dict[float, float]],
     how many, and the bound the longest falls under."""
     parts = []
     for gen in sorted(after):
-        delta = {le: n - before.get(gen, {}).get(le, 0.0) for le, n in sorted(after[gen].items())}
-        total = delta.get(float("inf"), 0.0)
-        if not total:
-            continue
-        le = next(le for le, n in delta.items() if n >= total)
-        parts.append(f"generation {gen}: {int(total)}, longest "
-                     + ("over 1 s" if le == float("inf") else f"under {le * 1e3:g} ms"))
+        delta, total = _phase(before.get(gen, {}), after[gen])
+        if total:
+            parts.append(f"generation {gen}: {int(total)}, longest "
+                         + _bound(delta, total, 1.0, "over 1 s"))
     return "; ".join(parts) or "none"
 
 
 def loop_lag_summary(before: dict[float, float], after: dict[float, float]) -> str:
     """The lag over a phase from two scrapes: the bound p50 and p99 fall under, and how many
     probes were over 0.1 s and over 1 s."""
-    delta = {le: after[le] - before.get(le, 0.0) for le in sorted(after)}
-    total = delta.get(float("inf"), 0.0)
+    delta, total = _phase(before, after)
     if not total:
         return "n/a (no probes)"
 
     def bound(q: float) -> str:
-        le = next(le for le, n in delta.items() if n >= q * total)
-        return "over 30 s" if le == float("inf") else f"under {le * 1e3:g} ms"
+        return _bound(delta, total, q, "over 30 s")
 
     def over(x: float) -> int:
         return int(total - delta[x])

@@ -3,7 +3,7 @@ process holds at startup in the collector's sight and frozen out of it (``gc.fre
 app's lifespan does once it has started).
 
 One process imports the app (``service.app``: FastAPI, the routes, the engine and its schemas)
-and runs its lifespan as uvicorn does (workers started and warm), then times full collections
+and runs its lifespan as uvicorn does (its workers start beside it), then times full collections
 (``gc.collect()``, the median and the longest of ``--rounds``) before and after ``gc.freeze()``.
 Each such collection runs on the event loop and stops every request and live block for its
 length; ``guitar_gc_pause_seconds`` counts those of a running server.

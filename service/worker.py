@@ -17,7 +17,7 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                        ("error", job_id, kind, message)    kind: non_finite|invalid|internal|fields
     parent -> worker   ("score", job_id, {"data": bytes, "filename": str, "options": dict,
                                           "max_events": int | None, "max_events_setting": str,
-                                          "imported": bytes | None, "prepare": dict | None})
+                                          "imported": bytes | None, "prepare": dict})
     worker -> parent   ("done", job_id, scene_json_bytes, {"warnings": [...], "seconds": s,
                                                            "figures": dict, "imported": bytes})
                        ("error", job_id, "fields", errors_json)   the prepared scene is invalid
@@ -153,10 +153,10 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
     file reaching a path its checks missed): both are ``invalid`` (422) with the reason, and the
     worker carries on.
 
-    With ``prepare`` (the scene's own options and output fields), the scene is also made ready to
-    render here: the options set, validated (``fields``: pydantic's errors as JSON) and measured
+    The scene is then made ready to render here (``prepare``: the scene's own options and output
+    fields): the options set, validated (``fields``: pydantic's errors as JSON) and measured
     (``service.validation.Figures``), so the API process never parses a whole song's scene.  The
-    answer is then that scene's JSON, with the import's own JSON in ``meta["imported"]`` (for the
+    answer is that scene's JSON, with the import's own JSON in ``meta["imported"]`` (for the
     parent's cache) when it was imported now."""
     import engine
 
@@ -182,16 +182,12 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
                    f"({payload.get('max_events_setting', 'the limit')}): choose fewer tracks "
                    "(options.tracks) or a shorter part (options.max_seconds)"))
         return
-    meta = {"warnings": warnings, "duration": scene.get("duration"), "events": events}
-    prepare = payload.get("prepare")
-    if prepare is None:
-        conn.send(("done", job_id, raw, {**meta, "seconds": time.perf_counter() - t0}))
-        return
     from pydantic import ValidationError
 
     from .errors import portable_errors
     from .validation import Figures
 
+    prepare = payload["prepare"]
     for key in ("quality", "model"):
         if prepare.get(key) is not None:
             scene[key] = prepare[key]
@@ -204,7 +200,8 @@ def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:
         return
     ready = json.dumps(scene, allow_nan=False).encode()
     conn.send(("done", job_id, ready, {
-        **meta, "figures": Figures.of(sc).as_dict(), "seconds": time.perf_counter() - t0,
+        "warnings": warnings, "duration": scene.get("duration"), "events": events,
+        "figures": Figures.of(sc).as_dict(), "seconds": time.perf_counter() - t0,
         "imported": raw if payload.get("imported") is None else None}))
 
 
@@ -320,8 +317,7 @@ def _stream(conn: Connection, engine: Any, job_id: int, payload: dict[str, Any],
     stems = payload.get("stems", False)
     sent = 0
     scene = _scene(payload)
-    if "diagnostics" in payload:  # a job's stream: its own, not the scene's
-        scene["diagnostics"] = payload["diagnostics"]
+    scene["diagnostics"] = False  # energy terms cost time and a stream cannot report them
     blocks = engine.blocks(scene, block_frames=block_frames,
                            raw=payload.get("raw", False), jobs=threads, stems=stems)
     warnings = blocks.warnings  # sent with the first block, before the response's headers

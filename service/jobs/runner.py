@@ -150,7 +150,7 @@ class JobRunner:
         header = b"" if rewrite else audio.wav_header(frames, rate, stream_subtype, channels)
         total = len(header) + frames * (channels + len(stems)) * (
             8 if rewrite else audio.BYTES_PER_SAMPLE[stream_subtype])
-        payload = {"scene": job["scene"], "diagnostics": False, "frames": frames,
+        payload = {"scene": job["scene"], "frames": frames,
                    "subtype": stream_subtype, "channels": channels, "raw": normalize,
                    "stems": bool(stems)}
         cost = job.get("cost")

@@ -123,8 +123,7 @@ async def render_stream(
     rate, subtype, channels = scene.sample_rate, scene.output.subtype, scene.output.channels
     frames = engine.frame_count(scene)  # exactly what the worker's blocks add up to
     header = audio.wav_header(frames, rate, subtype, channels)
-    scene_json = scene_payload(scene)
-    scene_json["diagnostics"] = False  # energy terms cost time and a stream cannot report them
+    scene_json = scene_payload(scene)  # the worker turns diagnostics off (a stream has none)
     # A client gone before the first block cancels the stream in its worker (or its place in
     # the queue); after, the response's on_close does.
     stream = await while_connected(request, pool.stream(

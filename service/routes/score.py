@@ -37,7 +37,7 @@ from ..score_form import (
     prepare_score,
     read_upload,
 )
-from ..validation import Figures, StrictJSONRoute, check_limits
+from ..validation import StrictJSONRoute, check_limits
 
 router = APIRouter(tags=["scores"])
 labels_router = APIRouter(route_class=StrictJSONRoute, tags=["scores"])
@@ -93,7 +93,8 @@ async def score_labels(
     opts = parse_options(options)
     data, name = await read_upload(file)
     ready = await prepare_score(request, data, name, opts, importer_options(opts))
-    _check_label_limits(ready.figures, settings)
+    f = ready.figures
+    _check_label_limits(f.duration, f.events, f.tracks, settings)
     raw, _ = await pool.call("labels", {"scene": ready.raw},
                              _labels_time_limit(ready.figures.duration, settings))
     return Response(raw, media_type="application/json",
@@ -215,7 +216,7 @@ async def scene_labels(scene: Annotated[engine.Scene, Body()], request: Request)
     """The note labels of a scene (for example one from `POST /score/scene`): which note sounds on
     which string and fret, when, as JAMS (`jams.load` reads it)."""
     settings, pool = request.state.settings, request.state.pool
-    _check_label_limits(Figures.of(scene), settings)
+    _check_label_limits(scene.duration, scene.event_count(), scene.tracks is not None, settings)
     raw, _ = await pool.call("labels", {"scene": scene_payload(scene)},
                              _labels_time_limit(scene.duration, settings))
     return Response(raw, media_type="application/json")
@@ -229,15 +230,16 @@ def _labels_time_limit(duration: float, settings: Any) -> float:
     return max(settings.score_import_time_limit_s, settings.time_limit_s(duration))
 
 
-def _check_label_limits(scene: Figures, settings: Any) -> None:
+def _check_label_limits(duration: float, events: int, tracks: bool, settings: Any) -> None:
     """Labelling renders no audio, so a scene as long and as large as a job may render is labelled
-    (the demo page shows the tab of a whole song before and while it renders as a job)."""
-    if scene.duration > settings.job_max_duration_s:
+    (the demo page shows the tab of a whole song before and while it renders as a job).
+    ``events``: over all tracks; ``tracks``: a scene of tracks (where the count is reported)."""
+    if duration > settings.job_max_duration_s:
         raise form_error("duration", f"Input should be less than or equal to "
                          f"{settings.job_max_duration_s:g} (service limit "
-                         "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", scene.duration)
-    if scene.events > settings.job_max_events:
-        raise form_error("tracks" if scene.tracks else "events",
+                         "GUITAR_JOB_MAX_DURATION_S)", "less_than_equal", duration)
+    if events > settings.job_max_events:
+        raise form_error("tracks" if tracks else "events",
                          f"List should have at most {settings.job_max_events} items (service "
                          f"limit GUITAR_JOB_MAX_EVENTS, counted over all tracks), not "
-                         f"{scene.events}", "too_long", scene.events)
+                         f"{events}", "too_long", events)

@@ -170,8 +170,8 @@ class LivePool:
     # ---- messages from the reader threads ----------------------------------------------------
 
     def _on_message(self, w: _LiveWorker, msg: tuple, arrived: float = 0.0) -> None:
-        """A message of a live worker (``arrived``: when its reader thread got it); a block goes
-        to its session's queue with that time last, so that its relay can be timed."""
+        """A message of a live worker; a block carries the time its worker sent it (last), by
+        which its relay is timed."""
         if msg[0] == "ready":
             w.ready = True
             self._ready_event.set()
@@ -183,7 +183,7 @@ class LivePool:
             return
         s = w.sessions.get(msg[1])
         if s is not None:
-            s.messages.put_nowait((*msg, arrived) if msg[0] == "block" else msg)
+            s.messages.put_nowait(msg)
             if msg[0] == "failed":
                 s.closed = True
                 w.sessions.pop(s.id, None)

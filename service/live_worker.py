@@ -298,7 +298,8 @@ def _block(conn: Connection, sessions: dict[int, _Live], sid: int) -> None:
     for ident, at in live.acks:
         conn.send(("ack", sid, ident, at))
     live.acks.clear()
-    conn.send(("block", sid, frame, x.astype("<f4").tobytes()))
+    data = x.astype("<f4").tobytes()
+    conn.send(("block", sid, frame, data, time.monotonic()))  # sent at: the relay is timed
     now = time.monotonic()
     if now > live.plays:
         live.late += 1

@@ -66,8 +66,9 @@ class Metrics:
             buckets=(0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0),
             registry=self.registry)
         self.live_relay = Histogram(
-            "guitar_live_relay_seconds", "from a live block's arrival in the API process (from "
-            "its live worker) to its hand-over to the client's WebSocket",
+            "guitar_live_relay_seconds", "from a live block's sending by its live worker to its "
+            "hand-over to the client's WebSocket (the pipe, the API process's wake-up and "
+            "event loop, the send)",
             buckets=(0.001, 0.0025, 0.005, 0.01, 0.02, 0.04, 0.1, 0.25, 1.0),
             registry=self.registry)
         self.gc_pause = Histogram(

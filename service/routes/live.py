@@ -256,7 +256,7 @@ async def _events(ws: WebSocket, pool: LivePool, session: LiveSession, preset: A
 
 async def _send(ws: WebSocket, session: LiveSession, backlog: int, relay: Histogram) -> None:
     """The session's messages to the client; each block's relay timed (``relay``: from its
-    arrival from the live worker to its hand-over to the socket)."""
+    sending by the live worker to its hand-over to the socket)."""
     while True:
         if session.messages.qsize() > backlog:
             raise _SlowClient(f"the client fell more than {BACKLOG_S:g} s behind reading the blocks")

@@ -344,3 +344,39 @@ def test_the_live_audio_thread_runs_at_real_time_priority_and_its_preparer_does_
         assert all(os.sched_getscheduler(t) == os.SCHED_OTHER for t in others)
     finally:
         s.stop()
+
+
+def test_a_killed_live_worker_ends_its_sessions_with_1011_and_is_replaced(live_server):
+    """A live worker killed mid-session shows up as its pipe's end: its sessions are closed with
+    1011, and a new worker plays the next session.  (Last in this file: it replaces the module's
+    live worker.)"""
+    import os
+    import signal
+
+    pid = httpx.get(live_server.url + "/live/status", timeout=5).json()["pids"][0]
+
+    async def killed() -> websockets.frames.Close:
+        async with websockets.connect(ws_url(live_server)) as ws:
+            await ws.send(json.dumps(OPEN))
+            assert (await _next_text(ws))["type"] == "opened"
+            await asyncio.wait_for(ws.recv(), 10.0)  # blocks are coming
+            os.kill(pid, signal.SIGKILL)
+            with pytest.raises(websockets.ConnectionClosed) as closed:
+                while True:
+                    await asyncio.wait_for(ws.recv(), 10.0)
+            return closed.value.rcvd
+
+    rcvd = asyncio.run(killed())
+    assert rcvd.code == 1011 and "replaced" in rcvd.reason
+    wait_ready(lambda: (lambda st: st["ready"] and pid not in st["pids"])(
+        httpx.get(live_server.url + "/live/status", timeout=2.0).json()))
+
+    async def plays() -> int:
+        async with websockets.connect(ws_url(live_server)) as ws:
+            await ws.send(json.dumps(OPEN))
+            assert (await _next_text(ws))["type"] == "opened"
+            return len(await asyncio.wait_for(ws.recv(), 10.0))
+
+    assert asyncio.run(plays()) == HEADER.size + 256 * 4
+    wait_ready(lambda: httpx.get(live_server.url + "/live/status",
+                                 timeout=2.0).json()["live_sessions"] == 0, 10.0)

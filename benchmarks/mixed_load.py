@@ -33,9 +33,11 @@ server) in both phases, the API process's event-loop lag as the server measures 
 and how long it took to relay each live block (``guitar_live_relay_seconds``), how long
 ``GET /health/live`` takes as the load generator sees it, status counts per kind (a 5xx other
 than 503 with Retry-After counts as an error), jobs done, and the RSS of the server and of every
-process below it before and after, with the CPU each used.
+process below it before and after, with the CPU each used, and every ``--rss-every`` seconds
+of the mixed load (whether a process's growth levels off).
 
     python -m benchmarks.mixed_load [--seconds 180] [--clients 16] [--live 2] [--server-nice 0]
+                                [--rss-every 60]
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections import Counter
 from pathlib import Path
@@ -394,6 +397,40 @@ async def mixed(url: str, a: argparse.Namespace, songs: list) -> tuple[Stats, Co
     return st, jobs
 
 
+class _Timeline:
+    """The RSS of the server and of every process below it every ``every`` seconds of the mixed
+    phase (none if ``every`` is 0): whether a process's growth levels off shows in its column."""
+
+    def __init__(self, pid: int, every: float):
+        self.pid, self.every = pid, every
+        self.rows: list[tuple[float, dict[str, int]]] = []
+        self._stop = threading.Event()
+        self._t0 = time.monotonic()
+        self._thread = threading.Thread(target=self._sample, daemon=True)
+        if every > 0:
+            self._thread.start()
+
+    def _sample(self) -> None:
+        while not self._stop.wait(self.every):
+            self.rows.append((time.monotonic() - self._t0, memory(self.pid)))
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join()
+
+    def print(self, live_pids: set[int]) -> None:
+        if not self.rows:
+            return
+        keys = sorted({k for _, m in self.rows for k in m if not k.startswith("tracker")})
+        names = [k.replace("worker", "live worker") if int(k.split()[-1]) in live_pids else k
+                 for k in keys]
+        print(f"\n| s into the mixed load | {' | '.join(f'{n}, MiB' for n in names)} |")
+        print("| --- |" + " --- |" * len(keys))
+        for t, m in self.rows:
+            print(f"| {t:.0f} | {' | '.join(str(m.get(k, '-')) for k in keys)} |")
+
+
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--live-client":
         live_client(sys.argv[2], int(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]))
@@ -421,6 +458,9 @@ def main() -> None:
                          "as if its clients were on other machines, it is not held up behind "
                          "the render workers; it still takes their CPU)")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--rss-every", type=float, default=60.0, metavar="S",
+                    help="print every process's RSS every S seconds of the mixed load (0: only "
+                         "before and after)")
     ap.add_argument("--env", action="append", default=[], metavar="GUITAR_X=V",
                     help="an extra setting of the server")
     a = ap.parse_args()
@@ -479,8 +519,10 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
 
     live = start_live(url, a.live, a.seconds, a.jitter_ms, a.live_client_nice)
     t0 = time.monotonic()
+    timeline = _Timeline(proc.pid, a.rss_every)
     st, jobs = asyncio.run(mixed(url, a, songs))
     wall = time.monotonic() - t0
+    timeline.stop()
     mixed_live = live_result(live, 120)
     late2 = late_blocks(url)
     lag2 = loop_lag_buckets(url)
@@ -556,6 +598,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
         name = key.replace("worker", "live worker") if pid in live_pids else key
         print(f"| {name} | {before.get(key, '-')} | {after.get(key, '-')} | "
               f"{'-' if used is None else f'{used / span:.2f}'} |")
+    timeline.print(live_pids)
     if mixed_live.get("failed"):
         print("live sessions failed:", mixed_live["failed"])
 

@@ -416,7 +416,8 @@ def prepare_kernels(sc: Any, quiet: bool) -> None:
 # what the bar says while the calibration store computes a kind it does not hold yet
 # (``engine.calibration_store.on_compute``); the others calibrate frets
 CALIBRATING = {"decimation_taps": "designing the decimation filter",
-               "waveguide_dispersion": "designing the strings' dispersion filters"}
+               "waveguide_dispersion": "designing the strings' dispersion filters",
+               "string_tuning": "tuning the strings"}
 
 # frames per block of a command-line render: blocks as long as this (0.37 s at 44.1 kHz) keep the
 # threads busy between the blocks' joins (a string's share of a block varies less), and the bar

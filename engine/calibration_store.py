@@ -113,8 +113,10 @@ def on_compute(callback) -> None:
 
 def recall(kind: str, inputs: tuple, compute, sources: tuple[str, ...] = ()) -> tuple[float, ...]:
     """The values of a calibration of ``kind`` from ``inputs``: read from the store, or
-    ``compute()`` (a tuple of floats) and kept.  ``sources``: the modules beyond ``_SOURCES``
-    whose code computes it (``key``)."""
+    ``compute()`` (numbers) and kept.  Python floats either way: a value computed as numpy's
+    float64 would ``repr`` otherwise than the same value read back, and so would the key of a
+    calibration that takes it as an input (a tuned string's).  ``sources``: the modules beyond
+    ``_SOURCES`` whose code computes it (``key``)."""
     k = key(kind, *inputs, sources=sources)
     stored = load(k)
     if stored is not None:
@@ -122,7 +124,7 @@ def recall(kind: str, inputs: tuple, compute, sources: tuple[str, ...] = ()) -> 
     callback = getattr(_LOCAL, "callback", None)
     if callback is not None:
         callback(kind)
-    values = tuple(compute())
+    values = tuple(float(v) for v in compute())
     save(k, values)
     return values
 

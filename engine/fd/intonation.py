@@ -38,11 +38,9 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from functools import lru_cache, partial
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
-from scipy import sparse
-from scipy.sparse import linalg as sparse_linalg
 from threadpoolctl import threadpool_limits
 
 from .. import calibration_store
@@ -50,6 +48,9 @@ from ..performance import finger_x_m
 from ..presets import Preset
 from .kernels import interp
 from .string import StringModel, tune
+
+if TYPE_CHECKING:  # at run time, imported where a calibration is computed: a third of a second
+    from scipy import sparse  # of import that a process finding them all in the store never needs
 
 REFERENCE_H_M = 1.5e-3  # the fine grid that a calibrated grid's notes are matched to
 PLUCK = 0.8  # x / L of the pluck whose response picks the note's mode (benchmarks.intonation's)
@@ -83,6 +84,8 @@ def _vector(pairs: list[tuple[int, float]], size: int) -> np.ndarray:
 def _null_basis(constraints: list[list[tuple[int, float]]], size: int) -> sparse.csr_matrix:
     """A sparse basis Z of {u : j^T u = 0 for every constraint j}: each constraint eliminates its
     node of largest weight, which then follows the nodes kept (u = Z u_kept)."""
+    from scipy import sparse
+
     expr: dict[int, dict[int, float]] = {}  # eliminated node -> {kept node: coefficient}
     for pairs in constraints:
         row: dict[int, float] = {}
@@ -115,6 +118,8 @@ def _null_basis(constraints: list[list[tuple[int, float]]], size: int) -> sparse
 def _stiffness(model: StringModel, tension_ratio: float = 1.0) -> sparse.csc_matrix:
     """The string's stiffness h (T D^T D + E I (D^T D)^2) over nodes 1..N-1, its tension
     ``tension_ratio`` times the tuned one."""
+    from scipy import sparse
+
     n, h = model.n, model.h
     d2 = sparse.diags([np.ones(n - 2), -2.0 * np.ones(n - 1), np.ones(n - 2)], [-1, 0, 1]) / h**2
     return (h * (-tension_ratio * model.tension_n * d2 + model.ei * (d2 @ d2))).tocsc()
@@ -124,6 +129,8 @@ def _stiffness(model: StringModel, tension_ratio: float = 1.0) -> sparse.csc_mat
 def _string_matrices(model: StringModel, finger_mass: float):
     """``_stiffness`` and the mass matrix over nodes 1..N-1 and the finger (its row and column of
     the stiffness empty): the same for every fret, so a calibration builds them once."""
+    from scipy import sparse
+
     n, h = model.n, model.h
     stiff = sparse.block_diag([_stiffness(model), sparse.csr_matrix((1, 1))]).tocsr()
     mass = sparse.diags(np.append(np.full(n - 1, model.rho_a * h), finger_mass))
@@ -154,6 +161,9 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
     it and of the finger (default: where they are, ``Preset.fret_x_m`` and
     ``controls.finger_x_m``); ``damping`` is the finger's contact damping (N s/m; default: the
     preset's)."""
+    from scipy import sparse
+    from scipy.sparse import linalg as sparse_linalg
+
     n, k = model.n, model.k
     size = n  # nodes 1..N-1 and the finger
     if fret_x is None:
@@ -200,6 +210,14 @@ def held_note(model: StringModel, preset: Preset, fret: int, target: float,
 @lru_cache(maxsize=4096)
 def seating_force(model: StringModel, preset: Preset, fret: int,
                   tension_ratio: float = 1.0) -> float:
+    """``seating_force_of``, cached per process and on disk per machine (``calibration_store``)."""
+    return calibration_store.recall(
+        "seating_force", (model, preset, fret, tension_ratio),
+        lambda: (seating_force_of(model, preset, fret, tension_ratio),))[0]
+
+
+def seating_force_of(model: StringModel, preset: Preset, fret: int,
+                     tension_ratio: float = 1.0) -> float:
     """Newtons: the least force with which a finger stopping ``fret`` (where
     ``controls.finger_x_m`` puts it) holds the string at rest on that fret, the string's tension
     ``tension_ratio`` times its tuned one (a bend raises it, and with it this force).
@@ -212,7 +230,9 @@ def seating_force(model: StringModel, preset: Preset, fret: int,
     string would have to be pulled down onto the fret), and the force is the F at which it reaches
     zero.  A fret can only push: where the fret behind would have to pull at that force (near the
     nut, which stands above the frets, the pressed string leaves it), the string is solved again
-    without it.  A vibrating string needs more (``SEAT_MARGIN``).  Cached."""
+    without it.  A vibrating string needs more (``SEAT_MARGIN``)."""
+    from scipy.sparse import linalg as sparse_linalg
+
     n = model.n
     lu = sparse_linalg.splu(_stiffness(model, tension_ratio))
     finger = _vector(_interpolant(finger_x_m(preset, fret, model.spec), model), n - 1)

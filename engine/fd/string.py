@@ -19,8 +19,8 @@ from dataclasses import dataclass
 from functools import lru_cache, partial
 
 import numpy as np
-from scipy import optimize
 
+from .. import calibration_store
 from ..losses import loss_coefficients
 from ..presets import Preset, StringSpec, get_preset
 from .grid import MIN_NODES, h_min
@@ -161,7 +161,22 @@ def tune(spec: StringSpec, length: float, sample_rate: float, grid_scale: float 
     it is rebuilt with the interval count the new bound allows (at least one fewer) and retuned.
     Raises ValueError for a string whose stiffness alone exceeds its pitch (no positive tension
     tunes it; ``engine.scene`` rejects such overrides) or that cannot get ``MIN_NODES`` intervals.
+
+    Cached per process, and on disk per machine (``calibration_store``: exact to the bit), so that
+    a process that finds its strings there neither solves them nor imports scipy's root finder.
     """
+    def compute() -> tuple[float, ...]:
+        m = _tune_any(spec, length, sample_rate, grid_scale, compensate, max_tension_ratio)
+        return float(m.n), m.tension_n, m.sigma0, m.sigma1, m.ei_scale
+
+    n, tension, sigma0, sigma1, scale = calibration_store.recall(
+        "string_tuning", (spec, length, sample_rate, grid_scale, compensate, max_tension_ratio),
+        compute)
+    return StringModel(spec, length, 1.0 / sample_rate, int(n), tension, sigma0, sigma1, scale)
+
+
+def _tune_any(spec, length, sample_rate, grid_scale, compensate, max_tension_ratio) -> StringModel:
+    """``tune`` computed: compensated where it can be, else not."""
     if spec.stiffness_tension_n(length) >= spec.pitch_tension_n(length):
         raise ValueError(f"string {spec.note}: its bending stiffness alone exceeds its pitch "
                          "(pi^2 E I / L^2 >= 4 L^2 rho A f0^2): no positive tension tunes it")
@@ -229,6 +244,8 @@ def _secant(err, x0: float) -> float:
     """Root of err near x0 by the secant method (err is smooth and monotonic here).  Where err is
     flat to machine precision before the step tolerance is met, scipy stops with a warning: that
     is the root to the last few ulps, and it is taken (``_tune`` checks that it is physical)."""
+    from scipy import optimize  # here: half a second of import that a stored tuning never needs
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return optimize.newton(err, x0, x1=x0 * 1.01, tol=1e-12 * abs(x0), maxiter=60,

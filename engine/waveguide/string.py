@@ -52,7 +52,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .. import calibration_store
 from ..losses import LN1000, loss_coefficients
@@ -171,6 +170,8 @@ def _fit_dispersion(inharmonicity: float, period: float, room: float) -> tuple[f
             d = np.array([allpass_delay(a, sections, x) for x in w])
             w = 2.0 * math.pi * n / (k + d)
         return w
+
+    from scipy.optimize import minimize_scalar  # here: its import is half a second
 
     best = (0.0, 0, math.inf)
     for sections in range(1, MAX_SECTIONS + 1):

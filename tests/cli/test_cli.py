@@ -364,6 +364,7 @@ def test_a_render_says_when_it_calibrates_frets_and_only_then(tmp_path: Path) ->
     second = run("render", scene, "-o", tmp_path / "b.wav", env=env)
     assert second.returncode == 0, second.stderr
     assert "calibrating" not in second.stderr and "compiling" not in second.stderr
+    assert "tuning" not in second.stderr
     assert sf.read(tmp_path / "a.wav")[0].tobytes() == sf.read(tmp_path / "b.wav")[0].tobytes()
 
 

@@ -1,9 +1,13 @@
 """Fret calibrations on disk (``engine.calibration_store``): a calibration read back is the one
 computed, to the last bit; a render is the same with the store cold, warm or off, on both models
-(the waveguide keeps the finger's damping of its held notes there); a store that cannot be
-written changes nothing."""
+(the waveguide keeps the finger's damping of its held notes there); a process that finds its
+strings there solves nothing; a store that cannot be written changes nothing."""
 
 from __future__ import annotations
+
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -11,6 +15,7 @@ import pytest
 import engine
 from engine import calibration_store, config
 from engine.fd import intonation, statics
+from engine.fd import string as fd_string
 from engine.fd.instrument import prepare
 from engine.models import PRESSED_STRING
 from engine.scene import Scene
@@ -28,6 +33,8 @@ def _forget() -> None:
     calibration_store.reset()
     intonation.fret_calibration.cache_clear()
     intonation._stored_shift.cache_clear()
+    intonation.seating_force.cache_clear()
+    fd_string.tune.cache_clear()
     fingering.finger_decay_db_s.cache_clear()
     wg_string.dispersion_filter.cache_clear()
 
@@ -74,13 +81,28 @@ def test_the_key_follows_every_input():
 
 def test_a_render_is_the_same_cold_warm_and_without_the_store(store, monkeypatch):
     cold = engine.render(SCENE)
-    intonation.fret_calibration.cache_clear()
+    _forget()
     warm = engine.render(SCENE)
     monkeypatch.setattr(config, "CALIBRATION_CACHE", False)
-    calibration_store.reset()
-    intonation.fret_calibration.cache_clear()
+    _forget()
     off = engine.render(SCENE)
     assert np.array_equal(cold, warm) and np.array_equal(cold, off)
+
+
+def test_a_process_that_finds_its_strings_stored_solves_nothing(store):
+    """The strings' tuning, the seating forces and the fret calibrations of a fretted render are
+    all kept: a new process that finds them computes none of them, and does not even import
+    scipy's solvers (half a second of every render's start)."""
+    code = (f"import sys, engine; engine.render({SCENE!r}); "
+            "print([m for m in ('scipy.optimize', 'scipy.sparse') if m in sys.modules])")
+    env = {**os.environ, "GUITAR_CACHE_DIR": str(store), "GUITAR_CALIBRATION_CACHE": "1"}
+
+    def imported() -> str:
+        return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                              text=True, check=True).stdout.strip().splitlines()[-1]
+
+    assert imported() == "['scipy.optimize', 'scipy.sparse']"  # a cold store: computed
+    assert imported() == "[]"
 
 
 def test_a_stored_finger_decay_is_the_computed_one(store, monkeypatch):

@@ -4,6 +4,7 @@ notes, and the time a first render takes after install.
     python -m benchmarks.songs            # four whole songs, both models, FluidSynth, cold start
     python -m benchmarks.songs --quick    # the first 20 s of two songs, the cold start of fdtd only
     python -m benchmarks.songs --songs "Demo v5.gp5" --max-seconds 30 --no-cold
+    python -m benchmarks.songs --cold-only   # a 2 s chord's first and second render, each model
 
 The songs are files nobody on this project wrote: the longest multi-track scores of the test
 corpus (``make test-data``: PyGuitarPro's Guitar Pro files, music21's and miditoolkit's MIDI
@@ -249,6 +250,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--repeat", type=int, default=1, help="renders per song and model (the "
                     "least CPU time counts; FluidSynth always at least 3)")
     ap.add_argument("--no-cold", action="store_true", help="leave the cold start out")
+    ap.add_argument("--cold-only", action="store_true", help="only the cold start (and the "
+                    "second render after it), of every model")
     ap.add_argument("--all-cores", action="store_true", help="do not pin renders to one core")
     args = ap.parse_args(argv)
     songs = args.songs or (QUICK_SONGS if args.quick else SONGS)
@@ -263,6 +266,9 @@ def main(argv: list[str] | None = None) -> None:
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="guitar-songs-") as d:
         tmp = Path(d)
+        if args.cold_only:
+            cold_start(MODELS, core, tmp)
+            return
         # fill the caches (kernels, the calibrations of every preset the songs use): not counted
         for name in songs:
             for model in MODELS:

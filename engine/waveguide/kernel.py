@@ -24,6 +24,12 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
    next event, or stops when none is left (a sleeping string costs nothing).
 
+A move onto a new rest line (``voice._change``: a finger carrying the string onto a fret's crown,
+or letting it up) is stepped here too, before each of its steps (``_ramp``): those steps and the
+one after the last are general steps that restart the schedules (as ``carry.fresh`` does), and no
+string sleeps while a finger moves it.  (Stepped from Python, one kernel call a step, the moves
+cost a MIDI song's render over half its CPU time.)
+
 The period's stretch, the reach schedule, the live collision points and a quiet string's
 respite carry from one call to the next (``Wave.carry``): the schedules restart only on the
 global grid of ``BLOCK`` steps and where ``voice`` asks (``carry.fresh``: the start, a change of
@@ -126,6 +132,8 @@ CARRY = np.dtype([
     ("fresh", _I),  # 1: the next call restarts the schedules (``voice``: the start, a new stop);
     # 2: it resumes a string that slept (``voice._wake``): the period exact and a reach at its
     # first step, the schedules on the global grid (``restart`` set by ``voice``), as if it had run
+    ("ramp_left", _I),  # steps left of a move onto a new rest line (``voice._change``, ``RAMP``)
+    ("ramp_n", _I),  # the grid points it moves (the first ramp_n of ``Wave.ramp``)
     ("general", _I),  # steps run in the general step, counted over the calls (``tools``)
     ("plain", _I),  # and in plain runs (``_plain``)
     ("loss", _F),  # the loss one-pole's state
@@ -150,7 +158,10 @@ COLLIDER = np.dtype([("n", _I), ("live", _I), ("order", _I), ("ref", _F), ("cr",
                      ("prev", _F)], align=True)
 # a pickup: grid index n and weight w of its interpolant (between n and n + 1), gain, last
 # displacement
-PICKUP = np.dtype([("n", _I), ("w", _F), ("g", _F), ("u", _F)], align=True)
+PICKUP = np.dtype([("n", _I), ("w", _F), ("g", _F), ("u", _F), ("jump", _F)], align=True)
+# a move onto a new rest line (``voice._change``): a grid point and its displacement's change per
+# step (half on each rail); the pickups' last reading moves by their ``jump`` per step
+RAMP = np.dtype([("n", _I), ("d", _F)], align=True)
 # the reach's per-segment maxima of |u+| and |u-| (``_reach``'s scratch)
 SEGMENT = np.dtype([("up", _F), ("down", _F)], align=True)
 
@@ -164,6 +175,7 @@ class Wave(NamedTuple):
     pickups: np.ndarray  # PICKUP
     colliders: np.ndarray  # COLLIDER
     segments: np.ndarray  # SEGMENT, N // REACH_EVERY + 2 of them
+    ramp: np.ndarray  # RAMP, one per grid point at most
 
 
 class Events(NamedTuple):
@@ -221,6 +233,9 @@ def run_block(wave, events, step0, out):
     pk_w = pk.w
     pk_g = pk.g
     pk_u = pk.u
+    pk_jump = pk.jump
+    rp_n = wave.ramp.n
+    rp_d = wave.ramp.d
     if seg_p.shape[0] < N // REACH_EVERY + 2:
         return -2
     mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound
@@ -260,6 +275,11 @@ def run_block(wave, events, step0, out):
     fresh = st.fresh == 1
     wake = st.fresh == 2
     st.fresh = 0
+    # a finger carrying the string onto a new rest line (``voice._change``): its steps are general
+    # steps that restart the schedules, as is the step after its last one (``_ramp``)
+    ramp_left = st.ramp_left
+    ramp_n = st.ramp_n
+    after_ramp = False
     # the termination's filter states, in registers for the call
     ly = st.loss
     x0 = ap_x[0] if disp_m > 0 else 0.0
@@ -297,16 +317,22 @@ def run_block(wave, events, step0, out):
     while i < nsteps:
         # a general step: everything that may act at s
         s = step0 + i
+        ramping = ramp_left > 0
+        if ramping:
+            _ramp(R, Mb, mask, s, rp_n, rp_d, ramp_n, pk_u, pk_jump)
+            ramp_left -= 1
+        renew = (i == 0 and fresh) or ramping or after_ramp  # the schedules start afresh
+        after_ramp = ramping and ramp_left == 0
         if s >= act_until:  # the junctions whose window holds s (``_active``)
             nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
         # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
-        restart = (i == 0 and fresh) or s % BLOCK == 0
+        restart = renew or s % BLOCK == 0
         if restart:
             ri = 0
             st.restart = s
-            if i == 0 and fresh:
+            if renew:
                 quiet_until = -1
         exact = restart or (i == 0 and wake)
         phase = s % GLIDE_EVERY
@@ -395,7 +421,7 @@ def run_block(wave, events, step0, out):
         if decay_v > 0.0:
             peak = max(peak, abs(acc))
             if (s + 1) % BLOCK == 0:
-                if (peak < decay_v
+                if (peak < decay_v and not ramping  # no sleep while a finger moves it
                         and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
                                        pb_step, pb_f, ib)
                         and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, act, nact,
@@ -407,7 +433,7 @@ def run_block(wave, events, step0, out):
         # collision points and the pickups (no junction, no update of the period or the reach),
         # the same arithmetic as the general step's in a loop of its own (``_plain``), up to the
         # next step that needs the general one
-        if i >= nsteps:
+        if i >= nsteps or ramping:
             continue
         s1 = step0 + i
         e = min(s1 + (GLIDE_EVERY - s1 % GLIDE_EVERY) % GLIDE_EVERY, step0 + nsteps)
@@ -455,6 +481,9 @@ def run_block(wave, events, step0, out):
     if stopped:
         st.stopped = 1
         peak = 0.0
+    st.ramp_left = ramp_left
+    if after_ramp:  # the next call's first step restarts the schedules
+        st.fresh = 1
     st.general += i - plain
     st.plain += plain
     st.n_t = n_t
@@ -741,6 +770,20 @@ def _steady(s, act, nact, js_on, js_off, js_rel, js_len, js_np, js_idx, js_mp, j
             sp_cut[q] = jst[j, k, J_CUT]
             q += 1
     return q, until
+
+
+@njit(**JIT_HELPER)
+def _ramp(R, Mb, mask, s, rp_n, rp_d, ramp_n, pk_u, pk_jump):
+    """One step of a move onto a new rest line (``voice._change``), before step s: the
+    displacement from the rest line at each of its points changes by d, half on each rail (a
+    balanced displacement with no velocity, E&E eq. (12)), and the pickups' last reading by
+    their jump, so that they see the string's motion, not the change of frame."""
+    for k in range(ramp_n):
+        R[(s - rp_n[k]) & mask] += 0.5 * rp_d[k]
+    for k in range(ramp_n):
+        Mb[(s + rp_n[k]) & mask] += 0.5 * rp_d[k]
+    for p in range(pk_u.shape[0]):
+        pk_u[p] += pk_jump[p]
 
 
 @njit(**JIT_HELPER)

@@ -84,11 +84,9 @@ class WaveguideVoice:
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
     _run: object = field(default=None, repr=False)  # engine.config.entry_point of run_block
-    ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
     asleep_from: int = -1  # the step the string fell asleep at (``_sleep``; -1: awake)
     asleep_until: int = 0  # and the step it wakes at (``_wake``)
     steps_slept: int = 0  # the steps it slept and woke from (``tools.song_instructions``)
-    _ramped: bool = False  # the last kernel call was a step of such a move
     # the kernel's arrays' rows and fields (``_part``)
     R, Mb = _part("rails", 0), _part("rails", 1)
     js_on, js_off, js_len, js_rel, js_np = (_part("slots", f) for f in K.SLOT.names)
@@ -133,6 +131,7 @@ class WaveguideVoice:
         # straight rest line and its restitution
         self._collision_points()
         self.segments = np.zeros(n // REACH_EVERY + 2, K.SEGMENT)  # the reach's scratch
+        self.ramps = np.zeros(n, K.RAMP)  # a move onto a new rest line (``_change``)
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / self.x_step
                         if self.glide else 0.0)
         self._stops_and_pitch(self.timeline)
@@ -374,19 +373,15 @@ class WaveguideVoice:
                 xp = self.x_of(np.array([n_p, n_p + 1]))
                 j = self._rest(old, xp) - self._rest(fret, xp)
                 jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
-            self.ramp = (idx, delta / steps, np.array(jumps) / steps, steps)
-
-    def _ramp_step(self) -> None:
-        """One step of the move onto the new rest line (``_change``).  The pickups read the
-        displacement from the rest line: their last reading moves with it, so that they see the
-        string's motion, not the change of frame."""
-        idx, d, jumps, left = self.ramp
-        mask = len(self.R) - 1
-        s = self.step
-        self.R[(s - idx) & mask] += 0.5 * d
-        self.Mb[(s + idx) & mask] += 0.5 * d
-        self.pk["u"] += jumps
-        self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
+            # the kernel takes a step of the move before each of its next ``steps`` steps
+            # (``kernel._ramp``): the pickups read the displacement from the rest line, so their
+            # last reading moves with it, and they see the string's motion, not the change of
+            # frame
+            self.ramps["n"][:len(idx)] = idx
+            self.ramps["d"][:len(idx)] = delta / steps
+            self.pk["jump"] = np.array(jumps) / steps
+            self.st["ramp_n"] = len(idx)
+            self.st["ramp_left"] = steps
 
     # -- running ---------------------------------------------------------------------------------
     def _next_event(self) -> int:
@@ -467,18 +462,10 @@ class WaveguideVoice:
                    else NEVER)
             m = int(min(nsteps - done, nxt - self.step))
             self.st["next_stop"] = nxt
-            if self.ramp is not None:  # a finger carrying the string: one step at a time
-                self._ramp_step()
-                m = 1
-                fresh = self._ramped = True
-                self.st["next_stop"] = self.step  # no sleep while the finger moves it
-            elif self._ramped:
-                fresh = True
-                self._ramped = False
             if fresh:
                 self.st["fresh"] = 1
             args = (K.Wave(self.config, self.carry, self.rails, self.pk, self.colliders,
-                           self.segments),
+                           self.segments, self.ramps),
                     K.Events(self.slots, self.points, self.jst, self.bends), self.step,
                     out[done:done + m])
             if self._run is None:  # the argument types are the same in every call

@@ -119,6 +119,7 @@ CONFIG = np.dtype([
     ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
     ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
     ("steady_runs", _I),  # 1: steady junctions run in plain runs (``_steady``), 0: not
+    ("damper_bound", _I),  # 1: a damper's neighbours by the energy bound (``_reach``), 0: live
 ], align=True)
 # what carries from one call to the next: one record
 CARRY = np.dtype([
@@ -136,6 +137,7 @@ CARRY = np.dtype([
     ("ramp_n", _I),  # the grid points it moves (the first ramp_n of ``Wave.ramp``)
     ("general", _I),  # steps run in the general step, counted over the calls (``tools``)
     ("plain", _I),  # and in plain runs (``_plain``)
+    ("tested", _I),  # collision point-steps tested (each live point at each step), likewise
     ("loss", _F),  # the loss one-pole's state
     ("glide", _F),  # the glide's pitch ratio
     ("d", _F),  # the delay the Lagrange taps were computed for (0: none yet)
@@ -314,6 +316,7 @@ def run_block(wave, events, step0, out):
     i = 0
     stopped = False
     plain = 0  # steps run in plain runs in this call
+    tested = 0  # collision point-steps tested in this call
     while i < nsteps:
         # a general step: everything that may act at s
         s = step0 + i
@@ -406,11 +409,13 @@ def run_block(wave, events, step0, out):
                 nlive, quiet_until = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref,
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
-                                            js_kappa, tail, pb_step, ib, near_n)
+                                            js_kappa, tail, pb_step, ib, near_n,
+                                            cf.damper_bound != 0)
                 inside_nt = -1
             if n_t != inside_nt:
                 inside = _inside(col_n, col_list, nlive, n_t, N)
                 inside_nt = n_t
+            tested += nlive
             _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list,
                         nlive, inside, fs)
         # 6. pickups
@@ -469,6 +474,7 @@ def run_block(wave, events, step0, out):
             i += e - s1
             ri += e - s1
             plain += e - s1
+            tested += (e - s1) * nlive if ncol > 0 else 0
             if decay_v > 0.0 and e % BLOCK == 0:
                 if (peak < decay_v
                         and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
@@ -486,6 +492,7 @@ def run_block(wave, events, step0, out):
         st.fresh = 1
     st.general += i - plain
     st.plain += plain
+    st.tested += tested
     st.n_t = n_t
     st.pb = ib
     st.quiet = quiet_until
@@ -938,7 +945,7 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
 @njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
            seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
-           near_n):
+           near_n, damper_bound):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
     in col_list.  Returns how many there are and the step until which no bound is needed: s if
@@ -993,16 +1000,27 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
     until = (s // BLOCK + 1) * BLOCK  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B
-    # the points of the junctions that act before s + B (they make their neighbours live)
+    # the points of the junctions that act before s + B (they make their neighbours live): those
+    # of the junctions with a force, a mass or a spring from the start of near_n (nnear), those
+    # of plain dampers from its end (ndamp; ``damper_bound``)
     nnear = 0
+    ndamp = 0
+    top = near_n.shape[0] - 1
     quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady
     for j in range(js_on.shape[0]):
         if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
+            pushes = not damper_bound
             for q in range(js_np[j]):
-                near_n[nnear] = js_idx[j, q]
-                nnear += 1
                 if js_f[j, q] != 0.0 or js_mp[j, q] != 0.0 or js_kappa[j, q] != 0.0:
                     forced = True
+                    pushes = True
+            for q in range(js_np[j]):
+                if pushes:
+                    near_n[nnear] = js_idx[j, q]
+                    nnear += 1
+                else:
+                    near_n[(top - ndamp) & NONNEG] = js_idx[j, q]
+                    ndamp += 1
         if js_on[j] < until and js_off[j] + js_rel[j] + tail > s:
             quiet = False
     for c in range(col_n.shape[0]):
@@ -1027,12 +1045,22 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
             e2 = ENERGY_SAFETY * 2.0 * slope * d * (span - d) / span
             if quiet and e2 * (QUIET_MARGIN * QUIET_MARGIN) >= col_ref[c] * col_ref[c]:
                 quiet = False
-            if e2 < bound * bound:
+            damped = False  # within B of a damper: the segments' maxima assume free waves
+            for q in range(ndamp):
+                if abs(near_n[(top - q) & NONNEG] - n) <= B:
+                    damped = True
+                    break
+            if damped or e2 < bound * bound:
                 bound = math.sqrt(e2)
         live = bound * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
         if not live:
             for q in range(nnear):
                 if abs(near_n[q] - n) <= B:
+                    live = True
+                    break
+        if not live and forced:  # no energy bound: a damper's neighbours too
+            for q in range(ndamp):
+                if abs(near_n[(top - q) & NONNEG] - n) <= B:
                     live = True
                     break
         if live and col_live[c] == 0:

@@ -79,6 +79,7 @@ class WaveguideVoice:
     skip_decayed: bool = True
     decay_velocity: float = 1e-7
     steady_runs: bool = True  # steady junctions in plain runs (``kernel._steady``; exact)
+    damper_bound: bool = True  # a damper's neighbours by the energy bound (``kernel._reach``)
     step: int = 0
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
@@ -288,6 +289,7 @@ class WaveguideVoice:
         c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
         c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
         c["steady_runs"] = int(self.steady_runs)
+        c["damper_bound"] = int(self.damper_bound)
         self.stop_fret = fret
         self.stop_held = held
         if len(self.col_n):

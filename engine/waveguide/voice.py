@@ -130,6 +130,8 @@ class WaveguideVoice:
             self.pk_w[p] = g - self.pk_n[p]
         # collision points: every grid point under the neck, its obstacle's height from the
         # straight rest line and its restitution
+        self._rests: dict = {}  # ``_rest_grid``
+        self._fret_xs: dict = {}  # ``_fret_x``
         self._collision_points()
         self.segments = np.zeros(n // REACH_EVERY + 2, K.SEGMENT)  # the reach's scratch
         self.ramps = np.zeros(n, K.RAMP)  # a move onto a new rest line (``_change``)
@@ -293,7 +295,7 @@ class WaveguideVoice:
         self.stop_fret = fret
         self.stop_held = held
         if len(self.col_n):
-            rest = self._rest(fret, self.x_of(self.col_n))
+            rest = self._rest_grid(fret)[self.col_n]
             self.col_ref[:] = self.col_abs - rest
             self.col_live[:] = 0
 
@@ -336,6 +338,23 @@ class WaveguideVoice:
         length = self.phys.length_m
         return np.where(x >= stop_x, -c * (length - x) / (length - stop_x), -c * x / stop_x)
 
+    def _rest_grid(self, fret: int | None) -> np.ndarray:
+        """``_rest`` at every grid point 0..N, kept per stop: a song changes the stop thousands of
+        times among a few frets (elementwise the same values as ``_rest`` at any of them)."""
+        grid = self._rests.get(fret)
+        if grid is None:
+            grid = self._rest(fret, self.x_of(np.arange(self.n + 1)))
+            self._rests[fret] = grid
+        return grid
+
+    def _fret_x(self, fret: int | None) -> float:
+        """The stop's place, metres from the nut (-1 for the open string), kept per fret."""
+        x = self._fret_xs.get(fret)
+        if x is None:
+            x = -1.0 if fret is None else float(self.preset.fret_x_m(fret, self.spec))
+            self._fret_xs[fret] = x
+        return x
+
     def _change(self, fret: int | None, strike: float, held: bool) -> None:
         old = self.stop_fret
         if fret == old:
@@ -347,9 +366,7 @@ class WaveguideVoice:
         nt_old = int(self.st["n_t"])
         self._configure(fret, held)
         nt = self._place(self.loop(fret, held))
-        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old, self.spec))
-        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret, self.spec))
-        release = x_new < x_old
+        release = self._fret_x(fret) < self._fret_x(old)
         if release and nt < nt_old:
             lo = max(nt - 8, nt - self.n)
             for i in range(lo, nt_old):  # the part cut off comes back at rest
@@ -365,15 +382,14 @@ class WaveguideVoice:
             # displacement from the rest line changes by rest_old - rest_new over that time, in
             # equal steps with no velocity of their own (balanced, E&E eq. (12))
             idx = np.arange(nt + 1, self.n)
-            x = self.x_of(idx)
-            delta = self._rest(old, x) - self._rest(fret, x)
+            rest_old, rest_new = self._rest_grid(old), self._rest_grid(fret)
+            delta = rest_old[nt + 1:self.n] - rest_new[nt + 1:self.n]
             speed = strike if strike > 0.0 else LIFT_SPEED_M_S
             depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
             steps = int(min(max(round(depth / speed * self.rate), 1), RAMP_MAX_S * self.rate))
             jumps = []
             for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
-                xp = self.x_of(np.array([n_p, n_p + 1]))
-                j = self._rest(old, xp) - self._rest(fret, xp)
+                j = rest_old[n_p:n_p + 2] - rest_new[n_p:n_p + 2]
                 jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
             # the kernel takes a step of the move before each of its next ``steps`` steps
             # (``kernel._ramp``): the pickups read the displacement from the rest line, so their

@@ -8,6 +8,13 @@ wrote: ``make test-data``) and on ``tools.render_digest``'s waveguide scenes:
 * steady runs (``WaveguideOptions.steady_runs``, ``kernel._steady``): steady junctions, a
   damper in contact or a released junction leaking away, stepped in the kernel's plain runs
   instead of its general step.  Exact: not one sample may differ.
+* the damper bound (``WaveguideOptions.damper_bound``, ``kernel._reach``): the collision points
+  beside a damper in contact (a damp, a palm, a harmonic touch, a light finger) live only where
+  the string's energy bound reaches their obstacle, instead of all of them tested every sample
+  for the whole contact.  Meant to be exact: the bound is the one the kernel already relies on
+  while a released junction's perturbation leaks away, and a point it leaves out cannot reach its
+  obstacle before the next bound, so no collision is missed; the column says whether a sample
+  moved, and the collision point-steps tested with the bound against without it.
 * the decay stop between events (``skip_decayed``, ``kernel._may_sleep``, ``voice._sleep``): a
   string whose every point and pickups move slower than ``decay_velocity`` (1e-7 m/s) with
   nothing to act on it for ``kernel.LOOKAHEAD`` steps sleeps until its next event, its state
@@ -20,7 +27,8 @@ wrote: ``make test-data``) and on ``tools.render_digest``'s waveguide scenes:
 
 Each row: the largest |difference| of the mixed output (m/s), the same in dB of the render's
 peak, and the string-steps run in the kernel's general step, in plain runs and asleep (of all
-the strings' steps, skips on).
+the strings' steps, skips on); for the damper bound, the collision point-steps tested with it
+and without it.
 """
 
 from __future__ import annotations
@@ -49,10 +57,11 @@ def song_scene(path: str | Path, seconds: float | None):
     return validate(scene, str(path))
 
 
-def render(scene, skip_decayed: bool = True, steady_runs: bool = True
-           ) -> tuple[np.ndarray, dict[str, int]]:
+def render(scene, skip_decayed: bool = True, steady_runs: bool = True,
+           damper_bound: bool = True) -> tuple[np.ndarray, dict[str, int]]:
     """The mixed output (``engine.mix``, as the CLI renders it) and the string-steps of each
-    kind: ``general``, ``plain``, ``slept`` and ``all``."""
+    kind: ``general``, ``plain``, ``slept`` and ``all``; ``tested``: the collision point-steps
+    tested."""
     from engine.mix import prepare
     from engine.options import RenderOptions
 
@@ -61,11 +70,14 @@ def render(scene, skip_decayed: bool = True, steady_runs: bool = True
     for v in voices:
         v.steady_runs = steady_runs
         v.config["steady_runs"] = int(steady_runs)
+        v.damper_bound = damper_bound
+        v.config["damper_bound"] = int(damper_bound)
     parts = list(mix.blocks())
     out = np.concatenate(parts) if parts else np.zeros(0)
     steps = {"general": sum(int(v.st["general"]) for v in voices),
              "plain": sum(int(v.st["plain"]) for v in voices),
              "slept": sum(v.steps_slept for v in voices),
+             "tested": sum(int(v.st["tested"]) for v in voices),
              "all": len(voices) * mix.frames}
     return out, steps
 
@@ -89,7 +101,11 @@ def rows(scenes: dict) -> list[str]:
         c, _ = render(scene, skip_decayed=False)
         d2, db2 = difference(a, c)
         fs_db = 20.0 * np.log10(d2 * FIXED_GAIN) if d2 > 0.0 else -np.inf
+        e, wide = render(scene, damper_bound=False)
+        d3, _ = difference(a, e)
+        tested = f"{steps['tested']:.3g} / {wide['tested']:.3g}"
         out.append(f"{name[:34]:34s} | {share} | {'exact' if d1 == 0.0 else f'{d1:.2e}':>11s} | "
+                   f"{'exact' if d3 == 0.0 else f'{d3:.2e}':>9s} {tested:>19s} | "
                    f"{d2:9.2e} {db2:7.1f} dB {fs_db:7.1f} dB FS")
     return out
 
@@ -107,9 +123,9 @@ def main() -> None:
     scenes.update({name: engine.parse_scene({**sc, "model": "waveguide"})
                    for name, sc in WAVEGUIDE.items()})
     print(f"tolerance of the decay stop: {TOLERANCE_DB_FS:g} dB of full scale = {TOLERANCE:.1e} "
-          "m/s of the output; steady runs: exact")
-    print(f"{'scene':34s} | general   plain   slept | steady runs | decay stop: max |diff|, "
-          "re peak, re full scale")
+          "m/s of the output; steady runs and the damper bound: exact")
+    print(f"{'scene':34s} | general   plain   slept | steady runs | damper bound, "
+          "point-steps tested | decay stop: max |diff|, re peak, re full scale")
     for row in rows(scenes):
         print(row)
 

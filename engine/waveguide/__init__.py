@@ -96,6 +96,10 @@ class WaveguideOptions:
     # steady junctions (dampers in contact, released junctions leaking away) stepped in the
     # kernel's plain runs (``kernel._steady``): the same samples, to the bit
     steady_runs: bool = True
+    # the collision points beside a damper in contact (a damp, a palm, a harmonic touch, a light
+    # finger) bounded by the string's energy as everywhere else, not all tested every sample
+    # (``kernel._reach``)
+    damper_bound: bool = True
     block_frames: int = 2048
 
 
@@ -181,7 +185,8 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None, *,
         voices.append(WaveguideVoice(i, preset, phys, tl, rate, pickups, gains, opts.intonation,
                                      statics, opts.dispersion, opts.collisions, opts.glide,
                                      opts.finger_damping, opts.skip_decayed,
-                                     opts.decay_velocity, opts.steady_runs))
+                                     opts.decay_velocity, opts.steady_runs,
+                                     opts.damper_bound))
     inst = WaveguideInstrument(scene, preset, voices, opts, out.frames, out.channels, out.pans,
                                out.body)
     inst._warnings = [w for _, w in sorted(warnings)]

@@ -24,6 +24,12 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
    next event, or stops when none is left (a sleeping string costs nothing).
 
+A move onto a new rest line (``voice._change``: a finger carrying the string onto a fret's crown,
+or letting it up) is stepped here too, before each of its steps (``_ramp``): those steps and the
+one after the last are general steps that restart the schedules (as ``carry.fresh`` does), and no
+string sleeps while a finger moves it.  (Stepped from Python, one kernel call a step, the moves
+cost a MIDI song's render over half its CPU time.)
+
 The period's stretch, the reach schedule, the live collision points and a quiet string's
 respite carry from one call to the next (``Wave.carry``): the schedules restart only on the
 global grid of ``BLOCK`` steps and where ``voice`` asks (``carry.fresh``: the start, a change of
@@ -113,6 +119,7 @@ CONFIG = np.dtype([
     ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
     ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
     ("steady_runs", _I),  # 1: steady junctions run in plain runs (``_steady``), 0: not
+    ("damper_bound", _I),  # 1: a damper's neighbours by the energy bound (``_reach``), 0: live
 ], align=True)
 # what carries from one call to the next: one record
 CARRY = np.dtype([
@@ -126,8 +133,11 @@ CARRY = np.dtype([
     ("fresh", _I),  # 1: the next call restarts the schedules (``voice``: the start, a new stop);
     # 2: it resumes a string that slept (``voice._wake``): the period exact and a reach at its
     # first step, the schedules on the global grid (``restart`` set by ``voice``), as if it had run
+    ("ramp_left", _I),  # steps left of a move onto a new rest line (``voice._change``, ``RAMP``)
+    ("ramp_n", _I),  # the grid points it moves (the first ramp_n of ``Wave.ramp``)
     ("general", _I),  # steps run in the general step, counted over the calls (``tools``)
     ("plain", _I),  # and in plain runs (``_plain``)
+    ("tested", _I),  # collision point-steps tested (each live point at each step), likewise
     ("loss", _F),  # the loss one-pole's state
     ("glide", _F),  # the glide's pitch ratio
     ("d", _F),  # the delay the Lagrange taps were computed for (0: none yet)
@@ -150,7 +160,10 @@ COLLIDER = np.dtype([("n", _I), ("live", _I), ("order", _I), ("ref", _F), ("cr",
                      ("prev", _F)], align=True)
 # a pickup: grid index n and weight w of its interpolant (between n and n + 1), gain, last
 # displacement
-PICKUP = np.dtype([("n", _I), ("w", _F), ("g", _F), ("u", _F)], align=True)
+PICKUP = np.dtype([("n", _I), ("w", _F), ("g", _F), ("u", _F), ("jump", _F)], align=True)
+# a move onto a new rest line (``voice._change``): a grid point and its displacement's change per
+# step (half on each rail); the pickups' last reading moves by their ``jump`` per step
+RAMP = np.dtype([("n", _I), ("d", _F)], align=True)
 # the reach's per-segment maxima of |u+| and |u-| (``_reach``'s scratch)
 SEGMENT = np.dtype([("up", _F), ("down", _F)], align=True)
 
@@ -164,6 +177,7 @@ class Wave(NamedTuple):
     pickups: np.ndarray  # PICKUP
     colliders: np.ndarray  # COLLIDER
     segments: np.ndarray  # SEGMENT, N // REACH_EVERY + 2 of them
+    ramp: np.ndarray  # RAMP, one per grid point at most
 
 
 class Events(NamedTuple):
@@ -221,6 +235,9 @@ def run_block(wave, events, step0, out):
     pk_w = pk.w
     pk_g = pk.g
     pk_u = pk.u
+    pk_jump = pk.jump
+    rp_n = wave.ramp.n
+    rp_d = wave.ramp.d
     if seg_p.shape[0] < N // REACH_EVERY + 2:
         return -2
     mask = (R.shape[0] - 1) & NONNEG  # known >= 0: indices masked by it need no wraparound
@@ -260,6 +277,11 @@ def run_block(wave, events, step0, out):
     fresh = st.fresh == 1
     wake = st.fresh == 2
     st.fresh = 0
+    # a finger carrying the string onto a new rest line (``voice._change``): its steps are general
+    # steps that restart the schedules, as is the step after its last one (``_ramp``)
+    ramp_left = st.ramp_left
+    ramp_n = st.ramp_n
+    after_ramp = False
     # the termination's filter states, in registers for the call
     ly = st.loss
     x0 = ap_x[0] if disp_m > 0 else 0.0
@@ -294,19 +316,26 @@ def run_block(wave, events, step0, out):
     i = 0
     stopped = False
     plain = 0  # steps run in plain runs in this call
+    tested = 0  # collision point-steps tested in this call
     while i < nsteps:
         # a general step: everything that may act at s
         s = step0 + i
+        ramping = ramp_left > 0
+        if ramping:
+            _ramp(R, Mb, mask, s, rp_n, rp_d, ramp_n, pk_u, pk_jump)
+            ramp_left -= 1
+        renew = (i == 0 and fresh) or ramping or after_ramp  # the schedules start afresh
+        after_ramp = ramping and ramp_left == 0
         if s >= act_until:  # the junctions whose window holds s (``_active``)
             nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
         # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
-        restart = (i == 0 and fresh) or s % BLOCK == 0
+        restart = renew or s % BLOCK == 0
         if restart:
             ri = 0
             st.restart = s
-            if i == 0 and fresh:
+            if renew:
                 quiet_until = -1
         exact = restart or (i == 0 and wake)
         phase = s % GLIDE_EVERY
@@ -380,11 +409,13 @@ def run_block(wave, events, step0, out):
                 nlive, quiet_until = _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref,
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
-                                            js_kappa, tail, pb_step, ib, near_n)
+                                            js_kappa, tail, pb_step, ib, near_n,
+                                            cf.damper_bound != 0)
                 inside_nt = -1
             if n_t != inside_nt:
                 inside = _inside(col_n, col_list, nlive, n_t, N)
                 inside_nt = n_t
+            tested += nlive
             _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list,
                         nlive, inside, fs)
         # 6. pickups
@@ -395,7 +426,7 @@ def run_block(wave, events, step0, out):
         if decay_v > 0.0:
             peak = max(peak, abs(acc))
             if (s + 1) % BLOCK == 0:
-                if (peak < decay_v
+                if (peak < decay_v and not ramping  # no sleep while a finger moves it
                         and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
                                        pb_step, pb_f, ib)
                         and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, act, nact,
@@ -407,7 +438,7 @@ def run_block(wave, events, step0, out):
         # collision points and the pickups (no junction, no update of the period or the reach),
         # the same arithmetic as the general step's in a loop of its own (``_plain``), up to the
         # next step that needs the general one
-        if i >= nsteps:
+        if i >= nsteps or ramping:
             continue
         s1 = step0 + i
         e = min(s1 + (GLIDE_EVERY - s1 % GLIDE_EVERY) % GLIDE_EVERY, step0 + nsteps)
@@ -443,6 +474,7 @@ def run_block(wave, events, step0, out):
             i += e - s1
             ri += e - s1
             plain += e - s1
+            tested += (e - s1) * nlive if ncol > 0 else 0
             if decay_v > 0.0 and e % BLOCK == 0:
                 if (peak < decay_v
                         and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
@@ -455,8 +487,12 @@ def run_block(wave, events, step0, out):
     if stopped:
         st.stopped = 1
         peak = 0.0
+    st.ramp_left = ramp_left
+    if after_ramp:  # the next call's first step restarts the schedules
+        st.fresh = 1
     st.general += i - plain
     st.plain += plain
+    st.tested += tested
     st.n_t = n_t
     st.pb = ib
     st.quiet = quiet_until
@@ -744,6 +780,20 @@ def _steady(s, act, nact, js_on, js_off, js_rel, js_len, js_np, js_idx, js_mp, j
 
 
 @njit(**JIT_HELPER)
+def _ramp(R, Mb, mask, s, rp_n, rp_d, ramp_n, pk_u, pk_jump):
+    """One step of a move onto a new rest line (``voice._change``), before step s: the
+    displacement from the rest line at each of its points changes by d, half on each rail (a
+    balanced displacement with no velocity, E&E eq. (12)), and the pickups' last reading by
+    their jump, so that they see the string's motion, not the change of frame."""
+    for k in range(ramp_n):
+        R[(s - rp_n[k]) & mask] += 0.5 * rp_d[k]
+    for k in range(ramp_n):
+        Mb[(s + rp_n[k]) & mask] += 0.5 * rp_d[k]
+    for p in range(pk_u.shape[0]):
+        pk_u[p] += pk_jump[p]
+
+
+@njit(**JIT_HELPER)
 def _window(N, n_t, tau, dcap, d_taps, period):
     """The periods p, plo < p < phi, for which ``_walk`` at n_t neither walks the termination nor
     moves the taps from d_taps: its delay d = p - 2 (N - n_t) - tau stays in [1, 3) and within
@@ -895,7 +945,7 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
 @njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
            seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
-           near_n):
+           near_n, damper_bound):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
     in col_list.  Returns how many there are and the step until which no bound is needed: s if
@@ -950,16 +1000,27 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     span = N - n_t + 2.0  # the sounding length in grid steps (and a little of the termination's)
     until = (s // BLOCK + 1) * BLOCK  # how long a quiet string needs no bound
     forced = False  # a force acts, or a contact with a mass (not a plain damper), before s + B
-    # the points of the junctions that act before s + B (they make their neighbours live)
+    # the points of the junctions that act before s + B (they make their neighbours live): those
+    # of the junctions with a force, a mass or a spring from the start of near_n (nnear), those
+    # of plain dampers from its end (ndamp; ``damper_bound``)
     nnear = 0
+    ndamp = 0
+    top = near_n.shape[0] - 1
     quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady
     for j in range(js_on.shape[0]):
         if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
+            pushes = not damper_bound
             for q in range(js_np[j]):
-                near_n[nnear] = js_idx[j, q]
-                nnear += 1
                 if js_f[j, q] != 0.0 or js_mp[j, q] != 0.0 or js_kappa[j, q] != 0.0:
                     forced = True
+                    pushes = True
+            for q in range(js_np[j]):
+                if pushes:
+                    near_n[nnear] = js_idx[j, q]
+                    nnear += 1
+                else:
+                    near_n[(top - ndamp) & NONNEG] = js_idx[j, q]
+                    ndamp += 1
         if js_on[j] < until and js_off[j] + js_rel[j] + tail > s:
             quiet = False
     for c in range(col_n.shape[0]):
@@ -984,12 +1045,22 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
             e2 = ENERGY_SAFETY * 2.0 * slope * d * (span - d) / span
             if quiet and e2 * (QUIET_MARGIN * QUIET_MARGIN) >= col_ref[c] * col_ref[c]:
                 quiet = False
-            if e2 < bound * bound:
+            damped = False  # within B of a damper: the segments' maxima assume free waves
+            for q in range(ndamp):
+                if abs(near_n[(top - q) & NONNEG] - n) <= B:
+                    damped = True
+                    break
+            if damped or e2 < bound * bound:
                 bound = math.sqrt(e2)
         live = bound * (1.0 + 1e-9) + 1e-15 >= -col_ref[c]
         if not live:
             for q in range(nnear):
                 if abs(near_n[q] - n) <= B:
+                    live = True
+                    break
+        if not live and forced:  # no energy bound: a damper's neighbours too
+            for q in range(ndamp):
+                if abs(near_n[(top - q) & NONNEG] - n) <= B:
                     live = True
                     break
         if live and col_live[c] == 0:

@@ -79,16 +79,15 @@ class WaveguideVoice:
     skip_decayed: bool = True
     decay_velocity: float = 1e-7
     steady_runs: bool = True  # steady junctions in plain runs (``kernel._steady``; exact)
+    damper_bound: bool = True  # a damper's neighbours by the energy bound (``kernel._reach``)
     step: int = 0
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
     loops: dict = field(default_factory=dict)
     _run: object = field(default=None, repr=False)  # engine.config.entry_point of run_block
-    ramp: tuple | None = None  # a move onto a new rest line under way (``_change``)
     asleep_from: int = -1  # the step the string fell asleep at (``_sleep``; -1: awake)
     asleep_until: int = 0  # and the step it wakes at (``_wake``)
     steps_slept: int = 0  # the steps it slept and woke from (``tools.song_instructions``)
-    _ramped: bool = False  # the last kernel call was a step of such a move
     # the kernel's arrays' rows and fields (``_part``)
     R, Mb = _part("rails", 0), _part("rails", 1)
     js_on, js_off, js_len, js_rel, js_np = (_part("slots", f) for f in K.SLOT.names)
@@ -131,8 +130,11 @@ class WaveguideVoice:
             self.pk_w[p] = g - self.pk_n[p]
         # collision points: every grid point under the neck, its obstacle's height from the
         # straight rest line and its restitution
+        self._rests: dict = {}  # ``_rest_grid``
+        self._fret_xs: dict = {}  # ``_fret_x``
         self._collision_points()
         self.segments = np.zeros(n // REACH_EVERY + 2, K.SEGMENT)  # the reach's scratch
+        self.ramps = np.zeros(n, K.RAMP)  # a move onto a new rest line (``_change``)
         self.glide_k = (self.phys.ea / (2.0 * length * self.phys.tension_n) / self.x_step
                         if self.glide else 0.0)
         self._stops_and_pitch(self.timeline)
@@ -289,10 +291,11 @@ class WaveguideVoice:
         c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
         c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
         c["steady_runs"] = int(self.steady_runs)
+        c["damper_bound"] = int(self.damper_bound)
         self.stop_fret = fret
         self.stop_held = held
         if len(self.col_n):
-            rest = self._rest(fret, self.x_of(self.col_n))
+            rest = self._rest_grid(fret)[self.col_n]
             self.col_ref[:] = self.col_abs - rest
             self.col_live[:] = 0
 
@@ -335,6 +338,23 @@ class WaveguideVoice:
         length = self.phys.length_m
         return np.where(x >= stop_x, -c * (length - x) / (length - stop_x), -c * x / stop_x)
 
+    def _rest_grid(self, fret: int | None) -> np.ndarray:
+        """``_rest`` at every grid point 0..N, kept per stop: a song changes the stop thousands of
+        times among a few frets (elementwise the same values as ``_rest`` at any of them)."""
+        grid = self._rests.get(fret)
+        if grid is None:
+            grid = self._rest(fret, self.x_of(np.arange(self.n + 1)))
+            self._rests[fret] = grid
+        return grid
+
+    def _fret_x(self, fret: int | None) -> float:
+        """The stop's place, metres from the nut (-1 for the open string), kept per fret."""
+        x = self._fret_xs.get(fret)
+        if x is None:
+            x = -1.0 if fret is None else float(self.preset.fret_x_m(fret, self.spec))
+            self._fret_xs[fret] = x
+        return x
+
     def _change(self, fret: int | None, strike: float, held: bool) -> None:
         old = self.stop_fret
         if fret == old:
@@ -346,9 +366,7 @@ class WaveguideVoice:
         nt_old = int(self.st["n_t"])
         self._configure(fret, held)
         nt = self._place(self.loop(fret, held))
-        x_old = -1.0 if old is None else float(self.preset.fret_x_m(old, self.spec))
-        x_new = -1.0 if fret is None else float(self.preset.fret_x_m(fret, self.spec))
-        release = x_new < x_old
+        release = self._fret_x(fret) < self._fret_x(old)
         if release and nt < nt_old:
             lo = max(nt - 8, nt - self.n)
             for i in range(lo, nt_old):  # the part cut off comes back at rest
@@ -364,29 +382,24 @@ class WaveguideVoice:
             # displacement from the rest line changes by rest_old - rest_new over that time, in
             # equal steps with no velocity of their own (balanced, E&E eq. (12))
             idx = np.arange(nt + 1, self.n)
-            x = self.x_of(idx)
-            delta = self._rest(old, x) - self._rest(fret, x)
+            rest_old, rest_new = self._rest_grid(old), self._rest_grid(fret)
+            delta = rest_old[nt + 1:self.n] - rest_new[nt + 1:self.n]
             speed = strike if strike > 0.0 else LIFT_SPEED_M_S
             depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
             steps = int(min(max(round(depth / speed * self.rate), 1), RAMP_MAX_S * self.rate))
             jumps = []
             for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
-                xp = self.x_of(np.array([n_p, n_p + 1]))
-                j = self._rest(old, xp) - self._rest(fret, xp)
+                j = rest_old[n_p:n_p + 2] - rest_new[n_p:n_p + 2]
                 jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
-            self.ramp = (idx, delta / steps, np.array(jumps) / steps, steps)
-
-    def _ramp_step(self) -> None:
-        """One step of the move onto the new rest line (``_change``).  The pickups read the
-        displacement from the rest line: their last reading moves with it, so that they see the
-        string's motion, not the change of frame."""
-        idx, d, jumps, left = self.ramp
-        mask = len(self.R) - 1
-        s = self.step
-        self.R[(s - idx) & mask] += 0.5 * d
-        self.Mb[(s + idx) & mask] += 0.5 * d
-        self.pk["u"] += jumps
-        self.ramp = (idx, d, jumps, left - 1) if left > 1 else None
+            # the kernel takes a step of the move before each of its next ``steps`` steps
+            # (``kernel._ramp``): the pickups read the displacement from the rest line, so their
+            # last reading moves with it, and they see the string's motion, not the change of
+            # frame
+            self.ramps["n"][:len(idx)] = idx
+            self.ramps["d"][:len(idx)] = delta / steps
+            self.pk["jump"] = np.array(jumps) / steps
+            self.st["ramp_n"] = len(idx)
+            self.st["ramp_left"] = steps
 
     # -- running ---------------------------------------------------------------------------------
     def _next_event(self) -> int:
@@ -467,18 +480,10 @@ class WaveguideVoice:
                    else NEVER)
             m = int(min(nsteps - done, nxt - self.step))
             self.st["next_stop"] = nxt
-            if self.ramp is not None:  # a finger carrying the string: one step at a time
-                self._ramp_step()
-                m = 1
-                fresh = self._ramped = True
-                self.st["next_stop"] = self.step  # no sleep while the finger moves it
-            elif self._ramped:
-                fresh = True
-                self._ramped = False
             if fresh:
                 self.st["fresh"] = 1
             args = (K.Wave(self.config, self.carry, self.rails, self.pk, self.colliders,
-                           self.segments),
+                           self.segments, self.ramps),
                     K.Events(self.slots, self.points, self.jst, self.bends), self.step,
                     out[done:done + m])
             if self._run is None:  # the argument types are the same in every call

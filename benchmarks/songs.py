@@ -5,6 +5,7 @@ notes, and the time a first render takes after install.
     python -m benchmarks.songs --quick    # the first 20 s of two songs, the cold start of fdtd only
     python -m benchmarks.songs --songs "Demo v5.gp5" --max-seconds 30 --no-cold
     python -m benchmarks.songs --cold-only   # a 2 s chord's first and second render, each model
+    python -m benchmarks.songs --models waveguide --no-cold   # one model against FluidSynth
 
 The songs are files nobody on this project wrote: the longest multi-track scores of the test
 corpus (``make test-data``: PyGuitarPro's Guitar Pro files, music21's and miditoolkit's MIDI
@@ -150,7 +151,7 @@ class Song:
 
 
 def song(name: str, max_seconds: float | None, soundfont: str | None, core: int | None,
-         repeat: int, tmp: Path) -> Song:
+         repeat: int, tmp: Path, models: tuple[str, ...] = MODELS) -> Song:
     path = corpus_file(name)
     opts = {"all_instruments": True, **({"max_seconds": max_seconds} if max_seconds else {})}
     scene = score.score_to_scene(path, **opts)
@@ -158,7 +159,7 @@ def song(name: str, max_seconds: float | None, soundfont: str | None, core: int 
     notes = label_notes(score.scene_labels(scene))
     cpu = {}
     env = engine_env()
-    for model in MODELS:
+    for model in models:
         cpu[model] = best([cli_render(path, tmp / "song.wav", model, env, core, max_seconds)
                            for _ in range(repeat)]).cpu
     if soundfont is not None:
@@ -171,14 +172,15 @@ def song(name: str, max_seconds: float | None, soundfont: str | None, core: int 
                 cpu)
 
 
-def startup(soundfont: str | None, core: int | None, tmp: Path) -> dict[str, float]:
+def startup(soundfont: str | None, core: int | None, tmp: Path,
+            models: tuple[str, ...] = MODELS) -> dict[str, float]:
     """CPU time of each renderer's process on a 50 ms note (best of 3): imports and loading the
     compiled kernels, or loading the SoundFont."""
     scene = tmp / "tiny.json"
     scene.write_text(json.dumps(TINY_SCENE))
     env = engine_env()
     out = {}
-    for model in MODELS:
+    for model in models:
         out[model] = best([cli_render(scene, tmp / "tiny.wav", model, env, core)
                            for _ in range(3)]).cpu
     if soundfont is not None:
@@ -212,7 +214,7 @@ def print_songs(songs: list[Song], start: dict[str, float], renderers: list[str]
         print("| --- | ---: | ---: |")
         n = len(songs)
         fs_net = max(totals["fluidsynth"] - n * start["fluidsynth"], 1e-9)
-        for r in MODELS:
+        for r in renderers[:-1]:
             net = totals[r] - n * start[r]
             print(f"| {label[r]} | {totals[r] / totals['fluidsynth']:.2f}x | "
                   f"{net / fs_net:.2f}x |")
@@ -250,31 +252,35 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--repeat", type=int, default=1, help="renders per song and model (the "
                     "least CPU time counts; FluidSynth always at least 3)")
     ap.add_argument("--no-cold", action="store_true", help="leave the cold start out")
+    ap.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS),
+                    help="the string models to run (default: both)")
     ap.add_argument("--cold-only", action="store_true", help="only the cold start (and the "
                     "second render after it), of every model")
     ap.add_argument("--all-cores", action="store_true", help="do not pin renders to one core")
     args = ap.parse_args(argv)
+    models = tuple(args.models)
     songs = args.songs or (QUICK_SONGS if args.quick else SONGS)
     max_seconds = args.max_seconds or (QUICK_SECONDS if args.quick else None)
     core = None if args.all_cores else min(os.sched_getaffinity(0))
     soundfont = next((s for s in SOUNDFONTS if Path(s).exists()), None)
     if shutil.which("fluidsynth") is None:
         soundfont = None
-    renderers = [*MODELS, "fluidsynth"] if soundfont else list(MODELS)
+    renderers = [*models, "fluidsynth"] if soundfont else list(models)
     print(f"Load average (1 / 5 / 15 min) at the start: {load()} on {os.cpu_count()} cores; "
           f"renders pinned to {'no core' if core is None else f'core {core}'}.\n")
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="guitar-songs-") as d:
         tmp = Path(d)
         if args.cold_only:
-            cold_start(MODELS, core, tmp)
+            cold_start(models, core, tmp)
             return
         # fill the caches (kernels, the calibrations of every preset the songs use): not counted
         for name in songs:
-            for model in MODELS:
+            for model in models:
                 cli_render(corpus_file(name), tmp / "warm.wav", model, engine_env(), core, 0.5)
-        start = startup(soundfont, core, tmp)
-        results = [song(name, max_seconds, soundfont, core, args.repeat, tmp) for name in songs]
+        start = startup(soundfont, core, tmp, models)
+        results = [song(name, max_seconds, soundfont, core, args.repeat, tmp, models)
+                   for name in songs]
         cut = f", the first {max_seconds:g} s of each" if max_seconds else ", whole"
         fs = (f"FluidSynth {_fs_version()} with {Path(soundfont).name}" if soundfont
               else "FluidSynth not installed: `make bench-tools`")
@@ -283,7 +289,7 @@ def main(argv: list[str] | None = None) -> None:
               "seconds.\n")
         print_songs(results, start, renderers)
         if not args.no_cold:
-            cold_start(MODELS[:1] if args.quick else MODELS, core, tmp)
+            cold_start(models[:1] if args.quick else models, core, tmp)
     print(f"Load average at the end: {load()}; the benchmark took "
           f"{time.perf_counter() - t0:.0f} s of wall time.")
 

@@ -169,7 +169,7 @@ class LivePool:
 
     # ---- messages from the reader threads ----------------------------------------------------
 
-    def _on_message(self, w: _LiveWorker, msg: tuple, arrived: float = 0.0) -> None:
+    def _on_message(self, w: _LiveWorker, msg: tuple) -> None:
         """A message of a live worker; a block carries the time its worker sent it (last), by
         which its relay is timed."""
         if msg[0] == "ready":

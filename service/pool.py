@@ -225,7 +225,7 @@ class WorkerPool:
 
     # ---- messages from the reader threads (run on the loop) ----------------------------------
 
-    def _on_message(self, w: _Worker, msg: tuple, arrived: float = 0.0) -> None:
+    def _on_message(self, w: _Worker, msg: tuple) -> None:
         kind = msg[0]
         if kind == "warming":  # what a worker's warm-up is doing (compiling kernels: minutes)
             w.warming = msg[2]

@@ -53,8 +53,8 @@ class PipedProcess:
                 break
             if not self.received(msg):
                 continue
-            try:  # with the time it came: what waits for the loop shows (the live relay's delay)
-                loop.call_soon_threadsafe(self.pool._on_message, self, msg, time.monotonic())
+            try:
+                loop.call_soon_threadsafe(self.pool._on_message, self, msg)
             except RuntimeError:  # the loop is closed: the server is gone
                 return
         self.proc.join()

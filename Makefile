@@ -12,7 +12,7 @@ IS_ROOT = [ "$$(id -u)" = 0 ]
 .PHONY: install venv-support serve test test-fast test-data lint browser docker-check docker-tools bench-tools bench \
         bench-service bench-live bench-batch clean
 
-install: $(VENV)/.installed
+install: $(VENV)/.warm
 
 # Debian's python3 leaves ensurepip (hence `python3 -m venv`) to the python3-venv package.
 venv-support:
@@ -20,13 +20,19 @@ venv-support:
 	  $(APT_INSTALL) python3-venv >/dev/null ; } || \
 	  { echo "$(PY) cannot create a venv: apt-get install python3-venv" >&2; exit 1; }
 
-# Then the caches a first render would wait for (engine/precompile.py): the compiled kernels, in
-# NUMBA_CACHE_DIR (the service's and the tests') and in numba's default place (a plain
-# `guitar-synth render`), and the fret calibrations of every preset.
 $(VENV)/.installed: pyproject.toml | venv-support
 	$(PY) -m venv $(VENV)
 	$(BIN)/pip install -q --upgrade pip
 	$(BIN)/pip install -q -e '.[dev]'
+	touch $@
+
+# Then the caches a first render would wait for (engine/precompile.py): the compiled kernels, in
+# NUMBA_CACHE_DIR (the service's and the tests') and in numba's default place (a plain
+# `guitar-synth render`), and the fret calibrations of every preset.  Both are keyed by the engine's
+# sources, so an update that changes them (a pull, a checkout) warms them again here instead of in
+# the first render after it; when nothing changed this stamp is newer and nothing runs.
+ENGINE_SOURCES := $(shell find engine -name '*.py' -not -path '*/__pycache__/*')
+$(VENV)/.warm: $(VENV)/.installed $(ENGINE_SOURCES)
 	$(BIN)/python -m engine.precompile
 	env -u NUMBA_CACHE_DIR $(BIN)/python -m engine.precompile --kernels-only
 	touch $@

@@ -2,8 +2,13 @@
 
     python -m benchmarks.threads                                  # Demo v5.gp5, 30 s, 3 rounds
     python -m benchmarks.threads --song 1390.mid --max-seconds 20 --rounds 5
+    python -m benchmarks.threads --machine-only     # only the first figure
 
-Two figures per model:
+Three figures per model:
+
+* machine: what this machine gives two independent one-thread renders at once (each pinned to a
+  core of its own) against one alone: the ceiling of any one render's speed-up on two threads,
+  which cores that share a physical core or a busy host lower;
 
 * measured: the CLI run as a user runs it (``python -m cli.main render SONG -o x.wav --model M
   --jobs J``, warm caches), one process per render, ``--jobs 1`` and ``--jobs N`` interleaved for
@@ -50,20 +55,48 @@ def load() -> str:
     return " / ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
-def cli(song: Path, out: Path, model: str, jobs: int, max_seconds: float) -> tuple[float, float]:
-    """Wall and CPU seconds of one CLI render (the whole process)."""
-    argv = [sys.executable, "-m", "cli.main", "render", str(song), "-o", str(out), "-q",
+def _argv(song: Path, out: Path, model: str, jobs: int, max_seconds: float) -> list[str]:
+    return [sys.executable, "-m", "cli.main", "render", str(song), "-o", str(out), "-q",
             "--subtype", "FLOAT", "--model", model, "--max-seconds", f"{max_seconds:g}",
             "--jobs", str(jobs)]
+
+
+def _start(argv: list[str], core: int | None = None) -> tuple[subprocess.Popen, float]:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    pre = (lambda: os.sched_setaffinity(0, {core})) if core is not None else None
     t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
+    return subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, preexec_fn=pre), t0
+
+
+def _wait(proc: subprocess.Popen, t0: float) -> tuple[float, float]:
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     if os.waitstatus_to_exitcode(status) != 0:
-        sys.exit(f"{' '.join(argv)} failed")
+        sys.exit(f"{' '.join(map(str, proc.args))} failed")
     return wall, usage.ru_utime + usage.ru_stime
+
+
+def cli(song: Path, out: Path, model: str, jobs: int, max_seconds: float) -> tuple[float, float]:
+    """Wall and CPU seconds of one CLI render (the whole process)."""
+    return _wait(*_start(_argv(song, out, model, jobs, max_seconds)))
+
+
+def machine(song: Path, model: str, max_seconds: float, rounds: int, tmp: Path) -> None:
+    """What this machine gives two processes at once: a one-thread render pinned to the first
+    core alone, and two of them at once, one on each of the first two cores (interleaved rounds,
+    least wall times).  Two cores that share nothing do both in the time of one; where they share
+    (hyperthreads of one physical core, a host that time-slices its virtual CPUs, memory
+    bandwidth), the pair takes longer, and no thread schedule in one render can beat that."""
+    argv = _argv(song, tmp / "m.wav", model, 1, max_seconds)
+    alone, pair = [], []
+    for _ in range(rounds):
+        alone.append(_wait(*_start(argv, 0))[0])
+        started = [_start(_argv(song, tmp / f"m{c}.wav", model, 1, max_seconds), c)
+                   for c in (0, 1)]
+        pair.append(max(_wait(*s)[0] for s in started))
+    a, b = min(alone), min(pair)
+    print(f"| {model} | {a:.2f} | {b:.2f} | {2 * a / b:.2f}x |", flush=True)
 
 
 def measured(song: Path, model: str, jobs: int, max_seconds: float, rounds: int,
@@ -135,10 +168,26 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--rounds", type=int, default=3, help="interleaved rounds (the least wall "
                     "time of each counts)")
     ap.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
+    ap.add_argument("--machine-only", action="store_true",
+                    help="only what the machine gives two one-thread renders at once")
     args = ap.parse_args(argv)
     song = corpus_file(args.song)
     print(f"{song.name}, the first {args.max_seconds:g} s; {cores()} cores this process may use; "
           f"load average (1 / 5 / 15 min) at the start: {load()}.\n")
+    if cores() >= 2:
+        print("Machine: `--jobs 1` pinned to core 0 alone, and two of them at once on cores 0 and "
+              f"1 ({args.rounds} rounds interleaved, the least wall time of each; the pair's is "
+              "its slower one's). The throughput is what two cores give two independent "
+              "renders: the ceiling of one render's speed-up on two threads.\n")
+        print("| model | wall, alone | wall, two at once | throughput |")
+        print("| --- | ---: | ---: | ---: |")
+        with tempfile.TemporaryDirectory(prefix="guitar-threads-") as d:
+            cli(song, Path(d) / "warm.wav", args.models[0], 1, 0.5)  # not counted
+            for model in args.models:
+                machine(song, model, args.max_seconds, args.rounds, Path(d))
+        print()
+    if args.machine_only:
+        return
     print(f"Measured: `cli.main render --jobs 1` and `--jobs {args.jobs}`, {args.rounds} rounds "
           "interleaved, the least wall time of each (seconds of the whole process).\n")
     print(f"| model | wall, 1 thread | CPU | wall, {args.jobs} threads | CPU | speed-up | "

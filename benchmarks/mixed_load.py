@@ -22,7 +22,9 @@ The server runs at niceness ``--server-nice`` (default -10; its live workers inh
 render workers put back at 0 (``GUITAR_WORKER_NICE``): the API process, which relays every live
 block, and the live workers run ahead of renders.  ``--server-nice 0`` runs them all at 0.  The
 live worker's audio thread runs on SCHED_RR at ``--live-realtime`` (default 10,
-``GUITAR_LIVE_REALTIME_PRIORITY``; 0: normal scheduling), as audio servers' threads do.
+``GUITAR_LIVE_REALTIME_PRIORITY``; 0: normal scheduling), as audio servers' threads do, and the API
+process's event-loop thread, which relays the live blocks to their sockets, at ``--relay-realtime``
+(default 5, ``GUITAR_RELAY_REALTIME_PRIORITY``; 0: at the server's niceness).
 
 Printed: one table: small renders' p50/p99 as this load generator saw them and as the server
 timed them (``Server-Timing``: from the request's arrival to the answer's headers; the load
@@ -450,6 +452,9 @@ def main() -> None:
     ap.add_argument("--live-realtime", type=int, default=10,
                     help="GUITAR_LIVE_REALTIME_PRIORITY of the server: its live workers' audio "
                          "thread on SCHED_RR at this priority (0: normal scheduling)")
+    ap.add_argument("--relay-realtime", type=int, default=5,
+                    help="GUITAR_RELAY_REALTIME_PRIORITY of the server: the API's event-loop "
+                         "thread on SCHED_RR at this priority (0: normal scheduling)")
     ap.add_argument("--jitter-ms", type=float, default=40.0)
     ap.add_argument("--live-client-nice", type=int, default=-10,
                     help="niceness of the live client process (0: the default)")
@@ -469,6 +474,7 @@ def main() -> None:
         env = {"GUITAR_DATA_DIR": tmp, "GUITAR_LIVE_WORKERS": "1", "GUITAR_LIVE_PRESTART": "1",
                "GUITAR_MAX_LIVE_SESSIONS": str(max(4, a.live)),
                "GUITAR_LIVE_REALTIME_PRIORITY": str(a.live_realtime),
+               "GUITAR_RELAY_REALTIME_PRIORITY": str(a.relay_realtime),
                **dict(kv.split("=", 1) for kv in a.env)}
         # The server ahead of other processes, its render workers back at the default
         # (GUITAR_WORKER_NICE): its API process, which relays every live block, and its live
@@ -578,7 +584,8 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
           f"({len(songs)} corpus songs at 96 kHz, high, up to the cost budget), {a.job_clients} "
           f"job clients, {a.live} live sessions (niceness: server {a.server_nice}, render workers "
           f"0, HTTP clients {a.client_nice}, live client {a.live_client_nice}; live audio thread "
-          f"{f'SCHED_RR {a.live_realtime}' if a.live_realtime else 'normal'}); {a.seconds:g} s "
+          f"{f'SCHED_RR {a.live_realtime}' if a.live_realtime else 'normal'}, API loop thread "
+          f"{f'SCHED_RR {a.relay_realtime}' if a.relay_realtime else 'normal'}); {a.seconds:g} s "
           f"({wall:.0f} s with the last answers), {a.workers} render workers, 1 live worker; "
           f"load average {load0[0]:.1f} before, {load1[0]:.1f} after ({os.cpu_count()} CPUs, shared)\n")
     print("| measure | result |")

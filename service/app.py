@@ -18,7 +18,7 @@ from fastapi.staticfiles import StaticFiles
 
 from . import errors, jobs
 from .config import Settings
-from .live import LivePool
+from .live import LivePool, relay_in_real_time
 from .logs import setup_logging
 from .metrics import Metrics, MetricsMiddleware
 from .middleware import BodyLimitMiddleware, RequestContextMiddleware
@@ -45,6 +45,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         await pool.start()  # workers warm up in the background; /health tells when they are
         live_pool = LivePool(settings)  # WS /live: processes of their own (service/live.py)
         await live_pool.start()
+        relay_in_real_time(settings.relay_realtime_priority)
         store = jobs.Store(settings.data_dir)
         runner = jobs.JobRunner(store, pool, settings)
         await runner.start()  # jobs a crash cut off are queued again

@@ -124,6 +124,13 @@ class Settings(BaseSettings):
                                     "it preempts every normally scheduled process at once, as "
                                     "audio servers' threads do; 0: normal scheduling; needs "
                                     "CAP_SYS_NICE, else ignored)")
+    relay_realtime_priority: int = Field(
+        0, ge=0, le=99, description="SCHED_RR priority of the API process's event-loop thread, "
+                                    "which hands every live block to its socket (1-99, below "
+                                    "the live workers' audio thread; it preempts renders and "
+                                    "other normally scheduled work, the kernel keeping 5 % of "
+                                    "each second for them; 0: normal scheduling; needs "
+                                    "CAP_SYS_NICE, else ignored)")
     live_max_events_per_s: int = Field(200, ge=1, description="events a session may send per "
                                                               "second; more are refused")
     live_max_messages_per_s: int = Field(

@@ -346,6 +346,57 @@ def test_the_live_audio_thread_runs_at_real_time_priority_and_its_preparer_does_
         s.stop()
 
 
+def _children(pid: int) -> set[int]:
+    import os
+
+    out: set[int] = set()
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        with open(f"/proc/{pid}/task/{tid}/children") as f:
+            out |= {int(c) for c in f.read().split()}
+    return out
+
+
+def _render_workers(pid: int, live_pids: list[int]) -> set[int]:
+    workers = set()
+    for c in _children(pid) - set(live_pids):
+        with open(f"/proc/{c}/cmdline", "rb") as f:
+            if b"spawn_main" in f.read():  # not the resource tracker
+                workers.add(c)
+    return workers
+
+
+def test_the_relay_runs_at_real_time_priority_and_what_it_starts_later_does_not(
+        tmp_path_factory):
+    """GUITAR_RELAY_REALTIME_PRIORITY: the API process's event-loop thread, which hands every live
+    block to its socket, on SCHED_RR (in the mixed load, blocks relayed over 20 ms late went from
+    1317-3000 to 89 and the sessions' underruns to none); the processes and threads it starts
+    afterwards, like a render worker that replaces a killed one, on normal scheduling, or every
+    render would run ahead of everything else."""
+    import os
+    import signal as sig
+
+    if not _may_use_realtime():
+        pytest.skip("no CAP_SYS_NICE here: SCHED_RR cannot be set")
+    s = UvicornServer(tmp_path_factory.mktemp("relay-rt"), {
+        "GUITAR_WORKERS": "1", "GUITAR_LIVE_WORKERS": "1", "GUITAR_LIVE_PRESTART": "1",
+        "GUITAR_RELAY_REALTIME_PRIORITY": "5"}).start()
+    try:
+        wait_ready(lambda: httpx.get(s.url + "/health/ready", timeout=2.0).status_code == 200)
+        pid = s.proc.pid
+        assert os.sched_getscheduler(pid) & ~os.SCHED_RESET_ON_FORK == os.SCHED_RR
+        assert os.sched_getparam(pid).sched_priority == 5
+        live = httpx.get(s.url + "/live/status", timeout=5).json()["pids"]
+        (old,) = _render_workers(pid, live)
+        os.kill(old, sig.SIGKILL)
+        wait_ready(lambda: (lambda w: len(w) == 1 and old not in w)(_render_workers(pid, live)))
+        (new,) = _render_workers(pid, live)
+        assert os.sched_getscheduler(new) == os.SCHED_OTHER
+        threads = [int(t) for t in os.listdir(f"/proc/{pid}/task") if int(t) != pid]
+        assert threads and all(os.sched_getscheduler(t) == os.SCHED_OTHER for t in threads)
+    finally:
+        s.stop()
+
+
 def test_a_killed_live_worker_ends_its_sessions_with_1011_and_is_replaced(live_server):
     """A live worker killed mid-session shows up as its pipe's end: its sessions are closed with
     1011, and a new worker plays the next session.  (Last in this file: it replaces the module's

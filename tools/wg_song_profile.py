@@ -1,7 +1,7 @@
 """Where a waveguide render of a whole song spends its CPU: the kernel, the Python around its calls,
 the mixing, by the kernel's paths.
 
-    python -m tools.wg_song_profile FILE [FILE ...] [--max-seconds S]
+    python -m tools.wg_song_profile FILE [FILE ...] [--max-seconds S] [--damped-velocity V]
 
 Each FILE becomes the scene ``guitar-synth render FILE --model waveguide --all-instruments
 [--max-seconds S]`` renders (``benchmarks.songs``' command), rendered in one process on one thread
@@ -19,6 +19,9 @@ around the calls for the split of the render):
 * the string-steps: in the general step, in plain runs and asleep (the kernel's and the voice's
   counts), of all the strings' steps (strings with no events are not built);
 * ``sha256``: of the mixed output, so that two trees' renders can be compared.
+
+``--damped-velocity V`` renders with ``WaveguideOptions.damped_velocity`` = V m/s (the decay stop's
+bound on the points of a damped string; off by default, it moves samples).
 
 The timing around every kernel call costs time of its own (a few array reads a call), measured and
 left out of ``python``; the render's CPU time includes it.
@@ -43,7 +46,7 @@ def _scene(path: str, seconds: float | None):
     return validate(scene, path)
 
 
-def profile(path: str, seconds: float | None) -> str:
+def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> str:
     import engine
     import engine.waveguide.voice as wv
     from engine.mix import prepare
@@ -90,6 +93,10 @@ def profile(path: str, seconds: float | None) -> str:
         t_load = time.process_time() - t0
         t0 = time.process_time()
         mix = prepare(sc)
+        for v in mix.voices:
+            if hasattr(v, "damped_velocity"):
+                v.damped_velocity = damped_velocity
+                v.config["damped_v"] = damped_velocity
         t_prep = time.process_time() - t0
         digest = hashlib.sha256()
         t0 = time.process_time()
@@ -138,9 +145,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="+", metavar="FILE")
     ap.add_argument("--max-seconds", type=float, metavar="S", help="each song's first S seconds")
+    ap.add_argument("--damped-velocity", type=float, default=0.0, metavar="V",
+                    help="WaveguideOptions.damped_velocity, m/s (default 0: off)")
     args = ap.parse_args()
     for f in args.files:
-        print(profile(f, args.max_seconds), flush=True)
+        print(profile(f, args.max_seconds, args.damped_velocity), flush=True)
 
 
 if __name__ == "__main__":

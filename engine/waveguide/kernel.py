@@ -22,7 +22,9 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    next ``LOOKAHEAD`` steps (``_may_sleep``) and the pickups' output since the last test and
    every point's velocity on the sounding grid are below ``decay_velocity`` (``_still``), the
    call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
-   next event, or stops when none is left (a sleeping string costs nothing).
+   next event, or stops when none is left (a sleeping string costs nothing).  With a plain
+   damper resting on the string (``_damped``) its points are held to ``damped_v`` instead when
+   that is larger (``WaveguideOptions.damped_velocity``, off by default).
 
 A move onto a new rest line (``voice._change``: a finger carrying the string onto a fret's crown,
 or letting it up) is stepped here too, before each of its steps (``_ramp``): those steps and the
@@ -117,6 +119,7 @@ CONFIG = np.dtype([
     ("dcap", _F),  # the largest fractional delay the ring holds
     ("fbase", _F),  # the stopped string's frequency, Hz
     ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
+    ("damped_v", _F),  # the points' bound for it beside a damper in contact (``_damped``)
     ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
     ("steady_runs", _I),  # 1: steady junctions run in plain runs (``_steady``), 0: not
     ("damper_bound", _I),  # 1: a damper's neighbours by the energy bound (``_reach``), 0: live
@@ -252,6 +255,7 @@ def run_block(wave, events, step0, out):
     dcap = cf.dcap
     fbase = cf.fbase
     decay_v = cf.decay_v
+    damped_v = cf.damped_v
     next_stop = st.next_stop
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
@@ -429,8 +433,9 @@ def run_block(wave, events, step0, out):
                 if (peak < decay_v and not ramping  # no sleep while a finger moves it
                         and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
                                        pb_step, pb_f, ib)
-                        and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, act, nact,
-                                   js_idx, js_np)):
+                        and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, damped_v, act,
+                                   nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
+                                   js_kappa)):
                     stopped = True
                     break
                 peak = 0.0
@@ -479,8 +484,9 @@ def run_block(wave, events, step0, out):
                 if (peak < decay_v
                         and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
                                        pb_f, ib)
-                        and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, act, nact,
-                                   js_idx, js_np)):
+                        and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, damped_v,
+                                   act, nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
+                                   js_kappa)):
                     stopped = True
                     break
                 peak = 0.0
@@ -916,17 +922,23 @@ def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib):
 
 
 @njit(**JIT_INLINE)
-def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
+def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, v_damped, act, nact, js_on, js_off, js_len,
+           js_idx, js_np, js_mp, js_kappa):
     """Have the pickups (their largest |output| since the last test: peak) and has every point
     of the sounding string (n_t .. N) moved slower than v_max at step s?  The velocity is read
     off the rails, u(n, s) - u(n, s - 1) with u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the
     waves' values at s, one point further on, before the junctions of step s moved them; next
     to a junction that acts (a steady damper) that mixes its step-s perturbation into the
     difference, so those points are left out: they move with their neighbours.  The junctions
-    whose window holds s are ``act[:nact]`` (``_active``)."""
+    whose window holds s are ``act[:nact]`` (``_active``).  Beside a damper in contact
+    (``_damped``) the points need only move slower than v_damped, when that is larger: the
+    pickups are held to v_max all the same."""
     if peak >= v_max:
         return False
     lim = v_max / fs
+    if v_damped > v_max and _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp,
+                                    js_kappa):
+        lim = v_damped / fs
     for n in range(n_t, N + 1):
         du = (R[(s - n) & mask] + Mb[(s + n) & mask]) - (R[(s - 1 - n) & mask]
                                                          + Mb[(s - 1 + n) & mask])
@@ -940,6 +952,25 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
             if not near:
                 return False
     return True
+
+
+@njit(**JIT_HELPER)
+def _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp, js_kappa):
+    """Is a plain damper (a contact with no pulse, mass or spring: a damp, a palm, a harmonic
+    touch, a light finger) in contact with the string from before step s until at least
+    ``LOOKAHEAD`` steps after it?  Such a string creeps back to its rest line slowly after its
+    note has died (the junctions' leak, ``pluck``, passes what is slower than ``LEAK_HZ``): the
+    decay stop's ``damped_v`` (``WaveguideVoice.damped_velocity``)."""
+    for a in range(nact):
+        j = act[a]
+        if js_len[j] == 0 and js_on[j] < s and js_off[j] > s + LOOKAHEAD:
+            plain = True
+            for k in range(js_np[j]):
+                if js_mp[j, k] != 0.0 or js_kappa[j, k] != 0.0:
+                    plain = False
+            if plain:
+                return True
+    return False
 
 
 @njit(**JIT_STEP)

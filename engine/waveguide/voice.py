@@ -80,6 +80,7 @@ class WaveguideVoice:
     decay_velocity: float = 1e-7
     steady_runs: bool = True  # steady junctions in plain runs (``kernel._steady``; exact)
     damper_bound: bool = True  # a damper's neighbours by the energy bound (``kernel._reach``)
+    damped_velocity: float = 0.0  # the decay stop's bound on the points beside a damper (m/s)
     step: int = 0
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
@@ -290,6 +291,7 @@ class WaveguideVoice:
         c["gain"], c["glide_k"] = lp.gain_bound, self.glide_k
         c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
         c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
+        c["damped_v"] = self.damped_velocity
         c["steady_runs"] = int(self.steady_runs)
         c["damper_bound"] = int(self.damper_bound)
         self.stop_fret = fret

@@ -5,9 +5,10 @@ the mixing, by the kernel's paths.
 
 Each FILE becomes the scene ``guitar-synth render FILE --model waveguide --all-instruments
 [--max-seconds S]`` renders (``benchmarks.songs``' command), rendered in one process on one thread
-as the CLI does (``engine.mix``, blocks of 4096 frames), after a half second of the same scene has
-loaded the compiled kernels.  Printed per song (process CPU time for the phases, ``perf_counter``
-around the calls for the split of the render):
+as the CLI does (``engine.mix``, in the CLI's blocks: ``cli.main.BLOCK_FRAMES``, 16384 frames; the
+samples do not depend on the blocks, the number of kernel calls does), after a half second of the
+same scene has loaded the compiled kernels.  Printed per song (process CPU time for the phases,
+``perf_counter`` around the calls for the split of the render):
 
 * ``load``, ``prepare``, ``render``: reading the score, preparing the strings, rendering;
 * ``kernel``: inside the waveguide kernel's calls; ``python``: the rest of the voices' ``run``
@@ -49,6 +50,7 @@ def _scene(path: str, seconds: float | None):
 def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> str:
     import engine
     import engine.waveguide.voice as wv
+    from cli.main import BLOCK_FRAMES
     from engine.mix import prepare
 
     calls: list[tuple] = []
@@ -101,7 +103,7 @@ def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> s
         digest = hashlib.sha256()
         t0 = time.process_time()
         w0 = clock()
-        for y in mix.blocks(4096):
+        for y in mix.blocks(BLOCK_FRAMES):
             digest.update(np.ascontiguousarray(y, np.float64).tobytes())
         t_render = time.process_time() - t0
         w_render = clock() - w0
@@ -129,7 +131,7 @@ def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> s
     for lo, hi in ((1, 2), (2, 1024), (1024, 1 << 30)):
         sel = (c[:, 0] >= lo) & (c[:, 0] < hi)
         if sel.any():
-            lines.append(f"  calls of {lo}-{min(hi, 4097) - 1} steps: {int(sel.sum())}, "
+            lines.append(f"  calls of {lo}-{min(hi, BLOCK_FRAMES + 1) - 1} steps: {int(sel.sum())}, "
                          f"{c[sel, 2].sum():.2f} s, {1e6 * c[sel, 2].mean():.1f} us a call, "
                          f"{1e9 * c[sel, 2].sum() / max(c[sel, 1].sum(), 1):.0f} ns a step")
     for name, sel in (("a damper in contact", c[:, 3] == 1), ("no damper", c[:, 3] == 0)):

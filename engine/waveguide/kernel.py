@@ -260,17 +260,22 @@ def run_block(wave, events, step0, out):
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
+    # the junctions that can act in this call or in the BLOCK after it (whose onset comes before
+    # then and whose window, to the end of its leak, reaches into the call), in their order:
+    # all that ``_active``, ``_reach`` and ``_may_sleep`` can find at any step of the call, so
+    # they look at these alone (``_near``): a song's string has hundreds of junctions, a call a
+    # few, and the scratch below is sized by them
+    jn, njn = _near(js_on, js_off, js_rel, tail, step0, step0 + nsteps + BLOCK)
     # the junctions whose window (onset to the end of their leak) holds the step, in their order,
-    # and the step at which that list next changes (``_active``): a song's string has hundreds
-    # of junctions, a step a few
-    act = np.empty(nslot, np.int64)
-    near_n = np.empty(nslot * js_idx.shape[1], np.int64)  # ``_reach``'s scratch
+    # and the step at which that list next changes (``_active``)
+    act = np.empty(njn, np.int64)
+    near_n = np.empty(njn * js_idx.shape[1], np.int64)  # ``_reach``'s scratch
     # the steady junctions' points in a plain run (``_steady``): grid index, coefficient, state
-    sp_n = np.empty(nslot * js_idx.shape[1], np.int64)
-    sp_c = np.empty(nslot * js_idx.shape[1])
-    sp_h = np.empty(nslot * js_idx.shape[1])
-    sp_u = np.empty(nslot * js_idx.shape[1])
-    sp_cut = np.empty(nslot * js_idx.shape[1])
+    sp_n = np.empty(njn * js_idx.shape[1], np.int64)
+    sp_c = np.empty(njn * js_idx.shape[1])
+    sp_h = np.empty(njn * js_idx.shape[1])
+    sp_u = np.empty(njn * js_idx.shape[1])
+    sp_cut = np.empty(njn * js_idx.shape[1])
     steady_runs = cf.steady_runs != 0
     nact = 0
     act_until = -1
@@ -331,7 +336,7 @@ def run_block(wave, events, step0, out):
         renew = (i == 0 and fresh) or ramping or after_ramp  # the schedules start afresh
         after_ramp = ramping and ramp_left == 0
         if s >= act_until:  # the junctions whose window holds s (``_active``)
-            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act, jn, njn)
         # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
@@ -414,7 +419,7 @@ def run_block(wave, events, step0, out):
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
                                             js_kappa, tail, pb_step, ib, near_n,
-                                            cf.damper_bound != 0)
+                                            cf.damper_bound != 0, jn, njn)
                 inside_nt = -1
             if n_t != inside_nt:
                 inside = _inside(col_n, col_list, nlive, n_t, N)
@@ -432,7 +437,7 @@ def run_block(wave, events, step0, out):
             if (s + 1) % BLOCK == 0:
                 if (peak < decay_v and not ramping  # no sleep while a finger moves it
                         and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
-                                       pb_step, pb_f, ib)
+                                       pb_step, pb_f, ib, jn, njn)
                         and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, damped_v, act,
                                    nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
                                    js_kappa)):
@@ -450,7 +455,7 @@ def run_block(wave, events, step0, out):
         if ncol > 0 and s1 >= quiet_until:
             e = min(e, s1 + (REACH_EVERY - ri % REACH_EVERY) % REACH_EVERY)
         if s1 >= act_until:
-            nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act)
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act, jn, njn)
         e = min(e, act_until)  # up to the next junction's onset or end
         nsp = 0
         if nact > 0:  # only steady junctions run in a plain run, up to their next change
@@ -483,7 +488,7 @@ def run_block(wave, events, step0, out):
             if decay_v > 0.0 and e % BLOCK == 0:
                 if (peak < decay_v
                         and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
-                                       pb_f, ib)
+                                       pb_f, ib, jn, njn)
                         and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, damped_v,
                                    act, nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
                                    js_kappa)):
@@ -566,13 +571,31 @@ def _walk_terminate(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
 
 
 @njit(**JIT_HELPER)
-def _active(js_on, js_off, js_rel, tail, s, act):
+def _near(js_on, js_off, js_rel, tail, lo, hi):
+    """The junctions that start before step hi and either start at lo or later or have a window
+    (onset to the end of the leak) that reaches past lo, in their order: for a call from lo, with
+    hi its end plus a ``BLOCK``, every junction that ``_active``, ``_reach`` (B and the quiet
+    string's ``BLOCK`` ahead) and ``_may_sleep`` (``LOOKAHEAD`` ahead) can meet at its steps;
+    the others would change none of their answers.  Returns the list and its length."""
+    jn = np.empty(js_on.shape[0], np.int64)
+    n = 0
+    for j in range(js_on.shape[0]):
+        if js_on[j] < hi and (js_on[j] >= lo or js_off[j] + js_rel[j] + tail > lo):
+            jn[n] = j
+            n += 1
+    return jn, n
+
+
+@njit(**JIT_HELPER)
+def _active(js_on, js_off, js_rel, tail, s, act, jn, njn):
     """The junctions whose window, from the onset to the end of the leak (js_off + js_rel +
     tail), holds step s, listed in act in their order; returns how many and the first step after
-    s at which the list changes (an active one's window ends or another's begins)."""
+    s at which the list changes (an active one's window ends or another's begins), that only up
+    to the end of the call: the junctions looked at are ``jn[:njn]`` (``_near``)."""
     n = 0
     until = 1 << 62
-    for j in range(js_on.shape[0]):
+    for q in range(njn):
+        j = jn[q]
         end = js_off[j] + js_rel[j] + tail
         if js_on[j] > s:
             until = min(until, js_on[j])
@@ -896,18 +919,20 @@ def _pickups(R, Mb, mask, s, n_t, N, pk_n, pk_w, pk_g, pk_u, fs):
 
 
 @njit(**JIT_HELPER)
-def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib):
+def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib, jn, njn):
     """May a still string sleep from step t (``_still``)?  Only if nothing but its decay would
     happen in the next ``LOOKAHEAD`` steps: no junction starts there, no pulse (or its release)
     is under way, the stop does not change there (``next_stop``, from ``voice``) and the pitch
     ratio neither changes there nor moves (the breakpoints' segment holding t is flat).  What a
     sleeping string skips is its decay below the threshold: ``voice`` keeps its state and wakes
     it at its next event.  The test looks no further ahead than ``LOOKAHEAD``, so a live session,
-    which knows no more than that, decides as a render does (``voice.rebuild``)."""
+    which knows no more than that, decides as a render does (``voice.rebuild``).  The junctions
+    looked at are ``jn[:njn]`` (``_near``)."""
     end = t + LOOKAHEAD
     if next_stop < end:
         return False
-    for j in range(js_on.shape[0]):
+    for q in range(njn):
+        j = jn[q]
         if t <= js_on[j] < end:
             return False
         if js_len[j] > 0 and js_on[j] <= t < js_off[j] + js_rel[j]:
@@ -976,7 +1001,7 @@ def _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp, js_kappa):
 @njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
            seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
-           near_n, damper_bound):
+           near_n, damper_bound, jn, njn):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
     in col_list.  Returns how many there are and the step until which no bound is needed: s if
@@ -985,7 +1010,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     bound keeps every point ``QUIET_MARGIN`` times below its obstacle (the energy of the passive
     string does not grow while nothing acts on it, so the bound holds for all that time).
     ``near_n``: scratch for the points of the junctions acting before s + B (one per junction
-    point at most)."""
+    point at most); the junctions looked at are ``jn[:njn]`` (``_near``)."""
     mask &= NONNEG
     nlive = 0
     B = REACH_EVERY
@@ -1038,7 +1063,8 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     ndamp = 0
     top = near_n.shape[0] - 1
     quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady
-    for j in range(js_on.shape[0]):
+    for jq in range(njn):
+        j = jn[jq]
         if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
             pushes = not damper_bound
             for q in range(js_np[j]):

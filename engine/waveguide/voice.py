@@ -21,6 +21,7 @@ done at once, the corner at the crown would leave at any speed, far faster than 
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -145,6 +146,7 @@ class WaveguideVoice:
         self.stop_held = False
         self.config = np.zeros(1, K.CONFIG)
         self._configs: dict = {}  # ``_configure``
+        self._moves: dict = {}  # ``_change``: (old stop, new stop, n_t) -> the move's shape
         self._configure(None)
         self.st["n_t"] = self._place(self.open_loop)
 
@@ -311,9 +313,9 @@ class WaveguideVoice:
             c["steady_runs"] = int(self.steady_runs)
             c["damper_bound"] = int(self.damper_bound)
             ref = self.col_abs - self._rest_grid(fret)[self.col_n] if len(self.col_n) else None
-            made = (cfg, ref)
+            made = (cfg.view(np.uint8), ref)
             self._configs[key] = made
-        self.config[:] = made[0]
+        self.config.view(np.uint8)[:] = made[0]  # the record's bytes (a record copy is slow)
         self.stop_fret = fret
         self.stop_held = held
         if made[1] is not None:
@@ -326,6 +328,8 @@ class WaveguideVoice:
         return max(int(np.searchsorted(self.pb_step, self.step, side="right")) - 1, 0)
 
     def _ratio_now(self) -> float:
+        if len(self.bends) == 1:  # no bend or vibrato: one breakpoint
+            return float(self.bends[0]["ratio"])
         s = self.step
         i = self._pb_index()
         if i + 1 < len(self.pb_step):
@@ -402,23 +406,28 @@ class WaveguideVoice:
             # the string moves from the old rest line to the new one at the finger's speed: the
             # displacement from the rest line changes by rest_old - rest_new over that time, in
             # equal steps with no velocity of their own (balanced, E&E eq. (12))
-            idx = np.arange(nt + 1, self.n)
-            rest_old, rest_new = self._rest_grid(old), self._rest_grid(fret)
-            delta = rest_old[nt + 1:self.n] - rest_new[nt + 1:self.n]
+            move = self._moves.get((old, fret, nt))  # a song repeats a few moves
+            if move is None:
+                idx = np.arange(nt + 1, self.n)
+                rest_old, rest_new = self._rest_grid(old), self._rest_grid(fret)
+                delta = rest_old[nt + 1:self.n] - rest_new[nt + 1:self.n]
+                depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
+                jumps = []
+                for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
+                    j = rest_old[n_p:n_p + 2] - rest_new[n_p:n_p + 2]
+                    jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
+                move = (idx, delta, depth, np.array(jumps))
+                self._moves[(old, fret, nt)] = move
+            idx, delta, depth, jumps = move
             speed = strike if strike > 0.0 else LIFT_SPEED_M_S
-            depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
             steps = int(min(max(round(depth / speed * self.rate), 1), RAMP_MAX_S * self.rate))
-            jumps = []
-            for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
-                j = rest_old[n_p:n_p + 2] - rest_new[n_p:n_p + 2]
-                jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
             # the kernel takes a step of the move before each of its next ``steps`` steps
             # (``kernel._ramp``): the pickups read the displacement from the rest line, so their
             # last reading moves with it, and they see the string's motion, not the change of
             # frame
             self.ramps["n"][:len(idx)] = idx
             self.ramps["d"][:len(idx)] = delta / steps
-            self.pk["jump"] = np.array(jumps) / steps
+            self.pk["jump"] = jumps / steps
             self.st["ramp_n"] = len(idx)
             self.st["ramp_left"] = steps
 
@@ -428,7 +437,10 @@ class WaveguideVoice:
         stop changes, a pitch breakpoint (NEVER if none): where a sleeping string wakes."""
         s = self.step
         later = [int(a[a >= s].min()) for a in (self.js_on, self.pb_step) if np.any(a >= s)]
-        later += [c[0] for c in self.changes[self.change_i:] if c[0] >= s][:1]
+        for c in itertools.islice(self.changes, self.change_i, None):  # the first from now
+            if c[0] >= s:
+                later.append(c[0])
+                break
         return int(min(later, default=NEVER))
 
     def _sleep(self) -> None:

@@ -67,7 +67,9 @@ states live in registers for a call (``_terminate``), and ring indices are maske
 compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
-kernel: numba's cache only watches this file, so after changing one of them, touch this file.
+kernel, and so are their inlined functions (``glide._slope_sum``): numba's cache only watches this
+file, so after changing one of them, touch this file (and change it in the commit, or another
+checkout keeps the old kernel).
 
 Rails: u+(n, s) = R[(s - n) & mask], u-(n, s) = Mb[(s + n) & mask] (power-of-two ring buffers);
 the offsets s - n and s + n grow with s, so nothing is copied as the waves travel.

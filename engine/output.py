@@ -110,9 +110,26 @@ def pan_gains(pan: float) -> tuple[float, float]:
     return math.cos(a), math.sin(a)
 
 
+_SILENCE: dict[int, np.ndarray] = {}
+
+
+def silence(m: int) -> np.ndarray:
+    """``m`` zeros, read-only, one array per length: what a voice that computed nothing returns
+    (a sleeping or stopped string), so that ``add_to_mix`` knows it without reading it."""
+    z = _SILENCE.get(m)
+    if z is None:
+        z = np.zeros(m)
+        z.flags.writeable = False
+        _SILENCE[m] = z
+    return z
+
+
 def add_to_mix(mix: np.ndarray, y: np.ndarray, gains: tuple[float, float]) -> None:
     """Add one string's output ``y`` to ``mix``: as it is in mono, with its (left, right) pan
-    ``gains`` in stereo (``mix`` of shape (frames, 2))."""
+    ``gains`` in stereo (``mix`` of shape (frames, 2)).  ``silence`` is not added: adding +0.0
+    changes no sample of a mix that starts at +0.0 (no sum of the voices' samples is -0.0)."""
+    if _SILENCE.get(len(y)) is y:
+        return
     if mix.ndim == 2:
         mix[:, 0] += gains[0] * y
         mix[:, 1] += gains[1] * y

@@ -24,6 +24,12 @@ wrote: ``make test-data``) and on ``tools.render_digest``'s waveguide scenes:
   test_decay_stop.py); one that sleeps resumes its frozen decay at its next note, where a
   collision grazing an obstacle may see the difference (tests/engine/waveguide/test_skips.py:
   a 2 N pluck on a fretted string that slept, 6.5e-7 m/s, -154 dB of full scale).
+* the damped bound (``WaveguideOptions.damped_velocity``, ``kernel._damped``; off by default):
+  with a plain damper resting on it, a string's points need only move slower than
+  ``DAMPED_VELOCITY`` for it to sleep (its pickups still slower than ``decay_velocity``): a damped
+  string creeps back to its rest line for seconds after it has fallen silent.  Measured against
+  the default decay stop: the largest |difference| in dB of full scale, and the string-steps
+  asleep with it.
 
 Each row: the largest |difference| of the mixed output (m/s), the same in dB of the render's
 peak, and the string-steps run in the kernel's general step, in plain runs and asleep (of all
@@ -44,6 +50,7 @@ CORPUS = Path(__file__).resolve().parent.parent / ".cache" / "score-corpus"
 SONGS = ("gp/Demo v5.gp5", "gp/001_Funky_Guy.gp5", "gp/Slides.gp5", "gp/Strokes.gp5")
 TOLERANCE_DB_FS = -140.0  # the decay stop's bound, dB of full scale after the fixed gain
 TOLERANCE = 10.0 ** (TOLERANCE_DB_FS / 20.0) / FIXED_GAIN  # the same in m/s of the output
+DAMPED_VELOCITY = 1e-6  # m/s: the damped bound measured here
 
 
 def song_scene(path: str | Path, seconds: float | None):
@@ -58,7 +65,8 @@ def song_scene(path: str | Path, seconds: float | None):
 
 
 def render(scene, skip_decayed: bool = True, steady_runs: bool = True,
-           damper_bound: bool = True) -> tuple[np.ndarray, dict[str, int]]:
+           damper_bound: bool = True,
+           damped_velocity: float = 0.0) -> tuple[np.ndarray, dict[str, int]]:
     """The mixed output (``engine.mix``, as the CLI renders it) and the string-steps of each
     kind: ``general``, ``plain``, ``slept`` and ``all``; ``tested``: the collision point-steps
     tested."""
@@ -72,6 +80,8 @@ def render(scene, skip_decayed: bool = True, steady_runs: bool = True,
         v.config["steady_runs"] = int(steady_runs)
         v.damper_bound = damper_bound
         v.config["damper_bound"] = int(damper_bound)
+        v.damped_velocity = damped_velocity
+        v.config["damped_v"] = damped_velocity
     parts = list(mix.blocks())
     out = np.concatenate(parts) if parts else np.zeros(0)
     steps = {"general": sum(int(v.st["general"]) for v in voices),
@@ -104,9 +114,13 @@ def rows(scenes: dict) -> list[str]:
         e, wide = render(scene, damper_bound=False)
         d3, _ = difference(a, e)
         tested = f"{steps['tested']:.3g} / {wide['tested']:.3g}"
+        g, damped = render(scene, damped_velocity=DAMPED_VELOCITY)
+        d4, _ = difference(g, a)
+        db4 = 20.0 * np.log10(d4 * FIXED_GAIN) if d4 > 0.0 else -np.inf
         out.append(f"{name[:34]:34s} | {share} | {'exact' if d1 == 0.0 else f'{d1:.2e}':>11s} | "
                    f"{'exact' if d3 == 0.0 else f'{d3:.2e}':>9s} {tested:>19s} | "
-                   f"{d2:9.2e} {db2:7.1f} dB {fs_db:7.1f} dB FS")
+                   f"{d2:9.2e} {db2:7.1f} dB {fs_db:7.1f} dB FS | "
+                   f"{damped['slept'] / n:7.1%} {db4:7.1f} dB FS")
     return out
 
 
@@ -125,7 +139,8 @@ def main() -> None:
     print(f"tolerance of the decay stop: {TOLERANCE_DB_FS:g} dB of full scale = {TOLERANCE:.1e} "
           "m/s of the output; steady runs and the damper bound: exact")
     print(f"{'scene':34s} | general   plain   slept | steady runs | damper bound, "
-          "point-steps tested | decay stop: max |diff|, re peak, re full scale")
+          "point-steps tested | decay stop: max |diff|, re peak, re full scale | damped bound "
+          f"{DAMPED_VELOCITY:g} m/s: slept, max |diff| from the default")
     for row in rows(scenes):
         print(row)
 

@@ -1,13 +1,14 @@
 """Where a waveguide render of a whole song spends its CPU: the kernel, the Python around its calls,
 the mixing, by the kernel's paths.
 
-    python -m tools.wg_song_profile FILE [FILE ...] [--max-seconds S]
+    python -m tools.wg_song_profile FILE [FILE ...] [--max-seconds S] [--damped-velocity V]
 
 Each FILE becomes the scene ``guitar-synth render FILE --model waveguide --all-instruments
 [--max-seconds S]`` renders (``benchmarks.songs``' command), rendered in one process on one thread
-as the CLI does (``engine.mix``, blocks of 4096 frames), after a half second of the same scene has
-loaded the compiled kernels.  Printed per song (process CPU time for the phases, ``perf_counter``
-around the calls for the split of the render):
+as the CLI does (``engine.mix``, in the CLI's blocks: ``cli.main.BLOCK_FRAMES``, 16384 frames; the
+samples do not depend on the blocks, the number of kernel calls does), after a half second of the
+same scene has loaded the compiled kernels.  Printed per song (process CPU time for the phases,
+``perf_counter`` around the calls for the split of the render):
 
 * ``load``, ``prepare``, ``render``: reading the score, preparing the strings, rendering;
 * ``kernel``: inside the waveguide kernel's calls; ``python``: the rest of the voices' ``run``
@@ -19,6 +20,9 @@ around the calls for the split of the render):
 * the string-steps: in the general step, in plain runs and asleep (the kernel's and the voice's
   counts), of all the strings' steps (strings with no events are not built);
 * ``sha256``: of the mixed output, so that two trees' renders can be compared.
+
+``--damped-velocity V`` renders with ``WaveguideOptions.damped_velocity`` = V m/s (the decay stop's
+bound on the points of a damped string; off by default, it moves samples).
 
 The timing around every kernel call costs time of its own (a few array reads a call), measured and
 left out of ``python``; the render's CPU time includes it.
@@ -43,9 +47,10 @@ def _scene(path: str, seconds: float | None):
     return validate(scene, path)
 
 
-def profile(path: str, seconds: float | None) -> str:
+def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> str:
     import engine
     import engine.waveguide.voice as wv
+    from cli.main import BLOCK_FRAMES
     from engine.mix import prepare
 
     calls: list[tuple] = []
@@ -90,11 +95,15 @@ def profile(path: str, seconds: float | None) -> str:
         t_load = time.process_time() - t0
         t0 = time.process_time()
         mix = prepare(sc)
+        for v in mix.voices:
+            if hasattr(v, "damped_velocity"):
+                v.damped_velocity = damped_velocity
+                v.config["damped_v"] = damped_velocity
         t_prep = time.process_time() - t0
         digest = hashlib.sha256()
         t0 = time.process_time()
         w0 = clock()
-        for y in mix.blocks(4096):
+        for y in mix.blocks(BLOCK_FRAMES):
             digest.update(np.ascontiguousarray(y, np.float64).tobytes())
         t_render = time.process_time() - t0
         w_render = clock() - w0
@@ -122,7 +131,7 @@ def profile(path: str, seconds: float | None) -> str:
     for lo, hi in ((1, 2), (2, 1024), (1024, 1 << 30)):
         sel = (c[:, 0] >= lo) & (c[:, 0] < hi)
         if sel.any():
-            lines.append(f"  calls of {lo}-{min(hi, 4097) - 1} steps: {int(sel.sum())}, "
+            lines.append(f"  calls of {lo}-{min(hi, BLOCK_FRAMES + 1) - 1} steps: {int(sel.sum())}, "
                          f"{c[sel, 2].sum():.2f} s, {1e6 * c[sel, 2].mean():.1f} us a call, "
                          f"{1e9 * c[sel, 2].sum() / max(c[sel, 1].sum(), 1):.0f} ns a step")
     for name, sel in (("a damper in contact", c[:, 3] == 1), ("no damper", c[:, 3] == 0)):
@@ -138,9 +147,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="+", metavar="FILE")
     ap.add_argument("--max-seconds", type=float, metavar="S", help="each song's first S seconds")
+    ap.add_argument("--damped-velocity", type=float, default=0.0, metavar="V",
+                    help="WaveguideOptions.damped_velocity, m/s (default 0: off)")
     args = ap.parse_args()
     for f in args.files:
-        print(profile(f, args.max_seconds), flush=True)
+        print(profile(f, args.max_seconds, args.damped_velocity), flush=True)
 
 
 if __name__ == "__main__":

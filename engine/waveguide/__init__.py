@@ -100,6 +100,11 @@ class WaveguideOptions:
     # finger) bounded by the string's energy as everywhere else, not all tested every sample
     # (``kernel._reach``)
     damper_bound: bool = True
+    # the decay stop's bound on the string's points while a plain damper rests on it (m/s; 0:
+    # decay_velocity, as everywhere else): a damped string creeps back to its rest line far
+    # slower than it falls silent (``kernel._damped``).  Off by default: it moves samples after
+    # the string wakes (docs/engine.md, "Skips")
+    damped_velocity: float = 0.0
     block_frames: int = 2048
 
 
@@ -186,7 +191,7 @@ def prepare(scene: Scene, options: WaveguideOptions | None = None, *,
                                      statics, opts.dispersion, opts.collisions, opts.glide,
                                      opts.finger_damping, opts.skip_decayed,
                                      opts.decay_velocity, opts.steady_runs,
-                                     opts.damper_bound))
+                                     opts.damper_bound, opts.damped_velocity))
     inst = WaveguideInstrument(scene, preset, voices, opts, out.frames, out.channels, out.pans,
                                out.body)
     inst._warnings = [w for _, w in sorted(warnings)]

@@ -36,6 +36,7 @@ Any other event type raises ValueError naming it.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 
@@ -127,11 +128,19 @@ class Timeline:
                         points.update((int(math.floor(at)), int(math.floor(at)) + 1))
                 points.update((ms, me))
         out: list[tuple[int, int | None, float, bool]] = []
+        # the seated fingers down at each step, in their order (a song's string has hundreds of
+        # fingers, a step one or two): taken on in the order they come, dropped once lifted
+        coming = sorted((f.on, i) for i, f in enumerate(self.fingers) if f.seated)
+        down: list[int] = []
+        c = 0
         for step in sorted(p for p in points if p < NEVER):
+            while c < len(coming) and coming[c][0] <= step:
+                bisect.insort(down, coming[c][1])
+                c += 1
+            down = [i for i in down if step < self.fingers[i].rel]
             best, strike, held = None, 0.0, False
-            for f in self.fingers:
-                if not f.seated or not f.on <= step < f.rel:
-                    continue
+            for i in down:
+                f = self.fingers[i]
                 q = _stopping_fret(preset, spec, f, step)
                 resting = f.slide is None or not f.slide[0] <= step < f.slide[1]
                 if q is not None and (best is None or q > best):

@@ -31,6 +31,7 @@ act on the same delay (``controls``).
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from ..config import JIT_INLINE
@@ -50,14 +51,33 @@ def _slope_sum(R, Mb, mask, s, n_lo, n_hi, act, nact, js_off, js_rel, js_idx, js
         leaking |= _leaking(act[a], s, js_off, js_rel, tail)
     acc = 0.0
     prev = R[(s - n_lo) & mask] + Mb[(s + n_lo) & mask]
+    if not leaking:
+        for n in range(n_lo + 1, n_hi + 1):
+            u = R[(s - n) & mask] + Mb[(s + n) & mask]
+            d = u - prev
+            prev = u
+            acc += d * d
+        return acc + prev * prev  # the last step, to the bridge (u = 0 there)
+    # the steps that touch a leaking point, marked once: from n - 1 to n and from n to n + 1 for a
+    # point n (a song's string has several junctions leaking at once)
+    touched = np.zeros(n_hi + 2, np.bool_)
+    for a in range(nact):
+        j = act[a]
+        if _leaking(j, s, js_off, js_rel, tail):
+            for k in range(js_np[j]):
+                p = js_idx[j, k]
+                if n_lo < p <= n_hi:
+                    touched[p] = True
+                if n_lo <= p < n_hi:
+                    touched[p + 1] = True
     for n in range(n_lo + 1, n_hi + 1):
         u = R[(s - n) & mask] + Mb[(s + n) & mask]
         d = u - prev
         prev = u
-        if leaking and _touches(n, s, act, nact, js_off, js_rel, js_idx, js_np, tail):
+        if touched[n]:
             continue
         acc += d * d
-    return acc + prev * prev  # the last step, to the bridge (u = 0 there)
+    return acc + prev * prev
 
 
 @njit(**JIT_INLINE)
@@ -66,16 +86,3 @@ def _leaking(j, s, js_off, js_rel, tail):
     leaks away (``pluck``: for ``tail`` steps, 8 time constants of ``LEAK_HZ``)?"""
     gone = js_off[j] + js_rel[j]
     return gone <= s < gone + tail
-
-
-@njit(**JIT_INLINE)
-def _touches(n, s, act, nact, js_off, js_rel, js_idx, js_np, tail):
-    """Does the step from n - 1 to n touch a point of a junction (of ``act[:nact]``) leaking at
-    s?"""
-    for a in range(nact):
-        j = act[a]
-        if _leaking(j, s, js_off, js_rel, tail):
-            for k in range(js_np[j]):
-                if js_idx[j, k] == n or js_idx[j, k] == n - 1:
-                    return True
-    return False

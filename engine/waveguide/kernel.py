@@ -22,7 +22,9 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    next ``LOOKAHEAD`` steps (``_may_sleep``) and the pickups' output since the last test and
    every point's velocity on the sounding grid are below ``decay_velocity`` (``_still``), the
    call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
-   next event, or stops when none is left (a sleeping string costs nothing).
+   next event, or stops when none is left (a sleeping string costs nothing).  With a plain
+   damper resting on the string (``_damped``) its points are held to ``damped_v`` instead when
+   that is larger (``WaveguideOptions.damped_velocity``, off by default).
 
 A move onto a new rest line (``voice._change``: a finger carrying the string onto a fret's crown,
 or letting it up) is stepped here too, before each of its steps (``_ramp``): those steps and the
@@ -65,7 +67,9 @@ states live in registers for a call (``_terminate``), and ring indices are maske
 compiler knows to be non-negative (no wraparound test).
 
 Constants imported from ``collision``, ``glide`` and ``pluck`` are compiled into the cached
-kernel: numba's cache only watches this file, so after changing one of them, touch this file.
+kernel, and so are their inlined functions (``glide._slope_sum``): numba's cache only watches this
+file, so after changing one of them, touch this file (and change it in the commit, or another
+checkout keeps the old kernel).
 
 Rails: u+(n, s) = R[(s - n) & mask], u-(n, s) = Mb[(s + n) & mask] (power-of-two ring buffers);
 the offsets s - n and s + n grow with s, so nothing is copied as the waves travel.
@@ -117,6 +121,7 @@ CONFIG = np.dtype([
     ("dcap", _F),  # the largest fractional delay the ring holds
     ("fbase", _F),  # the stopped string's frequency, Hz
     ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
+    ("damped_v", _F),  # the points' bound for it beside a damper in contact (``_damped``)
     ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
     ("steady_runs", _I),  # 1: steady junctions run in plain runs (``_steady``), 0: not
     ("damper_bound", _I),  # 1: a damper's neighbours by the energy bound (``_reach``), 0: live
@@ -252,21 +257,27 @@ def run_block(wave, events, step0, out):
     dcap = cf.dcap
     fbase = cf.fbase
     decay_v = cf.decay_v
+    damped_v = cf.damped_v
     next_stop = st.next_stop
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
     nslot = js_on.shape[0]
+    # the junctions that can act in this call or in the BLOCK after it (whose onset comes before
+    # then and whose window, to the end of its leak, reaches into the call), in their order:
+    # all that ``_active``, ``_reach`` and ``_may_sleep`` can find at any step of the call, so
+    # they look at these alone (``_near``): a song's string has hundreds of junctions, a call a
+    # few, and the scratch below is sized by them
+    jn, njn = _near(js_on, js_off, js_rel, tail, step0, step0 + nsteps + BLOCK)
     # the junctions whose window (onset to the end of their leak) holds the step, in their order,
-    # and the step at which that list next changes (``_active``): a song's string has hundreds
-    # of junctions, a step a few
-    act = np.empty(nslot, np.int64)
-    near_n = np.empty(nslot * js_idx.shape[1], np.int64)  # ``_reach``'s scratch
+    # and the step at which that list next changes (``_active``)
+    act = np.empty(njn, np.int64)
+    near_n = np.empty(njn * js_idx.shape[1], np.int64)  # ``_reach``'s scratch
     # the steady junctions' points in a plain run (``_steady``): grid index, coefficient, state
-    sp_n = np.empty(nslot * js_idx.shape[1], np.int64)
-    sp_c = np.empty(nslot * js_idx.shape[1])
-    sp_h = np.empty(nslot * js_idx.shape[1])
-    sp_u = np.empty(nslot * js_idx.shape[1])
-    sp_cut = np.empty(nslot * js_idx.shape[1])
+    sp_n = np.empty(njn * js_idx.shape[1], np.int64)
+    sp_c = np.empty(njn * js_idx.shape[1])
+    sp_h = np.empty(njn * js_idx.shape[1])
+    sp_u = np.empty(njn * js_idx.shape[1])
+    sp_cut = np.empty(njn * js_idx.shape[1])
     steady_runs = cf.steady_runs != 0
     nact = 0
     act_until = -1
@@ -327,7 +338,7 @@ def run_block(wave, events, step0, out):
         renew = (i == 0 and fresh) or ramping or after_ramp  # the schedules start afresh
         after_ramp = ramping and ramp_left == 0
         if s >= act_until:  # the junctions whose window holds s (``_active``)
-            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act)
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s, act, jn, njn)
         # 1. the period, exact at a restart and every GLIDE_EVERY steps, linear in between
         # (the bends' breakpoints and the glide move it over milliseconds: no division per
         # sample), and the termination's place
@@ -410,7 +421,7 @@ def run_block(wave, events, step0, out):
                                             col_prev, col_live, col_list, seg_p, seg_m, js_on,
                                             js_off, js_rel, js_idx, js_np, js_f, js_mp,
                                             js_kappa, tail, pb_step, ib, near_n,
-                                            cf.damper_bound != 0)
+                                            cf.damper_bound != 0, jn, njn)
                 inside_nt = -1
             if n_t != inside_nt:
                 inside = _inside(col_n, col_list, nlive, n_t, N)
@@ -428,9 +439,10 @@ def run_block(wave, events, step0, out):
             if (s + 1) % BLOCK == 0:
                 if (peak < decay_v and not ramping  # no sleep while a finger moves it
                         and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
-                                       pb_step, pb_f, ib)
-                        and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, act, nact,
-                                   js_idx, js_np)):
+                                       pb_step, pb_f, ib, jn, njn)
+                        and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, damped_v, act,
+                                   nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
+                                   js_kappa)):
                     stopped = True
                     break
                 peak = 0.0
@@ -445,7 +457,7 @@ def run_block(wave, events, step0, out):
         if ncol > 0 and s1 >= quiet_until:
             e = min(e, s1 + (REACH_EVERY - ri % REACH_EVERY) % REACH_EVERY)
         if s1 >= act_until:
-            nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act)
+            nact, act_until = _active(js_on, js_off, js_rel, tail, s1, act, jn, njn)
         e = min(e, act_until)  # up to the next junction's onset or end
         nsp = 0
         if nact > 0:  # only steady junctions run in a plain run, up to their next change
@@ -478,9 +490,10 @@ def run_block(wave, events, step0, out):
             if decay_v > 0.0 and e % BLOCK == 0:
                 if (peak < decay_v
                         and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
-                                       pb_f, ib)
-                        and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, act, nact,
-                                   js_idx, js_np)):
+                                       pb_f, ib, jn, njn)
+                        and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, damped_v,
+                                   act, nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
+                                   js_kappa)):
                     stopped = True
                     break
                 peak = 0.0
@@ -560,13 +573,31 @@ def _walk_terminate(R, Mb, mask, s, N, n_t, period, tau, dcap, d_taps, j0, h0, h
 
 
 @njit(**JIT_HELPER)
-def _active(js_on, js_off, js_rel, tail, s, act):
+def _near(js_on, js_off, js_rel, tail, lo, hi):
+    """The junctions that start before step hi and either start at lo or later or have a window
+    (onset to the end of the leak) that reaches past lo, in their order: for a call from lo, with
+    hi its end plus a ``BLOCK``, every junction that ``_active``, ``_reach`` (B and the quiet
+    string's ``BLOCK`` ahead) and ``_may_sleep`` (``LOOKAHEAD`` ahead) can meet at its steps;
+    the others would change none of their answers.  Returns the list and its length."""
+    jn = np.empty(js_on.shape[0], np.int64)
+    n = 0
+    for j in range(js_on.shape[0]):
+        if js_on[j] < hi and (js_on[j] >= lo or js_off[j] + js_rel[j] + tail > lo):
+            jn[n] = j
+            n += 1
+    return jn, n
+
+
+@njit(**JIT_HELPER)
+def _active(js_on, js_off, js_rel, tail, s, act, jn, njn):
     """The junctions whose window, from the onset to the end of the leak (js_off + js_rel +
     tail), holds step s, listed in act in their order; returns how many and the first step after
-    s at which the list changes (an active one's window ends or another's begins)."""
+    s at which the list changes (an active one's window ends or another's begins), that only up
+    to the end of the call: the junctions looked at are ``jn[:njn]`` (``_near``)."""
     n = 0
     until = 1 << 62
-    for j in range(js_on.shape[0]):
+    for q in range(njn):
+        j = jn[q]
         end = js_off[j] + js_rel[j] + tail
         if js_on[j] > s:
             until = min(until, js_on[j])
@@ -890,18 +921,20 @@ def _pickups(R, Mb, mask, s, n_t, N, pk_n, pk_w, pk_g, pk_u, fs):
 
 
 @njit(**JIT_HELPER)
-def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib):
+def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib, jn, njn):
     """May a still string sleep from step t (``_still``)?  Only if nothing but its decay would
     happen in the next ``LOOKAHEAD`` steps: no junction starts there, no pulse (or its release)
     is under way, the stop does not change there (``next_stop``, from ``voice``) and the pitch
     ratio neither changes there nor moves (the breakpoints' segment holding t is flat).  What a
     sleeping string skips is its decay below the threshold: ``voice`` keeps its state and wakes
     it at its next event.  The test looks no further ahead than ``LOOKAHEAD``, so a live session,
-    which knows no more than that, decides as a render does (``voice.rebuild``)."""
+    which knows no more than that, decides as a render does (``voice.rebuild``).  The junctions
+    looked at are ``jn[:njn]`` (``_near``)."""
     end = t + LOOKAHEAD
     if next_stop < end:
         return False
-    for j in range(js_on.shape[0]):
+    for q in range(njn):
+        j = jn[q]
         if t <= js_on[j] < end:
             return False
         if js_len[j] > 0 and js_on[j] <= t < js_off[j] + js_rel[j]:
@@ -916,17 +949,23 @@ def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib):
 
 
 @njit(**JIT_INLINE)
-def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
+def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, v_damped, act, nact, js_on, js_off, js_len,
+           js_idx, js_np, js_mp, js_kappa):
     """Have the pickups (their largest |output| since the last test: peak) and has every point
     of the sounding string (n_t .. N) moved slower than v_max at step s?  The velocity is read
     off the rails, u(n, s) - u(n, s - 1) with u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the
     waves' values at s, one point further on, before the junctions of step s moved them; next
     to a junction that acts (a steady damper) that mixes its step-s perturbation into the
     difference, so those points are left out: they move with their neighbours.  The junctions
-    whose window holds s are ``act[:nact]`` (``_active``)."""
+    whose window holds s are ``act[:nact]`` (``_active``).  Beside a damper in contact
+    (``_damped``) the points need only move slower than v_damped, when that is larger: the
+    pickups are held to v_max all the same."""
     if peak >= v_max:
         return False
     lim = v_max / fs
+    if v_damped > v_max and _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp,
+                                    js_kappa):
+        lim = v_damped / fs
     for n in range(n_t, N + 1):
         du = (R[(s - n) & mask] + Mb[(s + n) & mask]) - (R[(s - 1 - n) & mask]
                                                          + Mb[(s - 1 + n) & mask])
@@ -942,10 +981,29 @@ def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, act, nact, js_idx, js_np):
     return True
 
 
+@njit(**JIT_HELPER)
+def _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp, js_kappa):
+    """Is a plain damper (a contact with no pulse, mass or spring: a damp, a palm, a harmonic
+    touch, a light finger) in contact with the string from before step s until at least
+    ``LOOKAHEAD`` steps after it?  Such a string creeps back to its rest line slowly after its
+    note has died (the junctions' leak, ``pluck``, passes what is slower than ``LEAK_HZ``): the
+    decay stop's ``damped_v`` (``WaveguideVoice.damped_velocity``)."""
+    for a in range(nact):
+        j = act[a]
+        if js_len[j] == 0 and js_on[j] < s and js_off[j] > s + LOOKAHEAD:
+            plain = True
+            for k in range(js_np[j]):
+                if js_mp[j, k] != 0.0 or js_kappa[j, k] != 0.0:
+                    plain = False
+            if plain:
+                return True
+    return False
+
+
 @njit(**JIT_STEP)
 def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col_list, seg_p,
            seg_m, js_on, js_off, js_rel, js_idx, js_np, js_f, js_mp, js_kappa, tail, pb_step, ib,
-           near_n, damper_bound):
+           near_n, damper_bound, jn, njn):
     """The collision points that the string can reach in the next ``REACH_EVERY`` samples
     (``collision``): col_live[c] = 1 for those, 0 for the rest, and their indices listed first
     in col_list.  Returns how many there are and the step until which no bound is needed: s if
@@ -954,7 +1012,7 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     bound keeps every point ``QUIET_MARGIN`` times below its obstacle (the energy of the passive
     string does not grow while nothing acts on it, so the bound holds for all that time).
     ``near_n``: scratch for the points of the junctions acting before s + B (one per junction
-    point at most)."""
+    point at most); the junctions looked at are ``jn[:njn]`` (``_near``)."""
     mask &= NONNEG
     nlive = 0
     B = REACH_EVERY
@@ -1007,7 +1065,8 @@ def _reach(R, Mb, mask, s, n_t, N, gain, col_n, col_ref, col_prev, col_live, col
     ndamp = 0
     top = near_n.shape[0] - 1
     quiet = ib + 1 >= pb_step.shape[0] or until <= pb_step[ib]  # the pitch is steady
-    for j in range(js_on.shape[0]):
+    for jq in range(njn):
+        j = jn[jq]
         if js_on[j] < s + B and js_off[j] + js_rel[j] > s:
             pushes = not damper_bound
             for q in range(js_np[j]):

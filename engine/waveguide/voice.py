@@ -21,6 +21,7 @@ done at once, the corner at the crown would leave at any speed, far faster than 
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -28,6 +29,7 @@ import numpy as np
 
 from ..config import entry_point
 from ..instrument import DECAY_CHECK_FRAMES
+from ..output import silence
 from ..presets import Preset
 from ..statics import PressedString
 from . import kernel as K
@@ -80,6 +82,7 @@ class WaveguideVoice:
     decay_velocity: float = 1e-7
     steady_runs: bool = True  # steady junctions in plain runs (``kernel._steady``; exact)
     damper_bound: bool = True  # a damper's neighbours by the energy bound (``kernel._reach``)
+    damped_velocity: float = 0.0  # the decay stop's bound on the points beside a damper (m/s)
     step: int = 0
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
@@ -142,6 +145,8 @@ class WaveguideVoice:
         self.stop_fret: int | None = None
         self.stop_held = False
         self.config = np.zeros(1, K.CONFIG)
+        self._configs: dict = {}  # ``_configure``
+        self._moves: dict = {}  # ``_change``: (old stop, new stop, n_t) -> the move's shape
         self._configure(None)
         self.st["n_t"] = self._place(self.open_loop)
 
@@ -159,6 +164,12 @@ class WaveguideVoice:
         self.jst = np.zeros((ns, MAX_POINTS, J_STATE))
         X = self.x_step
         z = self.z
+        rate = self.rate
+        rho_max = max_damping(rate)
+        # the fields' views taken once (a song's string has hundreds of junctions)
+        js_np = self.slots["npts"]
+        pt = self.points
+        js_idx, js_f, js_mp, js_rho, js_kappa = (pt[f] for f in K.POINT.names)
         for j, s in enumerate(slots):
             if s.window == "split":
                 centre = self.n_of(s.x_m)
@@ -167,15 +178,15 @@ class WaveguideVoice:
                 pts = [(i, w) for i, w in pts if w > 0.0]
             else:
                 pts = window(s.window, s.width_m, s.x_m, X, self.n_of)
-            self.js_np[j] = len(pts)
+            js_np[j] = len(pts)
             if s.force != 0.0:  # a blow at i moves the points i - 1 and i: centre it on x
                 pts = [(i + 1, w) for i, w in pts]
             for k, (i, w) in enumerate(pts):  # m', rho, k' of ``pluck._msd``
-                self.js_idx[j, k] = i
-                self.js_f[j, k] = w * s.force
-                self.js_mp[j, k] = min(w * s.mass * self.rate / z, MAX_MASS_RATIO)
-                self.js_rho[j, k] = min(w * s.damping / (2.0 * z), max_damping(self.rate))
-                self.js_kappa[j, k] = w * s.stiffness / (4.0 * self.rate * z)
+                js_idx[j, k] = i
+                js_f[j, k] = w * s.force
+                js_mp[j, k] = min(w * s.mass * rate / z, MAX_MASS_RATIO)
+                js_rho[j, k] = min(w * s.damping / (2.0 * z), rho_max)
+                js_kappa[j, k] = w * s.stiffness / (4.0 * rate * z)
 
     def _stops_and_pitch(self, tl: Timeline) -> None:
         """The pitch ratio's breakpoints and the changes of the stop."""
@@ -282,21 +293,33 @@ class WaveguideVoice:
         return loop
 
     def _configure(self, fret: int | None, held: bool = False) -> None:
-        lp = self.loop(fret, held)
-        c = self.config[0]
-        c["n"], c["disp_m"], c["fs"], c["x_k0"] = self.n, lp.disp_m, self.rate, self.x_k0
-        c["loss_g"], c["loss_a"] = lp.loss_g, lp.loss_a
-        c["disp_a"], c["refl_g"], c["tau"] = lp.disp_a, lp.refl_g, lp.tau
-        c["gain"], c["glide_k"] = lp.gain_bound, self.glide_k
-        c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
-        c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
-        c["steady_runs"] = int(self.steady_runs)
-        c["damper_bound"] = int(self.damper_bound)
+        """The kernel's ``CONFIG`` record and the obstacles' heights for the stop at ``fret``:
+        built once per stop and switch setting and copied in (a song changes the stop
+        thousands of times among a few frets)."""
+        key = (fret, held, self.decay_velocity, self.skip_decayed, self.steady_runs,
+               self.damper_bound, self.damped_velocity)
+        made = self._configs.get(key)
+        if made is None:
+            lp = self.loop(fret, held)
+            cfg = np.zeros(1, K.CONFIG)
+            c = cfg[0]
+            c["n"], c["disp_m"], c["fs"], c["x_k0"] = self.n, lp.disp_m, self.rate, self.x_k0
+            c["loss_g"], c["loss_a"] = lp.loss_g, lp.loss_a
+            c["disp_a"], c["refl_g"], c["tau"] = lp.disp_a, lp.refl_g, lp.tau
+            c["gain"], c["glide_k"] = lp.gain_bound, self.glide_k
+            c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
+            c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
+            c["damped_v"] = self.damped_velocity
+            c["steady_runs"] = int(self.steady_runs)
+            c["damper_bound"] = int(self.damper_bound)
+            ref = self.col_abs - self._rest_grid(fret)[self.col_n] if len(self.col_n) else None
+            made = (cfg.view(np.uint8), ref)
+            self._configs[key] = made
+        self.config.view(np.uint8)[:] = made[0]  # the record's bytes (a record copy is slow)
         self.stop_fret = fret
         self.stop_held = held
-        if len(self.col_n):
-            rest = self._rest_grid(fret)[self.col_n]
-            self.col_ref[:] = self.col_abs - rest
+        if made[1] is not None:
+            self.col_ref[:] = made[1]
             self.col_live[:] = 0
 
     def _pb_index(self) -> int:
@@ -305,6 +328,8 @@ class WaveguideVoice:
         return max(int(np.searchsorted(self.pb_step, self.step, side="right")) - 1, 0)
 
     def _ratio_now(self) -> float:
+        if len(self.bends) == 1:  # no bend or vibrato: one breakpoint
+            return float(self.bends[0]["ratio"])
         s = self.step
         i = self._pb_index()
         if i + 1 < len(self.pb_step):
@@ -369,9 +394,9 @@ class WaveguideVoice:
         release = self._fret_x(fret) < self._fret_x(old)
         if release and nt < nt_old:
             lo = max(nt - 8, nt - self.n)
-            for i in range(lo, nt_old):  # the part cut off comes back at rest
-                self.R[(s - i) & mask] = 0.0
-                self.Mb[(s + i) & mask] = 0.0
+            back = np.arange(lo, nt_old)  # the part cut off comes back at rest
+            self.R[(s - back) & mask] = 0.0
+            self.Mb[(s + back) & mask] = 0.0
         self.st["n_t"] = nt
         if release:  # the filters' memory belongs to the loop that was cut
             self.st["loss"] = 0.0
@@ -381,23 +406,28 @@ class WaveguideVoice:
             # the string moves from the old rest line to the new one at the finger's speed: the
             # displacement from the rest line changes by rest_old - rest_new over that time, in
             # equal steps with no velocity of their own (balanced, E&E eq. (12))
-            idx = np.arange(nt + 1, self.n)
-            rest_old, rest_new = self._rest_grid(old), self._rest_grid(fret)
-            delta = rest_old[nt + 1:self.n] - rest_new[nt + 1:self.n]
+            move = self._moves.get((old, fret, nt))  # a song repeats a few moves
+            if move is None:
+                idx = np.arange(nt + 1, self.n)
+                rest_old, rest_new = self._rest_grid(old), self._rest_grid(fret)
+                delta = rest_old[nt + 1:self.n] - rest_new[nt + 1:self.n]
+                depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
+                jumps = []
+                for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
+                    j = rest_old[n_p:n_p + 2] - rest_new[n_p:n_p + 2]
+                    jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
+                move = (idx, delta, depth, np.array(jumps))
+                self._moves[(old, fret, nt)] = move
+            idx, delta, depth, jumps = move
             speed = strike if strike > 0.0 else LIFT_SPEED_M_S
-            depth = float(np.max(np.abs(delta))) if len(delta) else 0.0
             steps = int(min(max(round(depth / speed * self.rate), 1), RAMP_MAX_S * self.rate))
-            jumps = []
-            for n_p, w in zip(self.pk_n, self.pk_w, strict=True):
-                j = rest_old[n_p:n_p + 2] - rest_new[n_p:n_p + 2]
-                jumps.append((1.0 - w) * j[0] + w * j[1] if n_p > nt else 0.0)
             # the kernel takes a step of the move before each of its next ``steps`` steps
             # (``kernel._ramp``): the pickups read the displacement from the rest line, so their
             # last reading moves with it, and they see the string's motion, not the change of
             # frame
             self.ramps["n"][:len(idx)] = idx
             self.ramps["d"][:len(idx)] = delta / steps
-            self.pk["jump"] = np.array(jumps) / steps
+            self.pk["jump"] = jumps / steps
             self.st["ramp_n"] = len(idx)
             self.st["ramp_left"] = steps
 
@@ -407,7 +437,10 @@ class WaveguideVoice:
         stop changes, a pitch breakpoint (NEVER if none): where a sleeping string wakes."""
         s = self.step
         later = [int(a[a >= s].min()) for a in (self.js_on, self.pb_step) if np.any(a >= s)]
-        later += [c[0] for c in self.changes[self.change_i:] if c[0] >= s][:1]
+        for c in itertools.islice(self.changes, self.change_i, None):  # the first from now
+            if c[0] >= s:
+                later.append(c[0])
+                break
         return int(min(later, default=NEVER))
 
     def _sleep(self) -> None:
@@ -428,8 +461,9 @@ class WaveguideVoice:
         rotating both by the same count moves every wave's sample to the new step), the filters'
         and junctions' states as they were."""
         slept = self.asleep_until - self.asleep_from
-        for rail in self.rails:
-            rail[:] = np.roll(rail, slept)
+        k = slept % self.rails.shape[1]
+        if k:  # np.roll's permutation of both rails, by slices
+            self.rails[:] = np.concatenate((self.rails[:, -k:], self.rails[:, :-k]), axis=1)
         # the schedules go on on the global grid, as if the string had run (no change of the stop
         # or of the pitch came while it slept): the period exact now, a reach now
         self.st["fresh"] = 2
@@ -448,7 +482,7 @@ class WaveguideVoice:
         carry from one call to the next (``kernel``), so any blocks give the same samples."""
         if self.stopped or self.step + nsteps <= self.asleep_until:
             self.step += nsteps
-            return np.zeros(nsteps)
+            return silence(nsteps)  # read-only: the mix skips it (``output.add_to_mix``)
         out = np.empty(nsteps)  # the kernel writes every sample it runs (``_advance``)
         self._advance(out)
         return out
@@ -458,6 +492,8 @@ class WaveguideVoice:
         nsteps = len(out)
         done = 0
         end = self.step + nsteps
+        st = self.carry[0]  # a view: the fields written here are the kernel's
+        changes = self.changes
         while done < nsteps and not self.stopped:
             if self.step < self.asleep_until:  # asleep: silence until it wakes
                 m = int(min(nsteps - done, self.asleep_until - self.step))
@@ -470,18 +506,16 @@ class WaveguideVoice:
             # the kernel restarts its schedules where the stop changes and around a move onto a
             # new rest line (the same steps however the render is cut: ``kernel``)
             fresh = False
-            while (self.change_i < len(self.changes)
-                   and self.changes[self.change_i][0] <= self.step):
-                _, fret, strike, held = self.changes[self.change_i]
+            while self.change_i < len(changes) and changes[self.change_i][0] <= self.step:
+                _, fret, strike, held = changes[self.change_i]
                 self._change(fret, strike, held)
                 self.change_i += 1
                 fresh = True
-            nxt = (self.changes[self.change_i][0] if self.change_i < len(self.changes)
-                   else NEVER)
+            nxt = changes[self.change_i][0] if self.change_i < len(changes) else NEVER
             m = int(min(nsteps - done, nxt - self.step))
-            self.st["next_stop"] = nxt
+            st["next_stop"] = nxt
             if fresh:
-                self.st["fresh"] = 1
+                st["fresh"] = 1
             args = (K.Wave(self.config, self.carry, self.rails, self.pk, self.colliders,
                            self.segments, self.ramps),
                     K.Events(self.slots, self.points, self.jst, self.bends), self.step,
@@ -489,14 +523,14 @@ class WaveguideVoice:
             if self._run is None:  # the argument types are the same in every call
                 self._run = entry_point(K.run_block, args)
             ran = self._run(*args)
-            if ran == -2:
-                raise RuntimeError("the cached waveguide kernel was compiled with another "
-                                   "REACH_EVERY: touch engine/waveguide/kernel.py")
             if ran < 0:
+                if ran == -2:
+                    raise RuntimeError("the cached waveguide kernel was compiled with another "
+                                       "REACH_EVERY: touch engine/waveguide/kernel.py")
                 raise FloatingPointError(f"string {self.index}: the waveguide became non-finite")
             self.step += ran
             done += ran
-            if self.st["stopped"]:
+            if st["stopped"]:
                 self._sleep()
         if self.stopped:
             out[done:] = 0.0  # the rest is silence

@@ -100,6 +100,28 @@ def test_a_still_string_sleeps_until_its_next_note_within_the_tolerance():
     assert 0.0 < d < TOLERANCE
 
 
+def test_a_damped_string_sleeps_once_silent_with_the_damped_bound():
+    """A fretted note ended by a damp creeps back to its rest line for seconds (the dampers' leak
+    passes what is slower than ``pluck.LEAK_HZ``), its points a little faster than
+    ``decay_velocity``, the pickup far slower.  With the default bound it runs to its next note;
+    with ``damped_velocity`` = 1e-6 m/s it sleeps once silent.  A light next pluck (nothing
+    collides after the wake) stays within the decay stop's tolerance of the render without any
+    stop."""
+    events = [fret(3, 5), pluck(3, time=0.01, force=2.0), _damp(0.3, 3),
+              pluck(3, time=1.5, force=0.5)]
+    sc = _scene(events, 2.0)
+    a, steps = render(sc, damped_velocity=1e-6)
+    b, old = render(sc)
+    c, _ = render(sc, skip_decayed=False)
+    d = float(np.max(np.abs(a - c)))
+    print(f"slept {old['slept'] / 44100:.2f} s -> {steps['slept'] / 44100:.2f} s, max |diff| "
+          f"{d:.2e} m/s against no stop")
+    assert old["slept"] == 0  # the creep keeps it above decay_velocity until its next note
+    assert steps["slept"] > 0.5 * 44100
+    assert d < TOLERANCE
+    assert np.array_equal(b[:int(0.3 * 44100)], a[:int(0.3 * 44100)])
+
+
 def test_a_string_at_rest_before_its_first_note_sleeps_exactly():
     """Nothing has moved it: it sleeps from the first test of the decay stop to its pluck and
     wakes with the kernel's schedules on the global grid, as if it had run (a hard slap against

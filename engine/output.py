@@ -111,13 +111,19 @@ def pan_gains(pan: float) -> tuple[float, float]:
 
 
 _SILENCE: dict[int, np.ndarray] = {}
+_SILENCE_LENGTHS = 8  # a render's block length and its last, short block, and a few others
 
 
 def silence(m: int) -> np.ndarray:
     """``m`` zeros, read-only, one array per length: what a voice that computed nothing returns
-    (a sleeping or stopped string), so that ``add_to_mix`` knows it without reading it."""
+    (a sleeping or stopped string), so that ``add_to_mix`` knows it without reading it.  Only the
+    last few lengths are kept: a worker renders scenes of every length, and their last blocks
+    would otherwise each leave an array behind for the life of the process (one that is gone is
+    merely added as zeros)."""
     z = _SILENCE.get(m)
     if z is None:
+        if len(_SILENCE) >= _SILENCE_LENGTHS:
+            del _SILENCE[next(iter(_SILENCE))]
         z = np.zeros(m)
         z.flags.writeable = False
         _SILENCE[m] = z

@@ -50,3 +50,22 @@ def test_stream_blocks_equal_render_with_fixed_gain(output):
     whole = engine.render(sc)
     streamed = np.concatenate(list(engine.blocks(sc, block_frames=777)))
     assert np.array_equal(whole, streamed)
+
+
+def test_silence_is_skipped_by_the_mix_and_a_worker_keeps_only_a_few_lengths_of_it() -> None:
+    """A sleeping voice returns ``output.silence(m)``, which the mix skips (the same samples as
+    adding it); a process that renders scenes of every length keeps few such arrays."""
+    import numpy as np
+
+    from engine import output
+
+    for m in range(1, 200):
+        output.silence(m)
+    assert len(output._SILENCE) <= output._SILENCE_LENGTHS
+    z = output.silence(64)
+    assert not z.flags.writeable and not z.any()
+    mono, stereo = np.linspace(-1, 1, 64), np.linspace(-1, 1, 128).reshape(64, 2)
+    for mix in (mono, stereo):
+        before = mix.copy()
+        output.add_to_mix(mix, z, (0.6, 0.8))
+        assert np.array_equal(mix, before)

@@ -122,8 +122,8 @@ def silence(m: int) -> np.ndarray:
     merely added as zeros)."""
     z = _SILENCE.get(m)
     if z is None:
-        if len(_SILENCE) >= _SILENCE_LENGTHS:
-            del _SILENCE[next(iter(_SILENCE))]
+        if len(_SILENCE) >= _SILENCE_LENGTHS:  # a render's threads may evict at once
+            _SILENCE.pop(next(iter(_SILENCE), None), None)
         z = np.zeros(m)
         z.flags.writeable = False
         _SILENCE[m] = z

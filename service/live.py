@@ -32,20 +32,18 @@ from .processes import PipedProcess, stop_all
 log = logging.getLogger("service.live")
 
 
-def relay_in_real_time(priority: int) -> bool:
+def relay_in_real_time(priority: int) -> None:
     """The calling thread (the API's event loop, which relays every live block from its worker's
     pipe to its socket) on SCHED_RR at ``priority``: a block that arrives is sent at once rather
     than after the renders and clients that share the cores (the relay's tail under load was its
     thread waiting to run, not busy).  ``SCHED_RESET_ON_FORK``: threads and processes started
-    from it later (render workers, file threads) get normal scheduling.  Whether it was set."""
+    from it later (render workers, file threads) get normal scheduling."""
     if not priority:
-        return False
+        return
     try:
         os.sched_setscheduler(0, os.SCHED_RR | os.SCHED_RESET_ON_FORK, os.sched_param(priority))
     except (OSError, AttributeError) as exc:
         log.warning("relay real-time priority %d not set (%s); normal scheduling", priority, exc)
-        return False
-    return True
 
 
 class LiveBusy(Exception):

@@ -1,12 +1,16 @@
-"""How long a full collection of Python's garbage collector stops the API process, with what the
-process holds at startup in the collector's sight and frozen out of it (``gc.freeze``, as the
-app's lifespan does once it has started).
+"""How long a full collection of Python's garbage collector stops the API process and a live worker,
+with what the process holds at startup in the collector's sight and frozen out of it
+(``gc.freeze``, as the app's lifespan does once it has started, and a live worker after its
+warm-up).
 
 One process imports the app (``service.app``: FastAPI, the routes, the engine and its schemas)
 and runs its lifespan as uvicorn does (its workers start beside it), then times full collections
 (``gc.collect()``, the median and the longest of ``--rounds``) before and after ``gc.freeze()``.
 Each such collection runs on the event loop and stops every request and live block for its
-length; ``guitar_gc_pause_seconds`` counts those of a running server.
+length; ``guitar_gc_pause_seconds`` counts those of a running server.  A second process warms up
+as a live worker does (``service.live_worker.warm_up``: the kernels, the default guitar on both
+models at two rates) and is timed the same way: there a collection runs on the audio thread,
+whose blocks are due 20 ms ahead of when they play.
 
     python -m benchmarks.gc_pause [--rounds 9]
 """
@@ -16,6 +20,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import gc
+import multiprocessing as mp
 import os
 import statistics
 import tempfile
@@ -44,6 +49,26 @@ async def measure(rounds: int) -> list[tuple[str, int, float, float]]:
     return rows
 
 
+def live_worker(rounds: int, out) -> None:
+    """In a process of its own: the live worker's warm-up, then the same rows."""
+    import engine
+    from service import live_worker as lw
+
+    lw.warm_up(engine)
+    rows = [("everything in sight", len(gc.get_objects()), *collections(rounds))]
+    gc.freeze()
+    rows.append(("after gc.freeze()", len(gc.get_objects()), *collections(rounds)))
+    out.put(rows)
+
+
+def _table(title: str, rows: list) -> None:
+    print(f"\n{title}\n")
+    print("| objects the collector tracks | count | median pause, ms | longest, ms |")
+    print("| --- | ---: | ---: | ---: |")
+    for name, n, med, most in rows:
+        print(f"| {name} | {n} | {med * 1e3:.1f} | {most * 1e3:.1f} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=9)
@@ -53,11 +78,14 @@ def main() -> None:
         os.environ.setdefault("GUITAR_WORKERS", "1")
         os.environ.setdefault("GUITAR_LIVE_WORKERS", "0")
         rows = asyncio.run(measure(a.rounds))
-    print(f"\nFull collections of the API process's heap after startup ({a.rounds} rounds)\n")
-    print("| objects the collector tracks | count | median pause, ms | longest, ms |")
-    print("| --- | ---: | ---: | ---: |")
-    for name, n, med, most in rows:
-        print(f"| {name} | {n} | {med * 1e3:.1f} | {most * 1e3:.1f} |")
+    ctx = mp.get_context("spawn")
+    out = ctx.Queue()
+    proc = ctx.Process(target=live_worker, args=(a.rounds, out))
+    proc.start()
+    live = out.get(timeout=600)
+    proc.join()
+    _table(f"Full collections of the API process's heap after startup ({a.rounds} rounds)", rows)
+    _table(f"Full collections of a live worker's heap after its warm-up ({a.rounds} rounds)", live)
 
 
 if __name__ == "__main__":

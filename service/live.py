@@ -34,10 +34,11 @@ log = logging.getLogger("service.live")
 
 def relay_in_real_time(priority: int) -> None:
     """The calling thread (the API's event loop, which relays every live block from its worker's
-    pipe to its socket) on SCHED_RR at ``priority``: a block that arrives is sent at once rather
-    than after the renders and clients that share the cores (the relay's tail under load was its
-    thread waiting to run, not busy).  ``SCHED_RESET_ON_FORK``: threads and processes started
-    from it later (render workers, file threads) get normal scheduling."""
+    pipe to its socket, and each live worker's pipe reader) on SCHED_RR at ``priority``: a block
+    that arrives is sent at once rather than after the renders and clients that share the cores
+    (the relay's tail under load was its thread waiting to run, not busy).
+    ``SCHED_RESET_ON_FORK``: threads and processes started from it later (render workers, file
+    threads) get normal scheduling."""
     if not priority:
         return
     try:
@@ -72,6 +73,12 @@ class _LiveWorker(PipedProcess):
                          (s.warmup, s.live_lead_ms / 1000.0, s.live_nice,
                           s.live_realtime_priority),
                          f"live-worker-{number}")
+
+    def _read(self) -> None:
+        # This thread takes every block off the worker's pipe and hands it to the event loop: on
+        # the loop thread's real-time priority too, or under load a block waits here for a core.
+        relay_in_real_time(self.pool.settings.relay_realtime_priority)
+        super()._read()
 
 
 class LivePool:
@@ -191,7 +198,8 @@ class LivePool:
             w.ready = True
             self._ready_event.set()
             log.info("live worker ready", extra={"fields": {
-                "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
+                "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3),
+                "gc_frozen": msg[3]}})
             return
         if msg[0] == "late":
             self.late_blocks += msg[2]

@@ -8,7 +8,9 @@ applied in the next block computed for its session.
 
     parent -> worker   ("open", sid, open_message) | ("event", sid, message) | ("close", sid)
                        | None (stop)
-    worker -> parent   ("ready", pid, warmup_seconds)
+    worker -> parent   ("ready", pid, warmup_seconds, frozen)   warmed up; ``frozen``: objects
+                                                               moved out of the garbage
+                                                               collector's sight
                        ("opened", sid, info)                  the session exists
                        ("block", sid, frame, float32_bytes)   one block (mono, little-endian)
                        ("ack", sid, id, frame)                 an event with an ``id`` acts at frame
@@ -39,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import gc
 import heapq
 import json
 import os
@@ -140,22 +143,40 @@ def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0,
 
     t0 = time.perf_counter()
     if warmup:
-        engine.warmup()
-        # the default guitar prepared on both models, and a session's first calls
-        for rate in (44100, 48000):
-            for model in engine.MODELS:
-                s = _new_session(engine, engine.parse_live_open({"sample_rate": rate,
-                                                                 "model": model}))
-                s.push({"type": "fret", "string": 1, "fret": 2})
-                s.push({"type": "pluck", "string": 1})
-                s.block()
+        warm_up(engine)
+    frozen = _out_of_the_collectors_sight()
     if realtime:
         _realtime(realtime)
     try:
-        conn.send(("ready", os.getpid(), time.perf_counter() - t0))
+        conn.send(("ready", os.getpid(), time.perf_counter() - t0, frozen))
         _serve(conn, engine, lead_s)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass
+
+
+def warm_up(engine: Any) -> None:
+    """The kernels loaded, the default guitar prepared on both models at 44.1 and 48 kHz, and a
+    session's first calls made."""
+    engine.warmup()
+    for rate in (44100, 48000):
+        for model in engine.MODELS:
+            s = _new_session(engine, engine.parse_live_open({"sample_rate": rate,
+                                                             "model": model}))
+            s.push({"type": "fret", "string": 1, "fret": 2})
+            s.push({"type": "pluck", "string": 1})
+            s.block()
+
+
+def _out_of_the_collectors_sight() -> int:
+    """Freeze what the warm-up left (modules, kernels, the prepared guitars) out of the garbage
+    collector's sight, and say how many objects that was.  The audio thread runs the collector
+    whenever its allocations trigger it, and a full collection of a warmed live worker takes
+    tens of milliseconds (``python -m benchmarks.gc_pause`` prints it): longer than the 20 ms
+    lead, so each one was a burst of late blocks.  Frozen objects are never collected; they
+    live as long as the process anyway."""
+    gc.collect()
+    gc.freeze()
+    return gc.get_freeze_count()
 
 
 def _realtime(priority: int) -> None:

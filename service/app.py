@@ -16,7 +16,7 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
-from . import errors, jobs
+from . import errors, heap, jobs
 from .config import Settings
 from .live import LivePool, relay_in_real_time
 from .logs import setup_logging
@@ -41,6 +41,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[dict]:
+        # Bodies of every size pass through this process; mapped on their own, the large ones go
+        # back to the system when freed instead of leaving holes in the heap (service/heap.py).
+        mapped = settings.api_mmap_threshold_kib * 1024
+        if mapped and not heap.map_large_blocks(mapped):
+            mapped = 0
         pool = WorkerPool(settings)
         await pool.start()  # workers warm up in the background; /health tells when they are
         live_pool = LivePool(settings)  # WS /live: processes of their own (service/live.py)
@@ -58,7 +63,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             return {**s, "queue_depth": waiting, "jobs": store.counts(),
                     "jobs_requeued": runner.completed["requeued"],
                     "live_late_blocks": live_pool.late_blocks,
-                    "score_cache": {"hit": scores.hits, "miss": scores.misses}}
+                    "score_cache": {"hit": scores.hits, "miss": scores.misses},
+                    "heap_mmap_threshold": mapped}
 
         counters.watch(state)
         loop_watch = asyncio.create_task(counters.watch_loop(), name="loop-lag")

@@ -82,6 +82,12 @@ class Settings(BaseSettings):
     score_cache_mb: float = Field(
         64.0, ge=0.0, description="MB of imported scores kept in the API process, so that a file "
                                   "read again with the same options is not imported again; 0: none")
+    api_mmap_threshold_kib: int = Field(
+        128, ge=0, le=32768,
+        description="KiB from which the API process's C heap (glibc) serves a block from a "
+                    "mapping of its own, returned to the system when freed (request and response "
+                    "bodies); glibc's default threshold rises with the largest block freed, and "
+                    "the heap then kept growing under a mixed load; 0: glibc's default")
     max_expanded_events: int = Field(
         3000, ge=1,
         description="events once strums and string-less mutes and damps count once per string")

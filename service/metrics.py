@@ -150,6 +150,10 @@ class _StateCollector(Collector):
         yield CounterMetricFamily("guitar_live_late_blocks", "live blocks finished after their "
                                   "play time (underruns the server caused)",
                                   value=s["live_late_blocks"])
+        yield GaugeMetricFamily("guitar_heap_mmap_threshold_bytes", "blocks of at least this "
+                                "size the API process's C heap maps on their own and returns "
+                                "when freed (GUITAR_API_MMAP_THRESHOLD_KIB); 0: the C library's "
+                                "default", value=s["heap_mmap_threshold"])
         imports = CounterMetricFamily("guitar_score_imports", "score imports asked for, by "
                                       "whether an earlier import answered (hit) or a worker "
                                       "imported the file (miss)", labels=["cache"])

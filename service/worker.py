@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from . import audio
+from . import audio, heap
 
 
 class _Pipe:
@@ -148,28 +148,12 @@ def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -
             _give_back_memory()
 
 
-def _libc_trim() -> Any:
-    try:
-        import ctypes
-
-        return ctypes.CDLL("libc.so.6").malloc_trim
-    except (OSError, AttributeError):  # not glibc: its allocator returns memory its own way
-        return None
-
-
-_MALLOC_TRIM = _libc_trim()
-
-
 def _give_back_memory() -> None:
-    """After each job, return to the system the heap pages the job freed.  glibc keeps freed
-    memory in its heaps for reuse, and its threshold for serving a large block (a song's arrays, a
-    96 kHz file's bytes) from its own mapping rises with the largest block freed so far, so after
-    a mix of songs of different sizes a worker's heaps hold free holes that no later job fits:
-    resident memory crept up job after job under the mixed load (``benchmarks.mixed_load``).
-    ``malloc_trim(0)`` releases every free page of every heap, at a cost of a fraction of a
-    millisecond per job (``benchmarks.worker_memory`` prints it)."""
-    if _MALLOC_TRIM is not None:
-        _MALLOC_TRIM(0)
+    """After each job, return to the system the heap pages the job freed (``service.heap.trim``).
+    After a mix of songs of different sizes a worker's heaps held free holes that no later job
+    fit, and its resident memory crept up job after job under the mixed load
+    (``benchmarks.mixed_load``)."""
+    heap.trim()
 
 
 def _score(conn: Connection, job_id: int, payload: dict[str, Any]) -> None:

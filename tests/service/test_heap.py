@@ -1,6 +1,7 @@
-"""A render worker gives the memory a job freed back to the system after the job (glibc keeps
-freed heap memory for reuse, and under a mix of songs a worker's resident memory crept up job
-after job: ``service.worker._give_back_memory``)."""
+"""The server's processes give freed memory back to the system (``service.heap``): glibc keeps
+freed heap memory for reuse, and under the mixed load every process's resident memory crept up.
+A render worker trims its heaps after every job (``service.worker._give_back_memory``); the API
+process has its large blocks mapped on their own (``GUITAR_API_MMAP_THRESHOLD_KIB``)."""
 
 from __future__ import annotations
 
@@ -8,11 +9,12 @@ import subprocess
 import sys
 import textwrap
 
+import httpx
 import pytest
 
-from service import worker
+from service import heap, worker
 
-glibc = pytest.mark.skipif(worker._MALLOC_TRIM is None, reason="glibc's malloc_trim only")
+glibc = pytest.mark.skipif(not heap.available(), reason="glibc's malloc_trim and mallopt only")
 
 # A heap with holes, as a mix of jobs leaves it: one large array freed (which raises glibc's
 # threshold for serving large blocks from mappings of their own, as a song's arrays do), then
@@ -21,28 +23,29 @@ glibc = pytest.mark.skipif(worker._MALLOC_TRIM is None, reason="glibc's malloc_t
 HOLES = textwrap.dedent("""
     import numpy as np
     from pathlib import Path
-    from service import worker
+    from service import heap, worker
 
     def rss_mib():
         for line in Path("/proc/self/status").read_text().splitlines():
             if line.startswith("VmRSS:"):
                 return int(line.split()[1]) / 1024
 
+    {setup}
     big = np.ones(1 << 20)
     del big
     kept, freed = [], []
     for i in range(400):
         (kept if i % 2 else freed).append(np.ones(1 << 15))
-    del freed
     before = rss_mib()
+    del freed
     {action}
     print(before - rss_mib())
 """)
 
 
-def _returned_mib(action: str) -> float:
-    out = subprocess.run([sys.executable, "-c", HOLES.format(action=action)], check=True,
-                         capture_output=True, text=True, timeout=60).stdout
+def _returned_mib(action: str, setup: str = "pass") -> float:
+    out = subprocess.run([sys.executable, "-c", HOLES.format(action=action, setup=setup)],
+                         check=True, capture_output=True, text=True, timeout=60).stdout
     return float(out.split()[-1])
 
 
@@ -50,6 +53,24 @@ def _returned_mib(action: str) -> float:
 def test_the_memory_a_job_freed_between_live_blocks_goes_back_to_the_system() -> None:
     assert _returned_mib("pass") < 5.0  # glibc keeps the holes by itself
     assert _returned_mib("worker._give_back_memory()") > 40.0  # of the 50 MiB freed
+
+
+@glibc
+def test_with_large_blocks_mapped_on_their_own_freeing_them_returns_their_memory() -> None:
+    """What the API process does at startup: with the threshold fixed below the blocks' size,
+    the 8 MiB block freed first no longer raises it, every 256 KiB block is a mapping of its own,
+    and freeing one unmaps it, without a trim."""
+    assert _returned_mib("pass", setup="assert heap.map_large_blocks(128 * 1024)") > 40.0
+    assert not heap.map_large_blocks(0)
+    assert not heap.map_large_blocks(heap.MAX_MMAP_THRESHOLD + 1)
+
+
+@glibc
+def test_the_server_maps_its_large_blocks_on_their_own(server) -> None:
+    """A real uvicorn with the default settings took the threshold (128 KiB) and says so."""
+    text = httpx.get(server.url + "/metrics", timeout=10).text
+    line = next(x for x in text.splitlines() if x.startswith("guitar_heap_mmap_threshold_bytes"))
+    assert float(line.split()[-1]) == 128 * 1024
 
 
 class _Conn:

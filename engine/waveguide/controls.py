@@ -115,14 +115,15 @@ class Timeline:
         its finger's own event only, not on the events after it, so a live session decides it
         as a render does."""
         points = {0}
+        crowns: list[float] | None = None  # the frets' x, asked for only where a finger slides
         for f in self.fingers:
             if not f.seated:
                 continue
             points.update((f.on, f.rel))
             if f.slide is not None:
                 ms, me, x0, x1 = f.slide
-                for q in range(1, preset.frets + 1):  # the step the finger passes each crown
-                    xq = float(preset.fret_x_m(q, spec))
+                crowns = crowns or _crowns(preset, spec)
+                for xq in crowns:  # the step the finger passes each crown
                     if min(x0, x1) < xq < max(x0, x1) and me > ms:
                         at = ms + (xq - x0) / (x1 - x0) * (me - ms)
                         points.update((int(math.floor(at)), int(math.floor(at)) + 1))
@@ -141,7 +142,7 @@ class Timeline:
             best, strike, held = None, 0.0, False
             for i in down:
                 f = self.fingers[i]
-                q = _stopping_fret(preset, spec, f, step)
+                q = _stopping_fret(preset, crowns, f, step)
                 resting = f.slide is None or not f.slide[0] <= step < f.slide[1]
                 if q is not None and (best is None or q > best):
                     best, strike, held = q, f.strike if f.on == step else 0.0, resting
@@ -152,14 +153,25 @@ class Timeline:
         return out
 
 
-def _stopping_fret(preset: Preset, spec: StringSpec, f: Finger, step: int) -> int | None:
+def _crowns(preset: Preset, spec: StringSpec) -> list[float]:
+    """x of frets 1..frets on string ``spec`` (``Preset.fret_x_m``, each as it gives it alone):
+    asked for once a compilation, not once a fret a step (a string's compilation is on a live
+    session's audio thread, ``engine.live``)."""
+    return [float(preset.fret_x_m(q, spec)) for q in range(1, preset.frets + 1)]
+
+
+def _stopping_fret(preset: Preset, crowns: list[float] | None, f: Finger,
+                   step: int) -> int | None:
+    """The fret finger ``f`` stops at ``step``: its own, or while it slides the first crown past
+    it (``crowns``: ``_crowns``, known whenever a finger slides)."""
     if f.slide is None:
         return f.fret
+    assert crowns is not None
     ms, me, x0, x1 = f.slide
     a = 0.0 if step <= ms else 1.0 if step >= me else (step - ms) / (me - ms)
     x = x0 + a * (x1 - x0)
-    for q in range(1, preset.frets + 1):
-        if float(preset.fret_x_m(q, spec)) > x:
+    for q, xq in enumerate(crowns, 1):
+        if xq > x:
             return q
     return preset.frets
 

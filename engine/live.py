@@ -23,12 +23,12 @@ events in advance, so every string is built for the worst case it allows
 the same events usually does; ``quality`` ``draft`` (the default of ``WS /live``) keeps it within
 real time for six strings.
 
-Exactness.  The kernel derives every control value from the absolute step number, so when an event
-arrives the string's control arrays are compiled again from all its events so far
-(``Instrument.rebuild``, the functions ``prepare`` uses), keeping its state (u, u1, contact and
-finger states, step counter).  An event
-appended at the current step with the earlier ones unchanged gives the same samples as if it had
-been known in advance: a session's blocks equal ``engine.blocks`` of ``scene()`` rendered with
+Exactness.  The kernel derives every control value from the absolute step number, so when a
+block's events arrive, each string they touch has its control arrays compiled again, once, from
+all its events so far (``Instrument.rebuild``, the functions ``prepare`` uses), keeping its state
+(u, u1, contact and finger states, step counter).  An event appended at the current step with
+the earlier ones unchanged gives the same samples as if it had been known in advance: a
+session's blocks equal ``engine.blocks`` of ``scene()`` rendered with
 ``RenderOptions(live_grid=True)`` (``tests/engine/test_live.py``).  What makes that so, and the
 rules that keep it:
 
@@ -200,8 +200,9 @@ class Session:
         for at, e in due:
             self._apply(at, e)
         # A string's controls are compiled once for all the events of the block that touched it
-        # (a fret, its pluck and a slide: one compilation, not three): a compilation costs about
-        # a millisecond and a half a string on the finite-difference model, on the audio thread.
+        # (a fret, its pluck and a slide: one compilation, not three): compilations are most of
+        # what a block with events costs more than one without, on a live worker's audio thread
+        # (``benchmarks.live_blocks``).
         for s in sorted(self._stale):
             self._compile(s)
         self._stale.clear()

@@ -133,8 +133,8 @@ def test_silent_strings_cost_nothing():
 @pytest.mark.parametrize("model", engine.MODELS)
 def test_a_string_is_compiled_once_for_all_the_events_of_a_block(model, monkeypatch):
     """A fret, its pluck and a slide on one string, and a strum, in one block: each string's
-    controls are compiled once (a compilation costs about a millisecond and a half a string on
-    the finite-difference model, on the live worker's audio thread), to the offline samples."""
+    controls are compiled once (compilations are most of what an event block costs on the live
+    worker's audio thread, ``benchmarks.live_blocks``), to the offline samples."""
     s = engine.Session("steel-acoustic", 44100, BLOCK, model=model, record=True,
                        options=RenderOptions(skip_decayed=False))
     compiled = []

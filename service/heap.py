@@ -19,10 +19,7 @@ On a C library other than glibc both do nothing: that allocator returns memory i
 from __future__ import annotations
 
 import ctypes
-import logging
 from typing import Any
-
-log = logging.getLogger("guitar.heap")
 
 _M_MMAP_THRESHOLD = -3  # mallopt's parameter number (glibc's malloc.h)
 MAX_MMAP_THRESHOLD = 32 * 1024 * 1024  # glibc's ceiling on 64-bit systems (HEAP_MAX_SIZE / 2)

@@ -142,7 +142,7 @@ class Timeline:
             best, strike, held = None, 0.0, False
             for i in down:
                 f = self.fingers[i]
-                q = _stopping_fret(preset, crowns, f, step)
+                q = _stopping_fret(crowns, f, step)
                 resting = f.slide is None or not f.slide[0] <= step < f.slide[1]
                 if q is not None and (best is None or q > best):
                     best, strike, held = q, f.strike if f.on == step else 0.0, resting
@@ -160,10 +160,9 @@ def _crowns(preset: Preset, spec: StringSpec) -> list[float]:
     return [float(preset.fret_x_m(q, spec)) for q in range(1, preset.frets + 1)]
 
 
-def _stopping_fret(preset: Preset, crowns: list[float] | None, f: Finger,
-                   step: int) -> int | None:
+def _stopping_fret(crowns: list[float] | None, f: Finger, step: int) -> int | None:
     """The fret finger ``f`` stops at ``step``: its own, or while it slides the first crown past
-    it (``crowns``: ``_crowns``, known whenever a finger slides)."""
+    it, the last fret at most (``crowns``: ``_crowns``, known whenever a finger slides)."""
     if f.slide is None:
         return f.fret
     assert crowns is not None
@@ -173,7 +172,7 @@ def _stopping_fret(preset: Preset, crowns: list[float] | None, f: Finger,
     for q, xq in enumerate(crowns, 1):
         if xq > x:
             return q
-    return preset.frets
+    return len(crowns)
 
 
 def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,

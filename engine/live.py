@@ -74,7 +74,10 @@ from .output import FIXED_GAIN
 from .performance import per_string
 from .scene import MODELS, Bend, Fret, Guitar, Harmonic, Mute, Scene, Strum, Vibrato
 
-_PRUNE_AT = 64  # a string's event list is pruned when it grows past this many events
+# a string's event list is pruned when it grows past this many events: a compilation costs in
+# proportion to the events it reads, and pruning them costs less than reading them
+# (``benchmarks.live_blocks``)
+_PRUNE_AT = 16
 
 
 class Session:

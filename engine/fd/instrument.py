@@ -48,9 +48,10 @@ from .string import (
     FRET_MODE_CODES,
     FRET_NONE,
     FRET_RIGID,
+    Frame,
     coefficients,
+    frame,
     fret_margin,
-    geometry,
     kc_skip_level,
     tension_ratio_for_cents,
 )
@@ -161,8 +162,11 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
                 shifts = fret_shifts(model, preset, frets)
         # the default pressing force of each fret (a small static solve), once per string
         press = cache(partial(press_force, model, preset, tension_ratio=rmax))
+        # the geometry less the contact margin, which the events set: once per string
+        rest = frame(model, preset, pickups, with_frets=fret_mode != 0, fretboard=opts.fretboard,
+                     fret_shifts=shifts, rigid_board=rigid_board)
         build = partial(_controls_and_geometry, preset, i, model, rate * os_, shifts, damping,
-                        press, pickups, fret_mode, rigid_board, opts)
+                        press, rest, opts)
         ctl, geom = build(events)
         voices.append(Voice(i, model, coefs, geom, ctl, gains, os_, Decimator(os_, rate),
                             scene.diagnostics, opts.skip_decayed, opts.decay_velocity, policy,
@@ -171,18 +175,16 @@ def prepare(scene: Scene, options: RenderOptions | None = None) -> Guitar:
 
 
 def _controls_and_geometry(preset: Preset, i: int, model, rate: float, shifts, damping, press,
-                           pickups: list[float], fret_mode: int, rigid_board: bool,
-                           opts: RenderOptions, events: list):
+                           rest: Frame, opts: RenderOptions, events: list):
     """String ``i``'s control arrays for ``events`` (those on it, sorted) on the grid of ``model``
-    at the internal ``rate``, and its geometry with the contact margin those events need."""
+    at the internal ``rate``, and its geometry (``rest``, computed once a string) with the
+    contact margin those events need."""
     impedance = math.sqrt(model.tension_n * model.rho_a)
     ctl = string_controls(events, preset, i, model.h, model.n, rate, impedance,
                           partial(tension_ratio_for_cents, model), shifts, press, damping)
-    margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers)
+    margin = (fret_margin(model, preset, ctl.max_pluck_force, ctl.fingers, rest)
               if opts.skip_contacts else 1.0)
-    geom = geometry(model, preset, pickups, with_frets=fret_mode != 0, margin=margin,
-                    fretboard=opts.fretboard, fret_shifts=shifts, rigid_board=rigid_board)
-    return ctl, geom
+    return ctl, rest.geo(margin)
 
 
 def _prune(v: Voice, events: list, rate: float) -> tuple[list, list[int]]:

@@ -301,7 +301,7 @@ NO_BOARD = -1.0  # a "fretboard" a metre below the string: unreachable
 
 
 def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
-                fingers: Sequence = ()) -> float:
+                fingers: Sequence = (), frame: Frame | None = None) -> float:
     """How far above a fret tip a node of u^n must be for that fret to be out of reach next step.
 
     The skip is exact if no node under a fret moves further than the margin in one step, i.e. if
@@ -333,6 +333,7 @@ def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
 
     v_max = v_plucks + the fastest finger; waves crossing or reflecting can add up to about twice
     a speed, so the margin is three times v_max for one step, plus 50 um.
+    ``frame`` (``string.frame`` of the same model and preset) gives the depth and dip computed once.
     ``tests/engine/test_skips.py`` checks that the skip leaves the output bit-identical with 20 N
     plucks, pops and pull-offs, 5 m/s taps and hammer-ons, 10 N lifts, a slide over 19 frets in
     1 ms, a 3-semitone bend in one step, and a light string under two fingers.
@@ -340,10 +341,7 @@ def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
     z = math.sqrt(model.tension_n * model.rho_a)
     v = max_pluck_force / (2.0 * z)
     if fingers:
-        q = np.arange(preset.frets + 1)
-        xq = preset.fret_x_m(q, model.spec)
-        depth = float(np.max(preset.clearance_m(xq))) + preset.fret_height_m
-        dip = depth / (0.5 * float(np.min(np.diff(xq))))
+        depth, dip = _pressed_depth(model, preset) if frame is None else (frame.depth, frame.dip)
         m = preset.finger.mass_kg
         v += max(math.sqrt(f.v0 ** 2 + 2.0 * f.force * (f.gap + 2.0 * depth) / m)
                  + f.force / (2.0 * z) + f.glide * (f.force / model.tension_n + dip)
@@ -358,18 +356,69 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
     return tolerance * 2.0 * model.length_m * model.h * model.tension_n / model.ea
 
 
+def _pressed_depth(model: StringModel, preset: Preset) -> tuple[float, float]:
+    """``fret_margin``'s depth (clearance plus fret height, the deepest a finger presses the string)
+    and the slope of the dip between two fret crowns."""
+    q = np.arange(preset.frets + 1)
+    xq = preset.fret_x_m(q, model.spec)
+    depth = float(np.max(preset.clearance_m(xq))) + preset.fret_height_m
+    return depth, depth / (0.5 * float(np.min(np.diff(xq))))
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """A string's geometry on its grid less what depends on the contact margin (``frame``): what
+    compiling its events again (a live session's event, ``Voice.rebuild``) need not recompute.
+    Its arrays are shared by every ``Geo`` it gives: the kernels only read them."""
+
+    board: np.ndarray
+    fret_p: np.ndarray
+    fret_w0: np.ndarray
+    fret_w1: np.ndarray
+    fret_m0: np.ndarray
+    out_p: np.ndarray
+    out_w0: np.ndarray
+    out_w1: np.ndarray
+    nfret: int
+    near_at: np.ndarray  # the array index of each node next to a fret (``Geo.near``), in order
+    near_m0: np.ndarray  # and that fret's tip height
+    on_board: np.ndarray | None  # where the rigid board is (``Geo.bnear``), None: not rigid
+    depth: float  # ``fret_margin``'s
+    dip: float
+
+    def geo(self, margin: float = math.inf) -> Geo:
+        """The geometry with ``near`` (and a rigid board's ``bnear``) ``margin`` above the
+        obstacles."""
+        near = np.full(len(self.board), NO_BOARD)
+        np.maximum.at(near, self.near_at, self.near_m0 + margin)  # two frets may share a node
+        bnear = (self.board if self.on_board is None
+                 else np.where(self.on_board, self.board + margin, NO_BOARD))
+        return Geo(self.board, near, self.fret_p, self.fret_w0, self.fret_w1, self.fret_m0,
+                   self.out_p, self.out_w0, self.out_w1, bnear, self.nfret)
+
+
 def geometry(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
              margin: float = math.inf, fretboard: bool = True,
              fret_shifts: dict[int, float] | None = None, rigid_board: bool = False) -> Geo:
+    """m0_q (eq. (8)) and b(x) (eq. (7)) from the action (``frame``), with ``near`` where a rigid
+    fret is within reach (its tip plus ``margin``)."""
+    return frame(model, preset, pickups, with_frets, fretboard, fret_shifts,
+                 rigid_board).geo(margin)
+
+
+def frame(model: StringModel, preset: Preset, pickups: list[float], with_frets: bool = True,
+          fretboard: bool = True, fret_shifts: dict[int, float] | None = None,
+          rigid_board: bool = False) -> Frame:
     """m0_q (eq. (8)) and b(x) (eq. (7)) from the action: the string's rest line rises linearly
     from ``action_nut_m`` above the fret crowns at the nut to ``action_12th_m`` at fret 12.
-    ``near`` is where a rigid fret is within reach (its tip plus ``margin``).  Without
-    ``fretboard`` the board is out of reach everywhere, so that no node counts as below it (the
-    kernel forms no board column then, and quiet steps do not stop for it).  ``fret_shifts``
-    (fret -> metres, ``engine.fd.intonation.fret_shifts``) moves those frets' interpolants along the
-    string; their heights stay those at x_q.  With ``rigid_board`` (rigid frets only) the
-    fretboard is one rigid constraint per node over it, after the frets (``Geo``), within reach
-    where a node of u^n is below the board plus ``margin`` (``Geo.bnear``)."""
+    ``Frame.geo(margin)`` adds ``near``: where a rigid fret is within reach (its tip plus
+    ``margin``).  Without ``fretboard`` the board is out of reach everywhere, so that no node
+    counts as below it (the kernel forms no board column then, and quiet steps do not stop for
+    it).  ``fret_shifts`` (fret -> metres, ``engine.fd.intonation.fret_shifts``) moves those
+    frets' interpolants along the string; their heights stay those at x_q.  With ``rigid_board``
+    (rigid frets only) the fretboard is one rigid constraint per node over it, after the frets
+    (``Geo``), within reach where a node of u^n is below the board plus ``margin``
+    (``Geo.bnear``)."""
     h, n = model.h, model.n
     q = np.arange(1, preset.frets + 1) if with_frets else np.arange(0)
     xq = preset.fret_x_m(q, model.spec)
@@ -386,14 +435,16 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
     board[xn > last] = NO_BOARD
     if not fretboard:
         board[:] = NO_BOARD
-    near = np.full(n - 1, NO_BOARD)
+    near_at: list[int] = []
+    near_m0: list[float] = []
     for i in range(len(q)):
         for node, w in ((p[i] - 1, w0[i]), (p[i], w1[i])):  # padded index -> node -> array index
             if w > 0.0:
-                near[node - 1] = max(near[node - 1], m0[i] + margin)
+                near_at.append(int(node) - 1)
+                near_m0.append(float(m0[i]))
     pk = [interp(x * model.length_m, h, n) for x in pickups]
     nfret = len(q)
-    bnear = board
+    on_board = None
     if rigid_board and with_frets:
         on = np.flatnonzero(board > NO_BOARD)  # array index j: node j + 1, padded j + 2
         if np.any(np.diff(on) != 1):  # the kernels index the board's nodes as one run
@@ -402,9 +453,11 @@ def geometry(model: StringModel, preset: Preset, pickups: list[float], with_fret
         w0 = np.concatenate([w0, np.ones(len(on))])
         w1 = np.concatenate([w1, np.zeros(len(on))])
         m0 = np.concatenate([m0, board[on]])
-        bnear = np.where(board > NO_BOARD, board + margin, NO_BOARD)
-    return Geo(board, near, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
-               np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), bnear, nfret)
+        on_board = board > NO_BOARD
+    depth, dip = _pressed_depth(model, preset)
+    return Frame(board, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
+                 np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), nfret,
+                 np.array(near_at, np.int64), np.array(near_m0), on_board, depth, dip)
 
 
 def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:

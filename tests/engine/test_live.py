@@ -100,6 +100,33 @@ def test_a_long_session_prunes_and_stays_exact():
     assert np.array_equal(live, offline(s, skip_decayed=False))
 
 
+def test_a_live_compilation_reads_few_events_and_not_the_geometry(monkeypatch):
+    """What an event block costs the live worker's audio thread beyond a plain block is mostly
+    compiling the strings it touches (``benchmarks.live_blocks``): a compilation reads every
+    event on its string, so the list is pruned once it passes ``_PRUNE_AT`` (16) events, and the
+    string's geometry (frets, board, pickups: ``engine.fd.string.frame``) is computed once when
+    the session is prepared, only the contact margin the events set applied at each event.  The
+    samples stay those of the render (``test_a_long_session_prunes_and_stays_exact``)."""
+    from engine.fd import instrument as fd_instrument
+    from engine.fd import string as fd_string
+
+    s = engine.Session("steel-acoustic", 44100, BLOCK)
+    read, frames = [], []
+    controls = fd_instrument.string_controls
+    monkeypatch.setattr(fd_instrument, "string_controls",
+                        lambda events, *a: read.append(len(events)) or controls(events, *a))
+    for module in (fd_string, fd_instrument):
+        for name in ("frame", "geometry"):
+            if hasattr(module, name):
+                f = getattr(module, name)
+                monkeypatch.setattr(module, name,
+                                    lambda *a, f=f, name=name, **k: frames.append(name) or f(*a, **k))
+    play(s, _long_plan(), 2 + 3 * 90 + 10)
+    assert len(read) >= 90
+    assert max(read) <= 16 + 3  # a block's events come on top of a pruned list
+    assert frames == []
+
+
 def test_pruning_every_finger_away_leaves_no_finger_in_the_state():
     """Fingers put down and released, then open-string plucks until the list is pruned: every
     finger slot is dropped, and the state's finger arrays go with them (they kept the old count,

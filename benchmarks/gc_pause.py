@@ -1,6 +1,6 @@
-"""How long a full collection of Python's garbage collector stops the API process and a live worker,
+"""How long a full collection of Python's garbage collector stops the API process and the workers,
 with what the process holds at startup in the collector's sight and frozen out of it
-(``gc.freeze``, as the app's lifespan does once it has started, and a live worker after its
+(``gc.freeze``, as the app's lifespan does once it has started, and a worker after its
 warm-up).
 
 One process imports the app (``service.app``: FastAPI, the routes, the engine and its schemas)
@@ -10,7 +10,9 @@ Each such collection runs on the event loop and stops every request and live blo
 length; ``guitar_gc_pause_seconds`` counts those of a running server.  A second process warms up
 as a live worker does (``service.live_worker.warm_up``: the kernels, the default guitar on both
 models at two rates) and is timed the same way: there a collection runs on the audio thread,
-whose blocks are due 20 ms ahead of when they play.
+whose blocks are due 20 ms ahead of when they play.  A third warms up as a render worker does
+(``service.worker.warm_up``: the kernels, the audio codecs, the labels' libraries), where a
+collection stops the render under way.
 
     python -m benchmarks.gc_pause [--rounds 9]
 """
@@ -49,12 +51,12 @@ async def measure(rounds: int) -> list[tuple[str, int, float, float]]:
     return rows
 
 
-def live_worker(rounds: int, out) -> None:
-    """In a process of its own: the live worker's warm-up, then the same rows."""
+def warmed_worker(kind: str, rounds: int, out) -> None:
+    """In a process of its own: a live worker's or a render worker's warm-up, then the same rows."""
     import engine
-    from service import live_worker as lw
+    from service import live_worker, worker
 
-    lw.warm_up(engine)
+    (live_worker if kind == "live" else worker).warm_up(engine)
     rows = [("everything in sight", len(gc.get_objects()), *collections(rounds))]
     gc.freeze()
     rows.append(("after gc.freeze()", len(gc.get_objects()), *collections(rounds)))
@@ -79,13 +81,18 @@ def main() -> None:
         os.environ.setdefault("GUITAR_LIVE_WORKERS", "0")
         rows = asyncio.run(measure(a.rounds))
     ctx = mp.get_context("spawn")
-    out = ctx.Queue()
-    proc = ctx.Process(target=live_worker, args=(a.rounds, out))
-    proc.start()
-    live = out.get(timeout=600)
-    proc.join()
+    warmed = {}
+    for kind in ("live", "render"):
+        out = ctx.Queue()
+        proc = ctx.Process(target=warmed_worker, args=(kind, a.rounds, out))
+        proc.start()
+        warmed[kind] = out.get(timeout=600)
+        proc.join()
     _table(f"Full collections of the API process's heap after startup ({a.rounds} rounds)", rows)
-    _table(f"Full collections of a live worker's heap after its warm-up ({a.rounds} rounds)", live)
+    _table(f"Full collections of a live worker's heap after its warm-up ({a.rounds} rounds)",
+           warmed["live"])
+    _table(f"Full collections of a render worker's heap after its warm-up ({a.rounds} rounds)",
+           warmed["render"])
 
 
 if __name__ == "__main__":

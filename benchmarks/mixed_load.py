@@ -30,8 +30,10 @@ Printed: one table: small renders' p50/p99 as this load generator saw them and a
 timed them (``Server-Timing``: from the request's arrival to the answer's headers; the load
 generator, one Python process at the default niceness running every client, competes for the
 same two cores, and its own delays are in the first figure only), live underruns (client and
-server) in both phases, the API process's event-loop lag as the server measures it
-(``guitar_event_loop_lag_seconds``), its garbage collector's pauses (``guitar_gc_pause_seconds``)
+server) in both phases with the machine's steal time over each (the host's time on the guest's
+CPUs, which no priority inside the guest can win back: ``benchmarks.hiccups``), the API
+process's event-loop lag as the server measures it (``guitar_event_loop_lag_seconds``), its
+garbage collector's pauses (``guitar_gc_pause_seconds``)
 and how long it took to relay each live block (``guitar_live_relay_seconds``), how long
 ``GET /health/live`` takes as the load generator sees it, status counts per kind (a 5xx other
 than 503 with Retry-After counts as an error), jobs done, and the RSS of the server and of every
@@ -175,6 +177,19 @@ def cpu_seconds(pids) -> dict[int, float]:
 
 def _pids(mem: dict[str, int]) -> list[int]:
     return [int(k.split()[-1]) for k in mem]
+
+
+def cpu_ticks() -> tuple[int, int]:
+    """The machine's CPU time so far in clock ticks, all of it and the steal (the host's time on
+    the guest's CPUs: ``benchmarks.hiccups``), from the ``cpu`` line of /proc/stat."""
+    with open("/proc/stat") as f:
+        fields = [int(x) for x in f.readline().split()[1:]]
+    return sum(fields[:8]), fields[7] if len(fields) > 7 else 0
+
+
+def steal_share(t0: tuple[int, int], t1: tuple[int, int]) -> str:
+    total = t1[0] - t0[0]
+    return f"{100.0 * (t1[1] - t0[1]) / total:.1f} %" if total > 0 else "n/a"
 
 
 def late_blocks(url: str) -> int | None:
@@ -515,10 +530,10 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     cpu0, t_cpu0 = cpu_seconds(_pids(before)), time.monotonic()
     rows: list[tuple[str, str]] = []
 
-    late0 = late_blocks(url)
+    late0, ticks0 = late_blocks(url), cpu_ticks()
     base = live_result(start_live(url, a.live, a.baseline_seconds, a.jitter_ms,
                                   a.live_client_nice), a.baseline_seconds + 120)
-    late1 = late_blocks(url)
+    late1, ticks1 = late_blocks(url), cpu_ticks()
     lag1 = loop_lag_buckets(url)
     gc1 = histogram(url, "guitar_gc_pause_seconds")
     relay1 = histogram(url, "guitar_live_relay_seconds").get("", {})
@@ -530,7 +545,7 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
     wall = time.monotonic() - t0
     timeline.stop()
     mixed_live = live_result(live, 120)
-    late2 = late_blocks(url)
+    late2, ticks2 = late_blocks(url), cpu_ticks()
     lag2 = loop_lag_buckets(url)
     gc2 = histogram(url, "guitar_gc_pause_seconds")
     relay2 = histogram(url, "guitar_live_relay_seconds").get("", {})
@@ -559,11 +574,12 @@ def run(url: str, proc: subprocess.Popen, a: argparse.Namespace, load0: tuple) -
         (f"live, {a.live} sessions alone ({a.baseline_seconds:g} s)",
          f"{base['late']} underruns in {base['blocks']} blocks (worst "
          f"{base.get('worst_late_ms', 0)} ms late); server late blocks "
-         f"{server_late(late0, late1)}"),
+         f"{server_late(late0, late1)}; steal {steal_share(ticks0, ticks1)}"),
         (f"live, {a.live} sessions in the mixed load",
          f"{mixed_live['late']} underruns in {mixed_live['blocks']} blocks (worst "
          f"{mixed_live.get('worst_late_ms', 0)} ms late); server late blocks "
-         f"{server_late(late1, late2)}; {mixed_live.get('refused', 0)} events refused, "
+         f"{server_late(late1, late2)}; steal {steal_share(ticks1, ticks2)}; "
+         f"{mixed_live.get('refused', 0)} events refused, "
          f"{len(mixed_live.get('failed', []))} sessions failed"),
         ("API loop lag in the mixed load, the server's own probe",
          loop_lag_summary(lag1, lag2)),

@@ -236,7 +236,8 @@ class WorkerPool:
             w.warming = None
             self._failed_starts = 0
             log.info("worker ready", extra={"fields": {
-                "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3)}})
+                "worker": w.number, "pid": w.pid, "warmup_seconds": round(msg[2], 3),
+                "gc_frozen": msg[3]}})
             if not self._warm and sum(x.ready for x in self._workers) >= self.size:
                 self._warm = True
             self._free(w)

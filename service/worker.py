@@ -8,7 +8,9 @@ numba kernel, so no real render pays for that), says ``ready``, then serves one 
                        | ("cancel", job_id) | None (stop)
     worker -> parent   ("beat", pid)                                  every heartbeat_s, always
                        ("warming", pid, what it is doing), before a long warm-up
-                       ("ready", pid, warmup_seconds)
+                       ("ready", pid, warmup_seconds, frozen)          warmed up; ``frozen``:
+                                                                      objects moved out of the
+                                                                      garbage collector's sight
                        ("done", job_id, file_bytes, meta)             render finished
                        ("block", job_id, pcm_bytes, seconds_so_far, warnings)
                                                                       one streamed block
@@ -36,6 +38,7 @@ and with the first streamed block (an empty list with the later ones).
 from __future__ import annotations
 
 import contextlib
+import gc
 import io
 import json
 import os
@@ -101,8 +104,9 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
             conn.send(("warming", os.getpid(), "compiling kernels, first run only (one worker "
                        "compiles, the others wait and load them)"))
         warm_up(engine)
+    frozen = _out_of_the_collectors_sight()
     try:
-        conn.send(("ready", os.getpid(), time.perf_counter() - t0))
+        conn.send(("ready", os.getpid(), time.perf_counter() - t0, frozen))
         _serve(conn, engine, block_frames, threads)
     except (BrokenPipeError, EOFError, ConnectionResetError):
         pass  # the parent has gone away
@@ -121,6 +125,17 @@ def warm_up(engine: Any) -> None:
     engine.scene_labels({"duration": 0.1, "events": [
         {"type": "pluck", "time": 0.0, "string": 1, "force": 1.0}]}).dumps()
     from . import errors, validation  # noqa: F401 - a score's preparation (_score): fastapi's modules
+
+
+def _out_of_the_collectors_sight() -> int:
+    """Freeze what the warm-up left (modules, kernels, the labels' libraries) out of the garbage
+    collector's sight: they live as long as the process, and each full collection that a render's
+    allocations trigger would walk them all again, in the render's time
+    (``python -m benchmarks.gc_pause`` prints how long one takes).  Returns how many objects that
+    was."""
+    gc.collect()
+    gc.freeze()
+    return gc.get_freeze_count()
 
 
 def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -> None:

@@ -137,3 +137,14 @@ def test_stream_failing_mid_body_is_cut_short(strict_server: UvicornServer) -> N
                for x in lines)
     ok = httpx.post(strict_server.url + "/render/stream", json=pluck_scene(0.05), timeout=60)
     assert ok.status_code == 200
+
+
+def test_the_render_workers_keep_what_their_warm_up_made_out_of_the_collectors_sight(
+        server: UvicornServer) -> None:
+    """A warmed render worker holds tens of thousands of objects (the engine, numba's kernels,
+    the labels' libraries) that live as long as it does; each full collection a render's
+    allocations trigger would walk them all in that render's time.  The worker freezes them after
+    its warm-up (``gc.freeze``) and its ready line says how many."""
+    lines = [json.loads(x) for x in server.log_lines() if x.startswith("{")]
+    ready = [x for x in lines if x.get("msg") == "worker ready"]
+    assert len(ready) >= 2 and all(x["gc_frozen"] > 100_000 for x in ready), ready

@@ -172,7 +172,7 @@ def test_health_says_what_a_warming_worker_is_doing() -> None:
     assert pool.status()["warming"] is None
     pool._on_message(w, ("warming", 123, "compiling kernels, first run only"))
     assert pool.status()["warming"] == "compiling kernels, first run only"
-    pool._on_message(w, ("ready", 123, 42.0))
+    pool._on_message(w, ("ready", 123, 42.0, 90_000))
     assert pool.status()["warming"] is None
 
 

@@ -111,7 +111,10 @@ class _Live:
         self.session = session
         self.block_s = session.block_frames / session.sample_rate
         self.lead_s = lead_s
-        self.t0 = time.monotonic() - lead_s  # block k is due at t0 + k * block_s
+        # block k is due at t0 + k * block_s and plays lead_s later: block 0 plays now, so the
+        # first blocks go out at once and every later one lead_s ahead of the client's clock,
+        # which starts at block 0's arrival (block 0 is never counted late: it cannot be early)
+        self.t0 = time.monotonic() - lead_s
         self.k = 0
         self.acks: list[tuple[Any, int]] = []
         self.late = 0  # blocks finished after their play time, not yet reported
@@ -322,7 +325,7 @@ def _block(conn: Connection, sessions: dict[int, _Live], sid: int) -> None:
     data = x.astype("<f4").tobytes()
     conn.send(("block", sid, frame, data, time.monotonic()))  # sent at: the relay is timed
     now = time.monotonic()
-    if now > live.plays:
+    if now > live.plays and live.k > 0:  # block 0 plays when the session opens (``_Live``)
         live.late += 1
     if live.late and now - live.late_sent >= 1.0:  # counted, not one message each: a worker
         conn.send(("late", sid, live.late))        # behind is not slowed down further

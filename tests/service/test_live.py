@@ -445,3 +445,23 @@ def test_a_killed_live_worker_ends_its_sessions_with_1011_and_is_replaced(live_s
     assert asyncio.run(plays()) == HEADER.size + 256 * 4
     wait_ready(lambda: httpx.get(live_server.url + "/live/status",
                                  timeout=2.0).json()["live_sessions"] == 0, 10.0)
+
+
+def test_a_sessions_first_block_is_not_counted_late() -> None:
+    """Block 0 of a session plays when the session opens (the schedule that puts every later
+    block 20 ms ahead of the client's clock, which starts at block 0's arrival), so it always
+    finished after its play time: each session added one to ``late_blocks`` of GET /live/status,
+    which counts the underruns the server caused.  A later block past its play time counts."""
+    from types import SimpleNamespace
+
+    from service import live_worker
+
+    sent: list[tuple] = []
+    session = SimpleNamespace(block_frames=256, sample_rate=44100, frame=0,
+                              block=lambda: np.zeros(256))
+    live = live_worker._Live(session, 0.02)
+    live_worker._block(SimpleNamespace(send=sent.append), {1: live}, 1)
+    assert [m for m in sent if m[0] == "late"] == []
+    live.t0 -= 1.0  # block 1's play time long past
+    live_worker._block(SimpleNamespace(send=sent.append), {1: live}, 1)
+    assert [m[:3] for m in sent if m[0] == "late"] == [("late", 1, 1)]

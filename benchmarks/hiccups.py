@@ -65,6 +65,8 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=30.0, help="per CPU")
     ap.add_argument("--priority", type=int, default=10, help="SCHED_RR priority (0: normal)")
     a = ap.parse_args()
+    if not a.seconds > 0 or a.priority < 0:
+        ap.error("--seconds must be > 0 and --priority >= 0")
     policy = "normal scheduling"
     if a.priority:
         try:

@@ -63,6 +63,8 @@ def main() -> None:
     ap.add_argument("--blocks", type=int, default=4000)
     ap.add_argument("--every", type=int, default=13, help="blocks from one group to the next")
     a = ap.parse_args()
+    if not 2 <= a.every < a.blocks:
+        ap.error("--every must be at least 2 and less than --blocks (both kinds of block are timed)")
     import engine
 
     rows = []

@@ -1,4 +1,4 @@
-"""The C heap of the server's processes (glibc's malloc) and the two things the server asks of it.
+"""The heaps of the server's processes: glibc's malloc, and what Python's garbage collector walks.
 
 glibc keeps freed memory in its heaps for reuse, and serves a large block from a mapping of its
 own only above a threshold that rises with the largest such block freed so far (up to 32 MiB).
@@ -14,11 +14,15 @@ returns to the system: resident memory creeps up under a mixed load
   and unmapped on its own, and a trim cannot release a heap whose holes lie between live blocks.
 
 On a C library other than glibc both do nothing: that allocator returns memory its own way.
+
+- a worker, render or live, freezes what its warm-up made out of the garbage collector's sight
+  (``freeze_warm_up``) before it says it is ready.
 """
 
 from __future__ import annotations
 
 import ctypes
+import gc
 from typing import Any
 
 _M_MMAP_THRESHOLD = -3  # mallopt's parameter number (glibc's malloc.h)
@@ -56,3 +60,15 @@ def map_large_blocks(threshold: int) -> bool:
 
 def available() -> bool:
     return _LIBC is not None
+
+
+def freeze_warm_up() -> int:
+    """Freeze what this process holds now (modules, kernels, prepared guitars, the labels'
+    libraries) out of the garbage collector's sight, and say how many objects that was.  They live
+    as long as the process, and every full collection that later allocations trigger would walk
+    them all again: tens of milliseconds in a warmed worker (``python -m benchmarks.gc_pause``),
+    in the time of the render under way or on a live worker's audio thread, whose blocks are due
+    20 ms before they play."""
+    gc.collect()
+    gc.freeze()
+    return gc.get_freeze_count()

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import contextlib
 import copy
-import gc
 import heapq
 import json
 import os
@@ -53,6 +52,8 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
+
+from . import heap
 
 _TEMPLATES: dict[str, Any] = {}  # prepared sessions, most recently used last
 _MAX_TEMPLATES = 8
@@ -147,7 +148,7 @@ def main(conn: Connection, warmup: bool, lead_s: float, nice: int = 0,
     t0 = time.perf_counter()
     if warmup:
         warm_up(engine)
-    frozen = _out_of_the_collectors_sight()
+    frozen = heap.freeze_warm_up()
     if realtime:
         _realtime(realtime)
     try:
@@ -168,18 +169,6 @@ def warm_up(engine: Any) -> None:
             s.push({"type": "fret", "string": 1, "fret": 2})
             s.push({"type": "pluck", "string": 1})
             s.block()
-
-
-def _out_of_the_collectors_sight() -> int:
-    """Freeze what the warm-up left (modules, kernels, the prepared guitars) out of the garbage
-    collector's sight, and say how many objects that was.  The audio thread runs the collector
-    whenever its allocations trigger it, and a full collection of a warmed live worker takes
-    tens of milliseconds (``python -m benchmarks.gc_pause`` prints it): longer than the 20 ms
-    lead, so each one was a burst of late blocks.  Frozen objects are never collected; they
-    live as long as the process anyway."""
-    gc.collect()
-    gc.freeze()
-    return gc.get_freeze_count()
 
 
 def _realtime(priority: int) -> None:

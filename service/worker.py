@@ -38,7 +38,6 @@ and with the first streamed block (an empty list with the later ones).
 from __future__ import annotations
 
 import contextlib
-import gc
 import io
 import json
 import os
@@ -104,7 +103,7 @@ def main(conn: Connection, warmup: bool, block_frames: int, heartbeat_s: float =
             conn.send(("warming", os.getpid(), "compiling kernels, first run only (one worker "
                        "compiles, the others wait and load them)"))
         warm_up(engine)
-    frozen = _out_of_the_collectors_sight()
+    frozen = heap.freeze_warm_up()
     try:
         conn.send(("ready", os.getpid(), time.perf_counter() - t0, frozen))
         _serve(conn, engine, block_frames, threads)
@@ -125,17 +124,6 @@ def warm_up(engine: Any) -> None:
     engine.scene_labels({"duration": 0.1, "events": [
         {"type": "pluck", "time": 0.0, "string": 1, "force": 1.0}]}).dumps()
     from . import errors, validation  # noqa: F401 - a score's preparation (_score): fastapi's modules
-
-
-def _out_of_the_collectors_sight() -> int:
-    """Freeze what the warm-up left (modules, kernels, the labels' libraries) out of the garbage
-    collector's sight: they live as long as the process, and each full collection that a render's
-    allocations trigger would walk them all again, in the render's time
-    (``python -m benchmarks.gc_pause`` prints how long one takes).  Returns how many objects that
-    was."""
-    gc.collect()
-    gc.freeze()
-    return gc.get_freeze_count()
 
 
 def _serve(conn: Connection, engine: Any, block_frames: int, threads: int = 1) -> None:

@@ -380,9 +380,9 @@ class Frame:
     out_w0: np.ndarray
     out_w1: np.ndarray
     nfret: int
-    near_at: np.ndarray  # the array index of each node next to a fret (``Geo.near``), in order
+    near_at: np.ndarray  # the array index of each node next to a fret (``Geo.near``)
     near_m0: np.ndarray  # and that fret's tip height
-    on_board: np.ndarray | None  # where the rigid board is (``Geo.bnear``), None: not rigid
+    rigid_board: bool  # the board's nodes are rigid constraints, within reach by ``Geo.bnear``
     depth: float  # ``fret_margin``'s
     dip: float
 
@@ -391,8 +391,8 @@ class Frame:
         obstacles."""
         near = np.full(len(self.board), NO_BOARD)
         np.maximum.at(near, self.near_at, self.near_m0 + margin)  # two frets may share a node
-        bnear = (self.board if self.on_board is None
-                 else np.where(self.on_board, self.board + margin, NO_BOARD))
+        bnear = (np.where(self.board > NO_BOARD, self.board + margin, NO_BOARD)
+                 if self.rigid_board else self.board)
         return Geo(self.board, near, self.fret_p, self.fret_w0, self.fret_w1, self.fret_m0,
                    self.out_p, self.out_w0, self.out_w1, bnear, self.nfret)
 
@@ -444,8 +444,8 @@ def frame(model: StringModel, preset: Preset, pickups: list[float], with_frets: 
                 near_m0.append(float(m0[i]))
     pk = [interp(x * model.length_m, h, n) for x in pickups]
     nfret = len(q)
-    on_board = None
-    if rigid_board and with_frets:
+    rigid = rigid_board and with_frets
+    if rigid:
         on = np.flatnonzero(board > NO_BOARD)  # array index j: node j + 1, padded j + 2
         if np.any(np.diff(on) != 1):  # the kernels index the board's nodes as one run
             raise ValueError("the fretboard must cover consecutive nodes")
@@ -453,11 +453,10 @@ def frame(model: StringModel, preset: Preset, pickups: list[float], with_frets: 
         w0 = np.concatenate([w0, np.ones(len(on))])
         w1 = np.concatenate([w1, np.zeros(len(on))])
         m0 = np.concatenate([m0, board[on]])
-        on_board = board > NO_BOARD
     depth, dip = _pressed_depth(model, preset)
     return Frame(board, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
                  np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), nfret,
-                 np.array(near_at, np.int64), np.array(near_m0), on_board, depth, dip)
+                 np.array(near_at, np.int64), np.array(near_m0), rigid, depth, dip)
 
 
 def tuned_tension(preset: str | Preset, string: int, sample_rate: float = 44100.0) -> float:

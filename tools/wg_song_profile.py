@@ -21,8 +21,9 @@ same scene has loaded the compiled kernels.  Printed per song (process CPU time 
   counts), of all the strings' steps (strings with no events are not built);
 * ``sha256``: of the mixed output, so that two trees' renders can be compared.
 
-``--damped-velocity V`` renders with ``WaveguideOptions.damped_velocity`` = V m/s (the decay stop's
-bound on the points of a damped string; off by default, it moves samples).
+``--damped-velocity V`` renders with ``WaveguideOptions.damped_velocity`` = V m/s (the damped rest's
+bound on the points of a damped string, ``kernel._settle``; 0: no damped rest, the creep runs to
+the string's next note).
 
 The timing around every kernel call costs time of its own (a few array reads a call), measured and
 left out of ``python``; the render's CPU time includes it.
@@ -36,6 +37,8 @@ import time
 
 import numpy as np
 
+from engine.waveguide import WaveguideOptions
+
 
 def _scene(path: str, seconds: float | None):
     from cli.main import build_parser, load_input, validate
@@ -47,7 +50,7 @@ def _scene(path: str, seconds: float | None):
     return validate(scene, path)
 
 
-def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> str:
+def profile(path: str, seconds: float | None, damped_velocity: float | None = None) -> str:
     import engine
     import engine.waveguide.voice as wv
     from cli.main import BLOCK_FRAMES
@@ -95,10 +98,10 @@ def profile(path: str, seconds: float | None, damped_velocity: float = 0.0) -> s
         t_load = time.process_time() - t0
         t0 = time.process_time()
         mix = prepare(sc)
-        for v in mix.voices:
-            if hasattr(v, "damped_velocity"):
-                v.damped_velocity = damped_velocity
-                v.config["damped_v"] = damped_velocity
+        if damped_velocity is not None:
+            for v in mix.voices:
+                if hasattr(v, "set_switches"):
+                    v.set_switches(damped_velocity=damped_velocity)
         t_prep = time.process_time() - t0
         digest = hashlib.sha256()
         t0 = time.process_time()
@@ -147,8 +150,9 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="+", metavar="FILE")
     ap.add_argument("--max-seconds", type=float, metavar="S", help="each song's first S seconds")
-    ap.add_argument("--damped-velocity", type=float, default=0.0, metavar="V",
-                    help="WaveguideOptions.damped_velocity, m/s (default 0: off)")
+    ap.add_argument("--damped-velocity", type=float, default=None, metavar="V",
+                    help="WaveguideOptions.damped_velocity, m/s (default: the option's, "
+                         f"{WaveguideOptions.damped_velocity:g}; 0: no damped rest)")
     args = ap.parse_args()
     for f in args.files:
         print(profile(f, args.max_seconds, args.damped_velocity), flush=True)

@@ -100,11 +100,12 @@ class WaveguideOptions:
     # finger) bounded by the string's energy as everywhere else, not all tested every sample
     # (``kernel._reach``)
     damper_bound: bool = True
-    # the decay stop's bound on the string's points while a plain damper rests on it (m/s; 0:
-    # decay_velocity, as everywhere else): a damped string creeps back to its rest line far
-    # slower than it falls silent (``kernel._damped``).  Off by default: it moves samples after
-    # the string wakes (docs/engine.md, "Skips")
-    damped_velocity: float = 0.0
+    # the damped rest (``kernel._settle``): a string under a plain damper (a damp, a palm, a
+    # touch, a light finger) whose pickups have fallen below decay_velocity and whose points move
+    # slower than this (m/s) is held at rest by the hand, where the junctions' leak would let it
+    # creep back to its rest line for seconds.  Part of the model (it acts with skip_decayed
+    # off too); 0: no rest, the creep runs to the string's next note (docs/engine.md, "Skips")
+    damped_velocity: float = 1e-4
     block_frames: int = 2048
 
 

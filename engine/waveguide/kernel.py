@@ -22,9 +22,11 @@ Per sample, in this order (all at time step s; a point's values at s depend only
    next ``LOOKAHEAD`` steps (``_may_sleep``) and the pickups' output since the last test and
    every point's velocity on the sounding grid are below ``decay_velocity`` (``_still``), the
    call ends with ``carry.stopped``: ``voice`` keeps the state and the string sleeps until its
-   next event, or stops when none is left (a sleeping string costs nothing).  With a plain
-   damper resting on the string (``_damped``) its points are held to ``damped_v`` instead when
-   that is larger (``WaveguideOptions.damped_velocity``, off by default).
+   next event, or stops when none is left (a sleeping string costs nothing).  Before it, the
+   damped rest: a string under a plain damper (``_damped``) whose pickups have fallen below
+   ``rest_v`` and whose points move slower than ``damped_v`` is held at rest, its state set to
+   zero (``_settle``, ``WaveguideOptions.damped_velocity``), which the decay stop then finds
+   still: part of the model, decided with the decay stop off too.
 
 A move onto a new rest line (``voice._change``: a finger carrying the string onto a fret's crown,
 or letting it up) is stepped here too, before each of its steps (``_ramp``): those steps and the
@@ -103,6 +105,7 @@ SIXTH = 1.0 / 6.0  # the Lagrange taps multiply by it (a division per tap cost a
 # loop's period off by at most 5e-6 of itself: 1200 log2(1 + 5e-6) = 0.0087 cent at most)
 TAP_REL = 5e-6
 WINDOW_MARGIN = 1e-9  # samples (``_window``)
+RESTED, SLEEP = 1, 2  # ``_settle``'s verdicts (flags)
 
 # The kernel's inputs are records (numpy structured dtypes, numba ``Record``s): each array of
 # records costs one unboxing per call whatever its fields, and a field is read at a fixed offset.
@@ -121,7 +124,8 @@ CONFIG = np.dtype([
     ("dcap", _F),  # the largest fractional delay the ring holds
     ("fbase", _F),  # the stopped string's frequency, Hz
     ("decay_v", _F),  # the decay stop's velocity (<= 0: no decay stop)
-    ("damped_v", _F),  # the points' bound for it beside a damper in contact (``_damped``)
+    ("rest_v", _F),  # the damped rest's bound on the pickups (``_settle``; <= 0: no rest)
+    ("damped_v", _F),  # and on the points of a string under a plain damper (``_damped``)
     ("x_k0", _F),  # X / K0: a force's displacement per newton (``pluck._blow``)
     ("steady_runs", _I),  # 1: steady junctions run in plain runs (``_steady``), 0: not
     ("damper_bound", _I),  # 1: a damper's neighbours by the energy bound (``_reach``), 0: live
@@ -143,6 +147,7 @@ CARRY = np.dtype([
     ("general", _I),  # steps run in the general step, counted over the calls (``tools``)
     ("plain", _I),  # and in plain runs (``_plain``)
     ("tested", _I),  # collision point-steps tested (each live point at each step), likewise
+    ("rests", _I),  # damped rests (``_settle``), likewise
     ("loss", _F),  # the loss one-pole's state
     ("glide", _F),  # the glide's pitch ratio
     ("d", _F),  # the delay the Lagrange taps were computed for (0: none yet)
@@ -257,7 +262,9 @@ def run_block(wave, events, step0, out):
     dcap = cf.dcap
     fbase = cf.fbase
     decay_v = cf.decay_v
+    rest_v = cf.rest_v
     damped_v = cf.damped_v
+    watch = decay_v > 0.0 or rest_v > 0.0  # the tests on the BLOCK grid (``_settle``)
     next_stop = st.next_stop
     leak = math.exp(-2.0 * math.pi * LEAK_HZ / fs)
     tail = int(8.0 * fs / (2.0 * math.pi * LEAK_HZ))  # steps for h to leak to e^-8 of itself
@@ -434,15 +441,20 @@ def run_block(wave, events, step0, out):
         out[i] = acc
         ri += 1
         i += 1
-        if decay_v > 0.0:
+        if watch:
             peak = max(peak, abs(acc))
             if (s + 1) % BLOCK == 0:
-                if (peak < decay_v and not ramping  # no sleep while a finger moves it
-                        and _may_sleep(s + 1, next_stop, js_on, js_off, js_rel, js_len,
-                                       pb_step, pb_f, ib, jn, njn)
-                        and _still(R, Mb, mask, s, n_t, N, fs, peak, decay_v, damped_v, act,
-                                   nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
-                                   js_kappa)):
+                verdict = 0
+                if not ramping:  # no rest and no sleep while a finger moves it
+                    verdict = _settle(R, Mb, mask, s + 1, n_t, N, fs, peak, decay_v, rest_v,
+                                      damped_v, next_stop, act, nact, js_on, js_off, js_rel,
+                                      js_len, js_idx, js_np, js_mp, js_kappa, jst, col_prev,
+                                      pk_u, pb_step, pb_f, ib, jn, njn)
+                if verdict & RESTED:  # the filters' states, in registers, come to rest too
+                    ly = x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
+                    st.glide = 1.0
+                    st.rests += 1
+                if verdict & SLEEP:
                     stopped = True
                     break
                 peak = 0.0
@@ -487,13 +499,16 @@ def run_block(wave, events, step0, out):
             ri += e - s1
             plain += e - s1
             tested += (e - s1) * nlive if ncol > 0 else 0
-            if decay_v > 0.0 and e % BLOCK == 0:
-                if (peak < decay_v
-                        and _may_sleep(e, next_stop, js_on, js_off, js_rel, js_len, pb_step,
-                                       pb_f, ib, jn, njn)
-                        and _still(R, Mb, mask, e - 1, n_t, N, fs, peak, decay_v, damped_v,
-                                   act, nact, js_on, js_off, js_len, js_idx, js_np, js_mp,
-                                   js_kappa)):
+            if watch and e % BLOCK == 0:
+                verdict = _settle(R, Mb, mask, e, n_t, N, fs, peak, decay_v, rest_v, damped_v,
+                                  next_stop, act, nact, js_on, js_off, js_rel, js_len, js_idx,
+                                  js_np, js_mp, js_kappa, jst, col_prev, pk_u, pb_step, pb_f,
+                                  ib, jn, njn)
+                if verdict & RESTED:
+                    ly = x0 = x1 = x2 = x3 = y0 = y1 = y2 = y3 = 0.0
+                    st.glide = 1.0
+                    st.rests += 1
+                if verdict & SLEEP:
                     stopped = True
                     break
                 peak = 0.0
@@ -948,24 +963,77 @@ def _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib, j
     return True
 
 
+@njit(**JIT_HELPER)
+def _settle(R, Mb, mask, t, n_t, N, fs, peak, decay_v, rest_v, damped_v, next_stop, act, nact,
+            js_on, js_off, js_rel, js_len, js_idx, js_np, js_mp, js_kappa, jst, col_prev, pk_u,
+            pb_step, pb_f, ib, jn, njn):
+    """The tests on the grid of ``BLOCK`` steps, at step t (the last step run: t - 1), when
+    nothing but the string's own decay and its steady dampers would act on it in the next
+    ``LOOKAHEAD`` steps (``_may_sleep``; the caller: no finger moving it).  Returns a set of
+    flags:
+
+    * ``RESTED``: the damped rest.  A plain damper has rested on the string since before t - 1
+      and stays past t + ``LOOKAHEAD`` (``_damped``), its pickups have moved slower than
+      rest_v since the last test and its points slower than damped_v (``_still``): the hand
+      holds it still (``_hold``: every state of the string, its junctions, collision points and
+      pickups set to rest; the caller zeroes the filters' states it keeps in registers).  The
+      junctions' leak lets a damped string creep back to its rest line for seconds below
+      ``LEAK_HZ`` (``pluck``), with its pickups far below rest_v and its points above the decay
+      stop's bound; the hand on a real string holds it there.  A model rule, not a skip: it acts
+      with the decay stop off too, so the stop stays exact around it (docs/engine.md, "Skips").
+    * ``SLEEP``: the decay stop.  Its pickups (since the last test) and every point have moved
+      slower than decay_v (a string the rule above has just held: at rest).  The string sleeps
+      until its next event, its state kept (``voice._sleep``).
+    """
+    if not _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib, jn, njn):
+        return 0
+    verdict = 0
+    if (rest_v > 0.0 and peak < rest_v
+            and _damped(t - 1, act, nact, js_on, js_off, js_len, js_np, js_mp, js_kappa)
+            and _still(R, Mb, mask, t - 1, n_t, N, fs, peak, rest_v, damped_v, act, nact,
+                       js_idx, js_np)):
+        _hold(R, Mb, act, nact, js_np, jst, col_prev, pk_u)
+        verdict = RESTED
+        peak = 0.0
+    if decay_v > 0.0 and _still(R, Mb, mask, t - 1, n_t, N, fs, peak, decay_v, decay_v, act,
+                                nact, js_idx, js_np):
+        verdict |= SLEEP
+    return verdict
+
+
+@njit(**JIT_HELPER)
+def _hold(R, Mb, act, nact, js_np, jst, col_prev, pk_u):
+    """The damped rest (``_settle``): the rails (the whole ring: the termination's history too),
+    the junctions' states (their last input is now 0, the string's displacement), the collision
+    points' last displacements (those cut off keep ``NO_PREV``) and the pickups' last readings
+    at rest."""
+    R[:] = 0.0
+    Mb[:] = 0.0
+    for a in range(nact):
+        j = act[a]
+        for k in range(js_np[j]):
+            for q in range(J_CUT):
+                jst[j, k, q] = 0.0
+    for c in range(col_prev.shape[0]):
+        if col_prev[c] != NO_PREV:
+            col_prev[c] = 0.0
+    for p in range(pk_u.shape[0]):
+        pk_u[p] = 0.0
+
+
 @njit(**JIT_INLINE)
-def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, v_damped, act, nact, js_on, js_off, js_len,
-           js_idx, js_np, js_mp, js_kappa):
-    """Have the pickups (their largest |output| since the last test: peak) and has every point
-    of the sounding string (n_t .. N) moved slower than v_max at step s?  The velocity is read
-    off the rails, u(n, s) - u(n, s - 1) with u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the
-    waves' values at s, one point further on, before the junctions of step s moved them; next
-    to a junction that acts (a steady damper) that mixes its step-s perturbation into the
-    difference, so those points are left out: they move with their neighbours.  The junctions
-    whose window holds s are ``act[:nact]`` (``_active``).  Beside a damper in contact
-    (``_damped``) the points need only move slower than v_damped, when that is larger: the
-    pickups are held to v_max all the same."""
+def _still(R, Mb, mask, s, n_t, N, fs, peak, v_max, v_points, act, nact, js_idx, js_np):
+    """Have the pickups (their largest |output| since the last test: peak) moved slower than
+    v_max and has every point of the sounding string (n_t .. N) moved slower than v_points at
+    step s?  The velocity is read off the rails, u(n, s) - u(n, s - 1) with
+    u(n, s - 1) = R[s - 1 - n] + Mb[s - 1 + n]: the waves' values at s, one point further on,
+    before the junctions of step s moved them; next to a junction that acts (a steady damper)
+    that mixes its step-s perturbation into the difference, so those points are left out: they
+    move with their neighbours.  The junctions whose window holds s are ``act[:nact]``
+    (``_active``)."""
     if peak >= v_max:
         return False
-    lim = v_max / fs
-    if v_damped > v_max and _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp,
-                                    js_kappa):
-        lim = v_damped / fs
+    lim = v_points / fs
     for n in range(n_t, N + 1):
         du = (R[(s - n) & mask] + Mb[(s + n) & mask]) - (R[(s - 1 - n) & mask]
                                                          + Mb[(s - 1 + n) & mask])
@@ -987,7 +1055,7 @@ def _damped(s, act, nact, js_on, js_off, js_len, js_np, js_mp, js_kappa):
     touch, a light finger) in contact with the string from before step s until at least
     ``LOOKAHEAD`` steps after it?  Such a string creeps back to its rest line slowly after its
     note has died (the junctions' leak, ``pluck``, passes what is slower than ``LEAK_HZ``): the
-    decay stop's ``damped_v`` (``WaveguideVoice.damped_velocity``)."""
+    damped rest's (``_settle``)."""
     for a in range(nact):
         j = act[a]
         if js_len[j] == 0 and js_on[j] < s and js_off[j] > s + LOOKAHEAD:

@@ -82,7 +82,7 @@ class WaveguideVoice:
     decay_velocity: float = 1e-7
     steady_runs: bool = True  # steady junctions in plain runs (``kernel._steady``; exact)
     damper_bound: bool = True  # a damper's neighbours by the energy bound (``kernel._reach``)
-    damped_velocity: float = 0.0  # the decay stop's bound on the points beside a damper (m/s)
+    damped_velocity: float = 1e-4  # the damped rest's bound on the points (m/s; 0: no rest)
     step: int = 0
     stopped: bool = False
     oversample: int = 1  # runs at the scene's rate (the mixer asks every voice)
@@ -309,6 +309,9 @@ class WaveguideVoice:
             c["gain"], c["glide_k"] = lp.gain_bound, self.glide_k
             c["dcap"], c["fbase"] = self.dcap, self.rate / lp.period
             c["decay_v"] = self.decay_velocity if self.skip_decayed else 0.0
+            # the damped rest (``kernel._settle``) holds the pickups to decay_velocity whether
+            # or not the decay stop is on: it is part of the model, not a skip
+            c["rest_v"] = self.decay_velocity if self.damped_velocity > 0.0 else 0.0
             c["damped_v"] = self.damped_velocity
             c["steady_runs"] = int(self.steady_runs)
             c["damper_bound"] = int(self.damper_bound)
@@ -321,6 +324,17 @@ class WaveguideVoice:
         if made[1] is not None:
             self.col_ref[:] = made[1]
             self.col_live[:] = 0
+
+    def set_switches(self, **switches) -> None:
+        """Set the skips' and the damped rest's switches (``skip_decayed``, ``steady_runs``,
+        ``damper_bound``, ``damped_velocity``, ...: the fields of the same names) before the
+        string has run, as ``WaveguideOptions`` would have (the tools that measure them render
+        one prepared scene with each setting)."""
+        for name, value in switches.items():
+            if not hasattr(self, name):
+                raise AttributeError(f"WaveguideVoice has no switch {name!r}")
+            setattr(self, name, value)
+        self._configure(self.stop_fret, self.stop_held)
 
     def _pb_index(self) -> int:
         """The pitch breakpoint in force now (the last at or before ``step``; the kernel's

@@ -267,6 +267,32 @@ def test_waveguide_session_with_the_decay_skip_equals_the_render():
     assert np.array_equal(live, ref)
 
 
+@pytest.mark.parametrize("skip_decayed", [True, False])
+def test_a_waveguide_session_holds_damped_strings_at_rest_as_a_render_does(skip_decayed):
+    """Fretted notes ended by a palm with rests between them: the hand holds each muted string
+    at rest once it is silent (``kernel._settle``), deciding from what is known ``LOOKAHEAD``
+    steps ahead (the palm's end is unknown to the session until its release is pushed), so the
+    session gives the render's samples, with the decay stop and without it."""
+    plan: dict[int, list] = {}
+    for k in range(3):
+        b = 2 + 250 * k  # 1.45 s apart: each muted string falls silent (within about 1 s) and
+        string = 3 + k % 2  # rests before its next note
+        plan[b] = [{"type": "fret", "string": string, "fret": 5 + k},
+                   {"type": "pluck", "string": string, "force": 2.0, "offset": 11}]
+        plan[b + 20] = [{"type": "mute", "string": string, "amount": 1.0, "offset": 5}]
+        plan[b + 240] = [{"type": "release", "string": string, "what": "mute", "offset": 9}]
+    s = engine.Session("steel-acoustic", 44100, BLOCK, record=True, model="waveguide",
+                       options=RenderOptions(skip_decayed=skip_decayed))
+    live = play(s, plan, 2 + 250 * 3 + 10)
+    rests = sum(int(v.st["rests"]) for v in s.voices)
+    ref = np.concatenate(list(engine.blocks(s.scene(), BLOCK,
+                                            RenderOptions(live_grid=True,
+                                                          skip_decayed=skip_decayed))))
+    assert rests >= 2
+    assert np.max(np.abs(live)) > 0.05
+    assert np.array_equal(live, ref)
+
+
 def test_waveguide_events_acting_at_once_would_change_what_was_decided():
     """Why the delay: the kernel fixes the period's stretch and the collision points it checks
     up to 256 steps ahead, so an event acting sooner after the block that learns of it (here a

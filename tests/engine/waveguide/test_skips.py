@@ -8,7 +8,10 @@ it (``tools.wg_skips`` prints the same on whole songs and the digest's scenes).
 * the decay stop between events (``kernel._may_sleep``, ``voice._sleep``): a still string sleeps
   until its next event, its state kept: the output differs by less than -140 dB of full scale
   after the fixed gain (``tools.wg_skips.TOLERANCE``), and a string at rest before its first note
-  not at all."""
+  not at all;
+* the damped rest (``kernel._settle``), a rule of the model that lets damped strings sleep: the
+  stop around it is exact, and up to the string's next note it drops less than the stop's
+  tolerance."""
 
 from __future__ import annotations
 
@@ -18,6 +21,7 @@ import pytest
 import engine
 from engine import models, waveguide
 from engine.testing.scenes import fret, pluck, scene
+from engine.waveguide import WaveguideOptions
 from tools.wg_skips import CORPUS, TOLERANCE, render, song_scene
 
 
@@ -43,13 +47,15 @@ MUSIC = [fret(3, 5), pluck(3, time=0.01, force=2.0), _damp(0.25, 3),
 
 
 def test_steady_junctions_run_in_plain_runs_to_the_bit():
+    """With the damped rest and without it (the dampers then held to each string's next note)."""
     sc = _scene(MUSIC, 2.0)
-    a, steps = render(sc)
-    b, off = render(sc, steady_runs=False)
-    assert np.array_equal(a, b)
+    for rest in (WaveguideOptions.damped_velocity, 0.0):
+        a, steps = render(sc, damped_velocity=rest)
+        b, off = render(sc, steady_runs=False, damped_velocity=rest)
+        assert np.array_equal(a, b)
+        assert steps["general"] < 0.05 * steps["all"], steps
     # the damps, the palm, the touch and the dead note held most steps in the general step
     assert off["general"] > 0.3 * off["all"], off
-    assert steps["general"] < 0.05 * steps["all"], steps
 
 
 def test_a_damper_leaves_its_neighbours_to_the_energy_bound_to_the_bit():
@@ -100,26 +106,56 @@ def test_a_still_string_sleeps_until_its_next_note_within_the_tolerance():
     assert 0.0 < d < TOLERANCE
 
 
-def test_a_damped_string_sleeps_once_silent_with_the_damped_bound():
-    """A fretted note ended by a damp creeps back to its rest line for seconds (the dampers' leak
-    passes what is slower than ``pluck.LEAK_HZ``), its points a little faster than
-    ``decay_velocity``, the pickup far slower.  With the default bound it runs to its next note;
-    with ``damped_velocity`` = 1e-6 m/s it sleeps once silent.  A light next pluck (nothing
-    collides after the wake) stays within the decay stop's tolerance of the render without any
-    stop."""
+def test_a_damped_string_comes_to_rest_and_sleeps_exactly():
+    """A fretted note ended by a damp falls silent within tens of milliseconds, then creeps back
+    to its rest line for seconds (the dampers' leak passes what is slower than
+    ``pluck.LEAK_HZ``), its points a little faster than ``decay_velocity``, its pickup far
+    slower: without the damped rest it runs to its next note.  With it the hand holds the string
+    still once its pickup is below ``decay_velocity`` (``kernel._settle``), and it sleeps.  The
+    rest is a rule of the model, there with the decay stop off too, so the stop around it is
+    exact, even where the next note (a 2 N pluck on the fretted string: collisions) meets the
+    string; up to the next note the rest drops less than the decay stop's tolerance."""
     events = [fret(3, 5), pluck(3, time=0.01, force=2.0), _damp(0.3, 3),
-              pluck(3, time=1.5, force=0.5)]
+              fret(3, 5, time=1.5), pluck(3, time=1.5, force=2.0)]
     sc = _scene(events, 2.0)
-    a, steps = render(sc, damped_velocity=1e-6)
-    b, old = render(sc)
-    c, _ = render(sc, skip_decayed=False)
-    d = float(np.max(np.abs(a - c)))
-    print(f"slept {old['slept'] / 44100:.2f} s -> {steps['slept'] / 44100:.2f} s, max |diff| "
-          f"{d:.2e} m/s against no stop")
-    assert old["slept"] == 0  # the creep keeps it above decay_velocity until its next note
+    a, steps = render(sc)
+    b, _ = render(sc, skip_decayed=False)
+    c, creep = render(sc, damped_velocity=0.0)
+    damp, note = int(0.3 * 44100), int(1.5 * 44100)
+    d = float(np.max(np.abs(a[:note] - c[:note])))
+    print(f"rests {steps['rests']}, slept {creep['slept'] / 44100:.2f} s -> "
+          f"{steps['slept'] / 44100:.2f} s; max |diff| from the creep before the next note "
+          f"{d:.2e} m/s")
+    assert creep["slept"] == 0  # the creep keeps it above decay_velocity until its next note
+    assert steps["rests"] >= 1
     assert steps["slept"] > 0.5 * 44100
+    assert np.array_equal(a, b)
+    assert np.array_equal(a[:damp], c[:damp])
     assert d < TOLERANCE
-    assert np.array_equal(b[:int(0.3 * 44100)], a[:int(0.3 * 44100)])
+
+
+def test_the_damped_rest_waits_for_the_note_to_die():
+    """The hand holds the string only once its pickups are below ``decay_velocity``: a damped
+    note's last 20 ms before its rest are quieter than -140 dB of full scale, the note before
+    the damp rang loud, and a palm resting on a ringing string (a mute at amount 0.3: the note
+    goes on, muffled) never holds it before the scene's end."""
+    sc = _scene([fret(3, 5), pluck(3, time=0.01, force=2.0), _damp(0.3, 3)], 1.5)
+    inst = waveguide.prepare(sc, statics=models.PRESSED_STRING)
+    out, rested = [], None
+    for y in inst.blocks(256):
+        out.append(y)
+        if rested is None and int(inst.voices[0].st["rests"]) > 0:
+            rested = inst.frame
+    y = np.concatenate(out)
+    assert rested is not None and rested > int(0.3 * 44100)
+    tail = y[max(rested - 256 - int(0.02 * 44100), 0):rested - 256]
+    print(f"rested at {rested / 44100:.3f} s; the 20 ms before: {np.max(np.abs(tail)):.2e} "
+          f"(peak {np.max(np.abs(y)):.2f})")
+    assert np.max(np.abs(tail)) < TOLERANCE < 1e-3 * np.max(np.abs(y))
+    muted = _scene([{"type": "mute", "time": 0.0, "string": 4, "amount": 0.3},
+                    pluck(4, time=0.01, force=2.0)], 2.0)
+    _, steps = render(muted)
+    assert steps["rests"] == 0
 
 
 def test_a_string_at_rest_before_its_first_note_sleeps_exactly():

@@ -6,7 +6,13 @@ built-in body here is a *modal* model of a guitar body seen from the bridge: a d
 bank of damped resonances (the Helmholtz air mode, the top plate's monopole and dipole modes, the
 back plate), each a two-pole resonator.  Its impulse response is the sum of decaying sinusoids; the
 filter bank *is* convolution with that response, computed recursively, sample by sample in a fixed
-order, so the body keeps block rendering bit-identical (an FFT overlap-add would not).  Mode
+order, so the body keeps block rendering bit-identical (an FFT overlap-add would not).  After a
+track falls silent its resonators' states decay towards zero for minutes and, below 1e-308, go
+through the subnormal numbers, on which the processor computes far slower (a silent track's body
+then took half of a song's render); so on a grid of ``FLUSH_EVERY`` samples of
+the output's own count (not of the blocks: any blocks give the same samples) the states below
+``FLUSH_BELOW`` are set to zero, which moves no sample by more than 1e-190
+(tests/engine/test_body.py).  Mode
 frequencies and Q factors are typical measured values for the two body types (Fletcher & Rossing,
 *The Physics of Musical Instruments*, 2nd ed., ch. 9: steel-string and classical guitars): air mode
 near 100 Hz, main top resonance near 200 Hz, higher top/back modes 250-600 Hz with Q 20-60.  A user
@@ -29,6 +35,11 @@ from .config import JIT
 # the peaks); louder scenes clip in PCM, which is what a fixed gain means.
 FIXED_GAIN = 0.03
 PEAK_DBFS = -1.0  # ``normalize: true`` scales the peak here
+# the body's resonator states below FLUSH_BELOW are set to zero every FLUSH_EVERY samples (a power
+# of two): far above the subnormal numbers, which the slowest mode (95 Hz, Q 22) takes over a
+# million samples to reach from there even at 96 kHz
+FLUSH_EVERY = 4096
+FLUSH_BELOW = 1e-200
 
 # (frequency Hz, Q, gain) per mode; gains relative to the direct path of 1
 BODIES: dict[str, tuple[tuple[float, float, float], ...]] = {
@@ -67,14 +78,18 @@ class Body:
             peak = (1.0 - r) * abs(1.0 - r * complex(math.cos(2 * theta), -math.sin(2 * theta)))
             self.coef[i] = (2.0 * r * math.cos(theta), -r * r, g * peak)
         self.state = np.zeros((channels, len(modes), 2))
+        self.frame = 0  # samples filtered so far (the flush grid, ``_modal``)
+        self.flush_below = FLUSH_BELOW  # 0: no flush (the tests' reference)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         y = np.empty_like(x)
         if x.ndim == 1:
-            y[:] = _modal(x, self.coef, self.state[0])
+            y[:] = _modal(x, self.coef, self.state[0], self.frame, self.flush_below)
         else:
             for ch in range(x.shape[1]):
-                y[:, ch] = _modal(np.ascontiguousarray(x[:, ch]), self.coef, self.state[ch])
+                y[:, ch] = _modal(np.ascontiguousarray(x[:, ch]), self.coef, self.state[ch],
+                                  self.frame, self.flush_below)
+        self.frame += x.shape[0]
         return y
 
     def impulse_response(self, n: int) -> np.ndarray:
@@ -82,18 +97,25 @@ class Body:
         self.state[:] = 0.0
         x = np.zeros(n)
         x[0] = 1.0
-        ir = _modal(x, self.coef, self.state[0])
+        ir = _modal(x, self.coef, self.state[0], 0, self.flush_below)
         self.state[:] = saved
         return ir
 
 
 @njit(**JIT)
-def _modal(x, coef, state):
-    """y = x + sum_m resonator_m(x): two-pole resonators y_m[n] = a1 y_m[n-1] + a2 y_m[n-2] + g x[n]."""
+def _modal(x, coef, state, start, flush_below):
+    """y = x + sum_m resonator_m(x): two-pole resonators y_m[n] = a1 y_m[n-1] + a2 y_m[n-2] + g x[n].
+    ``start``: the output's sample index of x[0]; at every multiple of ``FLUSH_EVERY`` the states
+    below ``flush_below`` (``FLUSH_BELOW``) are set to zero."""
     n = x.shape[0]
     nm = coef.shape[0]
     y = np.empty(n)
     for i in range(n):
+        if (start + i) & (FLUSH_EVERY - 1) == 0:
+            for m in range(nm):
+                if abs(state[m, 0]) < flush_below and abs(state[m, 1]) < flush_below:
+                    state[m, 0] = 0.0
+                    state[m, 1] = 0.0
         acc = x[i]
         for m in range(nm):
             v = coef[m, 0] * state[m, 0] + coef[m, 1] * state[m, 1] + coef[m, 2] * x[i]

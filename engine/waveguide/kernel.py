@@ -147,7 +147,7 @@ CARRY = np.dtype([
     ("general", _I),  # steps run in the general step, counted over the calls (``tools``)
     ("plain", _I),  # and in plain runs (``_plain``)
     ("tested", _I),  # collision point-steps tested (each live point at each step), likewise
-    ("rests", _I),  # damped rests (``_settle``), likewise
+    ("rests", _I),  # damped rests (``_settle``; with the stop off, again at each test), likewise
     ("loss", _F),  # the loss one-pole's state
     ("glide", _F),  # the glide's pitch ratio
     ("d", _F),  # the delay the Lagrange taps were computed for (0: none yet)
@@ -717,6 +717,9 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     m2 = Mb[(base - 2) & mask]
     m3 = Mb[(base - 3) & mask]
     inside = _inside(col_n, col_list, nlive, n_t, N)
+    # the steady junctions' points all on the sounding string and none back from a cut: their
+    # loop needs neither test (``_sounding``), until the termination walks
+    sounding = _sounding(sp_n, sp_cut, nsp, n_t, N)
     for s in range(s1, e):
         fast = steady
         if not steady:
@@ -744,12 +747,28 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
             steady = dper == 0.0 and n_t == nt_was and d_taps == d_was
             if n_t != nt_was:
                 inside = _inside(col_n, col_list, nlive, n_t, N)
+                sounding = _sounding(sp_n, sp_cut, nsp, n_t, N)
             plo, phi = _window(N, n_t, tau, dcap, d_taps, period)
             base = s + 1 + n_t - j0
             m1 = Mb[(base - 1) & mask]
             m2 = Mb[(base - 2) & mask]
             m3 = Mb[(base - 3) & mask]
-        for q in range(nsp):  # the general step's junctions, for steady dampers (``_steady``)
+        if sounding:  # the loop below with neither test taken: the same arithmetic
+            for q in range(nsp):
+                n = sp_n[q]
+                ip = (s - n) & mask
+                im = (s + n) & mask
+                uin = R[ip] + Mb[im]
+                du = uin - sp_u[q]
+                sp_u[q] = uin
+                h = leak * sp_h[q] + sp_c[q] * du
+                sp_h[q] = h
+                R[ip] += 0.5 * h
+                Mb[im] += 0.5 * h
+            nsp_left = 0
+        else:
+            nsp_left = nsp
+        for q in range(nsp_left):  # the general step's junctions, for steady dampers (``_steady``)
             n = sp_n[q]
             if n <= n_t or n >= N:  # cut off by the termination (as in the general step)
                 sp_cut[q] = 1.0
@@ -785,6 +804,16 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     if one:
         pk_u[0] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
+
+
+@njit(**JIT_HELPER)
+def _sounding(sp_n, sp_cut, nsp, n_t, N):
+    """Do the steady junctions' points ``sp_n[:nsp]`` all lie on the sounding string
+    (n_t < n < N), none of them cut off before (``sp_cut``)?"""
+    for q in range(nsp):
+        if sp_n[q] <= n_t or sp_n[q] >= N or sp_cut[q] != 0.0:
+            return False
+    return True
 
 
 @njit(**JIT_HELPER)

@@ -1,6 +1,6 @@
 """What the waveguide's skips change: each render with a skip on against the same render with it off.
 
-    python -m tools.wg_skips [--seconds 20] [FILE ...]
+    python -m tools.wg_skips [--seconds 20] [--sensitivity] [FILE ...]
 
 Two skips of ``engine/waveguide`` are measured, on whole songs (corpus files nobody on this project
 wrote: ``make test-data``) and on ``tools.render_digest``'s waveguide scenes:
@@ -36,6 +36,10 @@ wrote: ``make test-data``) and on ``tools.render_digest``'s waveguide scenes:
   against the window's own (windows within 60 dB of the render's loudest), and the
   string-steps asleep without it.
 
+``--sensitivity`` prints, for the songs, what the same measures give when every pluck's and
+strum's force changes by a small fraction of itself (``SENSITIVITY``): how far below what a score
+specifies a render's samples already move, the scale against which to read the damped rest's.
+
 Each row: the string-steps run in the kernel's general step, in plain runs and asleep (of all
 the strings' steps, as rendered); for the damper bound, the collision point-steps tested with it
 and without it; for the decay stop, the largest |difference| of the mixed output (m/s), the same
@@ -57,6 +61,7 @@ SONGS = ("gp/Demo v5.gp5", "gp/001_Funky_Guy.gp5", "gp/Slides.gp5", "gp/Strokes.
 TOLERANCE_DB_FS = -140.0  # the decay stop's bound, dB of full scale after the fixed gain
 TOLERANCE = 10.0 ** (TOLERANCE_DB_FS / 20.0) / FIXED_GAIN  # the same in m/s of the output
 WINDOW = 0.05  # s: the damped rest's windows (``windows``)
+SENSITIVITY = (1e-6, 1e-4, 1e-2)  # ``--sensitivity``: relative changes of every force
 
 
 def song_scene(path: str | Path, seconds: float | None):
@@ -152,6 +157,28 @@ def rows(scenes: dict) -> list[str]:
     return out
 
 
+def sensitivity_rows(scenes: dict) -> list[str]:
+    """Each song rendered with every pluck's and strum's force times 1 + r for r in
+    ``SENSITIVITY``, against the song as it is: the measures of the damped rest's columns."""
+    out = []
+    for name, scene in scenes.items():
+        a, _ = render(scene)
+        for rel in SENSITIVITY:
+            changed = scene.model_copy(deep=True)
+            for events in ([t.events for t in changed.tracks] if changed.tracks
+                           else [changed.events]):
+                for e in events:
+                    if e.type in ("pluck", "strum"):
+                        e.force *= 1.0 + rel
+            b, _ = render(changed)
+            d, _ = difference(b, a)
+            db = 20.0 * np.log10(d * FIXED_GAIN) if d > 0.0 else -np.inf
+            moved, typical, worst = windows(b, a, scene.sample_rate)
+            out.append(f"{name[:34]:34s} | forces x (1 + {rel:g}) | {db:7.1f} dB FS "
+                       f"{moved:6.1%} {typical:7.1f} / {worst:6.1f} dB")
+    return out
+
+
 def main() -> None:
     import engine
     from tools.render_digest import WAVEGUIDE
@@ -159,9 +186,19 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("files", nargs="*", help=f"songs (default: {', '.join(SONGS)} of the corpus)")
     ap.add_argument("--seconds", type=float, default=20.0, help="each song's first S seconds")
+    ap.add_argument("--sensitivity", action="store_true",
+                    help="instead: the songs with every force changed by a small fraction")
     args = ap.parse_args()
+    if args.seconds <= 0:
+        ap.error("--seconds must be > 0")
     files = args.files or [str(CORPUS / s) for s in SONGS]
     scenes = {f"{Path(f).name} ({args.seconds:g} s)": song_scene(f, args.seconds) for f in files}
+    if args.sensitivity:
+        print(f"{'song':34s} | change | max |diff|, {WINDOW * 1e3:g} ms windows over "
+              f"{TOLERANCE_DB_FS:g} dB FS, spectral difference (median / largest window)")
+        for row in sensitivity_rows(scenes):
+            print(row)
+        return
     scenes.update({name: engine.parse_scene({**sc, "model": "waveguide"})
                    for name, sc in WAVEGUIDE.items()})
     print(f"tolerance of the decay stop: {TOLERANCE_DB_FS:g} dB of full scale = {TOLERANCE:.1e} "

@@ -753,39 +753,21 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
             m1 = Mb[(base - 1) & mask]
             m2 = Mb[(base - 2) & mask]
             m3 = Mb[(base - 3) & mask]
-        if sounding:  # the loop below with neither test taken: the same arithmetic
+        # the general step's junctions, for steady dampers (``_steady``)
+        if sounding:  # with neither test of the loop below taken
+            for q in range(nsp):
+                _damper(R, Mb, mask, s, sp_n[q], q, sp_c, sp_h, sp_u, leak)
+        else:
             for q in range(nsp):
                 n = sp_n[q]
-                ip = (s - n) & mask
-                im = (s + n) & mask
-                uin = R[ip] + Mb[im]
-                du = uin - sp_u[q]
-                sp_u[q] = uin
-                h = leak * sp_h[q] + sp_c[q] * du
-                sp_h[q] = h
-                R[ip] += 0.5 * h
-                Mb[im] += 0.5 * h
-            nsp_left = 0
-        else:
-            nsp_left = nsp
-        for q in range(nsp_left):  # the general step's junctions, for steady dampers (``_steady``)
-            n = sp_n[q]
-            if n <= n_t or n >= N:  # cut off by the termination (as in the general step)
-                sp_cut[q] = 1.0
-                continue
-            ip = (s - n) & mask
-            im = (s + n) & mask
-            uin = R[ip] + Mb[im]
-            if sp_cut[q] != 0.0:  # back on the sounding string: afresh
-                sp_h[q] = 0.0
-                sp_u[q] = uin
-                sp_cut[q] = 0.0
-            du = uin - sp_u[q]
-            sp_u[q] = uin
-            h = leak * sp_h[q] + sp_c[q] * du
-            sp_h[q] = h
-            R[ip] += 0.5 * h
-            Mb[im] += 0.5 * h
+                if n <= n_t or n >= N:  # cut off by the termination (as in the general step)
+                    sp_cut[q] = 1.0
+                    continue
+                if sp_cut[q] != 0.0:  # back on the sounding string: afresh
+                    sp_h[q] = 0.0
+                    sp_u[q] = R[(s - n) & mask] + Mb[(s + n) & mask]
+                    sp_cut[q] = 0.0
+                _damper(R, Mb, mask, s, n, q, sp_c, sp_h, sp_u, leak)
         _collisions(R, Mb, mask, s, n_t, N, col_n, col_ref, col_cr, col_prev, col_list, nlive,
                     inside, fs)
         if one:  # ``_pickups`` for one pickup, the same arithmetic
@@ -804,6 +786,21 @@ def _plain(R, Mb, mask, s1, e, step0, out, N, n_t, period, dper, tau, dcap, d_ta
     if one:
         pk_u[0] = pu
     return n_t, period, d_taps, j0, h0, h1, h2, h3, ly, x0, x1, x2, x3, y0, y1, y2, y3, peak
+
+
+@njit(**JIT_INLINE)
+def _damper(R, Mb, mask, s, n, q, sp_c, sp_h, sp_u, leak):
+    """Steady damper point q at grid point n, step s: ``pluck._msd``'s damper branch,
+    h = leak h + c du on the arriving displacement's increment, half of h on each rail."""
+    ip = (s - n) & mask
+    im = (s + n) & mask
+    uin = R[ip] + Mb[im]
+    du = uin - sp_u[q]
+    sp_u[q] = uin
+    h = leak * sp_h[q] + sp_c[q] * du
+    sp_h[q] = h
+    R[ip] += 0.5 * h
+    Mb[im] += 0.5 * h
 
 
 @njit(**JIT_HELPER)

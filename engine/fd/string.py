@@ -300,8 +300,8 @@ def coefficients(model: StringModel, preset: Preset, fret_mode: int,
 NO_BOARD = -1.0  # a "fretboard" a metre below the string: unreachable
 
 
-def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
-                fingers: Sequence = (), frame: Frame | None = None) -> float:
+def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float, fingers: Sequence,
+                frame: Frame) -> float:
     """How far above a fret tip a node of u^n must be for that fret to be out of reach next step.
 
     The skip is exact if no node under a fret moves further than the margin in one step, i.e. if
@@ -333,7 +333,7 @@ def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
 
     v_max = v_plucks + the fastest finger; waves crossing or reflecting can add up to about twice
     a speed, so the margin is three times v_max for one step, plus 50 um.
-    ``frame`` (``string.frame`` of the same model and preset) gives the depth and dip computed once.
+    ``frame`` (``string.frame`` of the same model and preset) holds the depth and the dip.
     ``tests/engine/test_skips.py`` checks that the skip leaves the output bit-identical with 20 N
     plucks, pops and pull-offs, 5 m/s taps and hammer-ons, 10 N lifts, a slide over 19 frets in
     1 ms, a 3-semitone bend in one step, and a light string under two fingers.
@@ -341,10 +341,9 @@ def fret_margin(model: StringModel, preset: Preset, max_pluck_force: float,
     z = math.sqrt(model.tension_n * model.rho_a)
     v = max_pluck_force / (2.0 * z)
     if fingers:
-        depth, dip = _pressed_depth(model, preset) if frame is None else (frame.depth, frame.dip)
         m = preset.finger.mass_kg
-        v += max(math.sqrt(f.v0 ** 2 + 2.0 * f.force * (f.gap + 2.0 * depth) / m)
-                 + f.force / (2.0 * z) + f.glide * (f.force / model.tension_n + dip)
+        v += max(math.sqrt(f.v0 ** 2 + 2.0 * f.force * (f.gap + 2.0 * frame.depth) / m)
+                 + f.force / (2.0 * z) + f.glide * (f.force / model.tension_n + frame.dip)
                  for f in fingers)
     return 3.0 * v * model.k + 50e-6
 
@@ -354,15 +353,6 @@ def kc_skip_level(model: StringModel, tolerance: float) -> float:
     ``tolerance`` x T0 (the kernel's ``Coefs.kc_s_skip``; a relative tension change r moves the
     pitch by about 866 r cents).  S / h approximates the integral of u_x^2 (eq. (6))."""
     return tolerance * 2.0 * model.length_m * model.h * model.tension_n / model.ea
-
-
-def _pressed_depth(model: StringModel, preset: Preset) -> tuple[float, float]:
-    """``fret_margin``'s depth (clearance plus fret height, the deepest a finger presses the string)
-    and the slope of the dip between two fret crowns."""
-    q = np.arange(preset.frets + 1)
-    xq = preset.fret_x_m(q, model.spec)
-    depth = float(np.max(preset.clearance_m(xq))) + preset.fret_height_m
-    return depth, depth / (0.5 * float(np.min(np.diff(xq))))
 
 
 @dataclass(frozen=True, eq=False)
@@ -453,7 +443,12 @@ def frame(model: StringModel, preset: Preset, pickups: list[float], with_frets: 
         w0 = np.concatenate([w0, np.ones(len(on))])
         w1 = np.concatenate([w1, np.zeros(len(on))])
         m0 = np.concatenate([m0, board[on]])
-    depth, dip = _pressed_depth(model, preset)
+    # ``fret_margin``'s depth (clearance plus fret height: the deepest a finger presses the
+    # string) and the slope of the dip between two fret crowns
+    qa = np.arange(preset.frets + 1)
+    xa = preset.fret_x_m(qa, model.spec)
+    depth = float(np.max(preset.clearance_m(xa))) + preset.fret_height_m
+    dip = depth / (0.5 * float(np.min(np.diff(xa))))
     return Frame(board, p, w0, w1, m0, np.array([a[0] for a in pk], np.int64),
                  np.array([a[1] for a in pk]), np.array([a[2] for a in pk]), nfret,
                  np.array(near_at, np.int64), np.array(near_m0), rigid, depth, dip)

@@ -1013,18 +1013,16 @@ def _settle(R, Mb, mask, t, n_t, N, fs, peak, decay_v, rest_v, damped_v, next_st
     """
     if not _may_sleep(t, next_stop, js_on, js_off, js_rel, js_len, pb_step, pb_f, ib, jn, njn):
         return 0
-    verdict = 0
     if (rest_v > 0.0 and peak < rest_v
             and _damped(t - 1, act, nact, js_on, js_off, js_len, js_np, js_mp, js_kappa)
             and _still(R, Mb, mask, t - 1, n_t, N, fs, peak, rest_v, damped_v, act, nact,
                        js_idx, js_np)):
         _hold(R, Mb, act, nact, js_np, jst, col_prev, pk_u)
-        verdict = RESTED
-        peak = 0.0
+        return RESTED | SLEEP if decay_v > 0.0 else RESTED  # at rest: still
     if decay_v > 0.0 and _still(R, Mb, mask, t - 1, n_t, N, fs, peak, decay_v, decay_v, act,
                                 nact, js_idx, js_np):
-        verdict |= SLEEP
-    return verdict
+        return SLEEP
+    return 0
 
 
 @njit(**JIT_HELPER)

@@ -40,6 +40,10 @@ COPY engine/ engine/
 COPY service/ service/
 COPY static/ static/
 
+# The bytecode of our modules, written while /app is still root's (the app user cannot write
+# there, and PYTHONDONTWRITEBYTECODE is set): without it every worker compiles them at start.
+RUN python -m compileall -q engine service
+
 USER 10001:10001
 
 # Compile the numba kernels now, into NUMBA_CACHE_DIR, so that workers start in about a second

@@ -87,10 +87,12 @@ class Instrument:
             yield self.render_frames(m)
 
     def render_frames(self, m: int, voice_frames: list[np.ndarray] | None = None,
-                      strings: np.ndarray | None = None) -> np.ndarray:
+                      strings: np.ndarray | None = None, body: bool = True) -> np.ndarray:
         """The next ``m`` frames: every voice's, panned and summed in the order of ``voices``,
-        through the body.  ``voice_frames``: each voice's next ``m`` frames (``voice_frames``),
-        already computed (on other threads: ``engine.mix``); the sum is the same.
+        through the body (``body=False``: not through it; the mixer filters several tracks' sum
+        through one body, ``engine.mix``).  ``voice_frames``: each voice's next ``m`` frames
+        (``voice_frames``), already computed (on other threads: ``engine.mix``); the sum is the
+        same.
 
         ``strings``, an (m, n_strings) array of zeros: each string's own samples are written into
         it as they are mixed, before pan and body (its stem), column ``k`` the string
@@ -104,7 +106,7 @@ class Instrument:
                 strings[:, self.preset.n_strings - v.index] = y
             add_to_mix(mix, y, self.pans[v.index])
         self.frame = end
-        return self.body(mix) if self.body is not None else mix
+        return self.body(mix) if body and self.body is not None else mix
 
     def voice_frames(self, voice, end: int) -> np.ndarray:
         """One voice's pickup velocity at the output rate, from ``self.frame`` up to frame

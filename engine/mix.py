@@ -13,7 +13,14 @@ instrument renders its pickup velocity (through its body), then, in this order:
 3. its ``gain_db`` (a fader after the effects);
 
 and the tracks are summed.  A scene with top-level ``guitar``/``events`` is the one-track case and
-renders exactly (bit for bit) as its instrument alone.  Nothing here grows with the scene's duration:
+renders exactly (bit for bit) as its instrument alone.
+
+Shared bodies: the body is a linear, time-invariant filter (``output.Body``), and so are a track's
+pan and gain, so tracks with no effects whose bodies are the same filter (the same body at the same
+rate) are summed (panned, with their gains) before one body rather than after one body each: the
+same mix up to the rounding of the sums (``tests/engine/test_tracks.py`` bounds it), for the cost
+of one body where a song's five acoustic tracks ran five.  A track alone with its body keeps it,
+and so renders as before to the bit.  Nothing here grows with the scene's duration:
 each block is computed from the voices' states and the effects' states and handed on.
 
 Threads (``jobs``): the strings of every track are independent until their instrument sums them, and
@@ -41,7 +48,7 @@ from . import models
 from .effects import Chain
 from .instrument import Instrument
 from .options import RenderOptions
-from .output import pan_gains
+from .output import Body, pan_gains
 from .scene import Scene, Stem, frame_count
 
 
@@ -54,13 +61,14 @@ class Track:
     pan: tuple[float, float] | None  # constant-power gains when the whole track is placed
     chain: Chain | None
     gain: float
+    shared: int | None = None  # the ``Mix.bodies`` its frames go through (its own body: None)
 
     def render_frames(self, m: int, voice_frames: list[np.ndarray] | None = None,
                       strings: np.ndarray | None = None) -> np.ndarray:
-        """The track's next ``m`` frames; ``voice_frames``: its voices' frames computed already
-        (``Mix._voice_frames``); ``strings``: its stems (``Instrument.render_frames``), times its
-        gain."""
-        y = self.instrument.render_frames(m, voice_frames, strings)
+        """The track's next ``m`` frames (not yet through the body it shares, if it shares
+        one); ``voice_frames``: its voices' frames computed already (``Mix._voice_frames``);
+        ``strings``: its stems (``Instrument.render_frames``), times its gain."""
+        y = self.instrument.render_frames(m, voice_frames, strings, body=self.shared is None)
         if strings is not None and self.gain != 1.0:
             strings *= self.gain
         if self.pan is not None:
@@ -82,6 +90,7 @@ class Mix:
     frames: int
     frame: int = 0
     jobs: int = 1
+    bodies: list[Body] = field(default_factory=list)  # each filters the sum of its tracks
     # seconds each voice (in ``voices`` order) took in the block before: the pool's order
     _cost: list[float] = field(default_factory=list, repr=False)
 
@@ -108,11 +117,19 @@ class Mix:
         threads first; ``stems``, (m, len(self.stems())) zeros: filled with the stems."""
         per_track = self._voice_frames(m, pool) if pool is not None else [None] * len(self.tracks)
         mix = None
+        shared: list = [None] * len(self.bodies)
         at = 0
         for t, frames in zip(self.tracks, per_track, strict=True):
             n = t.instrument.preset.n_strings
             y = t.render_frames(m, frames, None if stems is None else stems[:, at:at + n])
             at += n
+            if t.shared is None:
+                mix = y if mix is None else mix + y
+            else:
+                k = t.shared
+                shared[k] = y if shared[k] is None else shared[k] + y
+        for body, x in zip(self.bodies, shared, strict=True):
+            y = body(x)
             mix = y if mix is None else mix + y
         self.frame += m
         return mix
@@ -169,9 +186,11 @@ def _timed(instrument: Instrument, voice, m: int) -> tuple[np.ndarray, float]:
     return y, time.perf_counter() - t0
 
 
-def prepare(scene: Scene, options: RenderOptions | None = None, jobs: int = 1) -> Mix:
+def prepare(scene: Scene, options: RenderOptions | None = None, jobs: int = 1,
+            share_bodies: bool = True) -> Mix:
     """An instrument for every track (``models.prepare``: of the model the track names) with its
-    pan, effects and gain; its blocks computed on ``jobs`` threads (``Mix``)."""
+    pan, effects and gain; its blocks computed on ``jobs`` threads (``Mix``); the tracks with no
+    effects and the same body through one body (``share_bodies``: the module's docstring)."""
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, not {jobs}")
     frames = frame_count(scene)
@@ -187,4 +206,22 @@ def prepare(scene: Scene, options: RenderOptions | None = None, jobs: int = 1) -
         tracks.append(Track(instrument, scene.track_label(i),
                             pan_gains(track.pan) if placed else None, chain,
                             10.0 ** (track.gain_db / 20.0)))
-    return Mix(scene, tracks, frames, jobs=jobs)
+    bodies = _shared_bodies(tracks, 2 if stereo else 1) if share_bodies else []
+    return Mix(scene, tracks, frames, jobs=jobs, bodies=bodies)
+
+
+def _shared_bodies(tracks: list[Track], channels: int) -> list[Body]:
+    """One body for each set of two or more tracks with no effects whose bodies are the same
+    filter (name and rate), each such track told which (``Track.shared``)."""
+    groups: dict[tuple, list[Track]] = {}
+    for t in tracks:
+        body = t.instrument.body
+        if t.chain is None and body is not None:
+            groups.setdefault((body.name, body.rate), []).append(t)
+    bodies = []
+    for (name, rate), members in groups.items():
+        if len(members) >= 2:
+            for t in members:
+                t.shared = len(bodies)
+            bodies.append(Body(name, rate, channels))
+    return bodies

@@ -213,11 +213,10 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             if f.rel > at and f.on <= at and (only is None or f is only):
                 f.rel = at
 
-    def add_pluck(t, x_m, force, style, duration=None):
+    def add_pluck(on, x_m, force, style, duration=None):
         dur, sign = PLUCK_STYLES[style]
         c = STYLES[style]
         n = max(1, step(duration or dur))
-        on = step(t)
         tl.slots.append(Slot(on, on + n + 1, n, x_m, c.mass_kg, c.stiffness_n_m, c.damping_n_s_m,
                              sign * force, c.width_m, c.window))
         tl.last_step = max(tl.last_step, on + n + 1)
@@ -233,7 +232,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
         tl.last_step = max(tl.last_step, on)
         kind = e.type
         if kind == "pluck":
-            add_pluck(e.time, e.position * length, e.force, e.style, e.duration)
+            add_pluck(on, e.position * length, e.force, e.style, e.duration)
         elif kind in ("fret", "tap", "hammer_on", "slide"):
             if kind != "hammer_on":
                 lift(on)
@@ -266,7 +265,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             held = [f for f in down if f.fret == e.fret and f.on <= on < f.rel]
             if held:
                 lift(on, held[-1])
-                add_pluck(e.time, finger_at(e.fret), e.force, "finger")
+                add_pluck(on, finger_at(e.fret), e.force, "finger")
         elif kind == "harmonic":
             x = float(preset.fret_x_m(e.fret, spec)) if e.fret is not None else e.position * length
             off = step(e.release) if e.release is not None else NEVER

@@ -188,10 +188,20 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
     if events is None:
         events = events_on(scene, preset.n_strings, string)
     events = sorted(events, key=lambda e: e.time)
+    times = [e.time for e in events]
     tl = Timeline()
 
     def step(t: float) -> int:
         return int(round(t * rate))
+
+    placed: dict[int, float] = {}
+
+    def finger_at(fret: int) -> float:
+        """``finger_x_m`` of ``fret`` on this string, computed once a fret (a song's string is
+        fretted and damped thousands of times on a few frets)."""
+        if fret not in placed:
+            placed[fret] = finger_x_m(preset, fret, spec)
+        return placed[fret]
 
     # the fingers not lifted before the current event: one lifted at or before it stays lifted
     # (events come in time order), so each event scans only these, and a song's timeline is
@@ -203,11 +213,10 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             if f.rel > at and f.on <= at and (only is None or f is only):
                 f.rel = at
 
-    def add_pluck(t, x_m, force, style, duration=None):
+    def add_pluck(on, x_m, force, style, duration=None):
         dur, sign = PLUCK_STYLES[style]
         c = STYLES[style]
         n = max(1, step(duration or dur))
-        on = step(t)
         tl.slots.append(Slot(on, on + n + 1, n, x_m, c.mass_kg, c.stiffness_n_m, c.damping_n_s_m,
                              sign * force, c.width_m, c.window))
         tl.last_step = max(tl.last_step, on + n + 1)
@@ -223,7 +232,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
         tl.last_step = max(tl.last_step, on)
         kind = e.type
         if kind == "pluck":
-            add_pluck(e.time, e.position * length, e.force, e.style, e.duration)
+            add_pluck(on, e.position * length, e.force, e.style, e.duration)
         elif kind in ("fret", "tap", "hammer_on", "slide"):
             if kind != "hammer_on":
                 lift(on)
@@ -239,8 +248,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             slide = None
             if kind == "slide":
                 me = on + max(step(e.duration), 1)
-                slide = (on, me, finger_x_m(preset, e.from_fret, spec),
-                         finger_x_m(preset, e.to_fret, spec))
+                slide = (on, me, finger_at(e.from_fret), finger_at(e.to_fret))
                 tl.last_step = max(tl.last_step, me)
             start = e.from_fret if kind == "slide" else fret
             tl.fingers.append(Finger(start, on, rel, ok, e.force if e.force is not None else 0.0,
@@ -249,7 +257,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             if kind == "slide":
                 tl.fingers[-1].fret = fret
             if not ok:  # a finger touching without stopping: the light fingering junction
-                x = finger_x_m(preset, fret, spec)
+                x = finger_at(fret)
                 tl.fingers[-1].slot = len(tl.slots)
                 tl.slots.append(Slot(on, rel, 0, x, 0.0, 0.0, DEAD_DAMPING * impedance, 0.0,
                                      FINGER_PAD_M, "bell"))
@@ -257,7 +265,7 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             held = [f for f in down if f.fret == e.fret and f.on <= on < f.rel]
             if held:
                 lift(on, held[-1])
-                add_pluck(e.time, finger_x_m(preset, e.fret, spec), e.force, "finger")
+                add_pluck(on, finger_at(e.fret), e.force, "finger")
         elif kind == "harmonic":
             x = float(preset.fret_x_m(e.fret, spec)) if e.fret is not None else e.position * length
             off = step(e.release) if e.release is not None else NEVER
@@ -278,8 +286,10 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
             points, end = vibrato_points(e, step, lambda cents: 2.0 ** (cents / 1200.0))
             bends += points
             tl.last_step = max(tl.last_step, end)
-        elif kind == "damp":
-            _damp(tl, on, down, events, j, preset, spec, length, impedance, step)
+        elif kind == "damp":  # until the string's first later event
+            later = bisect.bisect_right(times, e.time, j + 1)
+            off = step(times[later]) if later < len(times) else NEVER
+            _damp(tl, on, off, down, finger_at, length, impedance)
         else:
             raise ValueError(f"events: type {kind!r} has no waveguide mapping")
     for f in tl.fingers:  # a light finger's junction ends when the finger lifts
@@ -299,25 +309,20 @@ def timeline(scene, preset: Preset, string: int, rate: float, impedance: float,
     return tl
 
 
-def _damp(tl: Timeline, on: int, down: list, events: list, j: int, preset: Preset,
-          spec: StringSpec, length: float, impedance: float, step) -> None:
-    """A ``damp``, as the finite-difference model has it (``engine.performance.DAMP_*``): every
-    finger on the string lifts (relaxes), and the relaxed hand's fingertips rest on it from where
-    the fretting finger was (fret ``DAMP_OPEN_FRET``'s place on an open string) towards the
-    bridge, ``DAMP_FINGERS`` dampers of R = ``DAMP_DAMPING`` sqrt(T mu) ``DAMP_SPACING_M`` apart,
-    until the string's next event.  ``events[j]`` is the damp, of ``events`` in time order;
-    ``down``: the fingers not lifted before it."""
+def _damp(tl: Timeline, on: int, off: int, down: list, finger_at, length: float,
+          impedance: float) -> None:
+    """A ``damp`` from step ``on`` to ``off`` (the string's next event, NEVER if none), as the
+    finite-difference model has it (``engine.performance.DAMP_*``): every finger on the string
+    lifts (relaxes), and the relaxed hand's fingertips rest on it from where the fretting finger
+    was (fret ``DAMP_OPEN_FRET``'s place on an open string) towards the bridge,
+    ``DAMP_FINGERS`` dampers of R = ``DAMP_DAMPING`` sqrt(T mu) ``DAMP_SPACING_M`` apart.
+    ``down``: the fingers not lifted before it; ``finger_at(fret)``: ``finger_x_m`` of the
+    string's ``fret``."""
     held = [f for f in down if f.on <= on < f.rel]
     fret = held[-1].fret if held else DAMP_OPEN_FRET
-    x = finger_x_m(preset, fret, spec)
+    x = finger_at(fret)
     for f in held:
         f.rel = on
-    t = events[j].time
-    off = NEVER
-    for k in range(j + 1, len(events)):  # the first later event (they come in time order)
-        if events[k].time > t:
-            off = step(events[k].time)
-            break
     for k in range(DAMP_FINGERS):
         xk = min(x + k * DAMP_SPACING_M, 0.9 * length)
         tl.slots.append(Slot(on, off, 0, xk, 0.0, 0.0, DAMP_DAMPING * impedance, 0.0, 0.0,

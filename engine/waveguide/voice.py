@@ -159,34 +159,56 @@ class WaveguideVoice:
         self.js_off[:] = [s.off for s in slots]
         self.js_len[:] = [s.length for s in slots]
         # every contact lets go over its pulse's length, at least RELEASE_S
-        self.js_rel[:] = [max(s.length, int(round(RELEASE_S * self.rate)), 1) for s in slots]
+        self.js_rel[:] = np.maximum(self.js_len, max(int(round(RELEASE_S * self.rate)), 1))
         self.points = np.zeros((ns, MAX_POINTS), K.POINT)
         self.jst = np.zeros((ns, MAX_POINTS, J_STATE))
-        X = self.x_step
-        z = self.z
-        rate = self.rate
-        rho_max = max_damping(rate)
-        # the fields' views taken once (a song's string has hundreds of junctions)
-        js_np = self.slots["npts"]
+        # the points of each place a junction takes (``_points``), found once a place: a song's
+        # string has thousands of junctions at a few (plucks at one position, damps behind a few
+        # frets).  ``place[j]``: junction j's row of the places' tables (``places``' order)
+        places: dict[tuple, int] = {}
+        place = np.array([places.setdefault((s.window, s.width_m, s.x_m, s.force != 0.0),
+                                            len(places)) for s in slots], np.int64)
+        count = np.zeros(len(places), np.int64)
+        index = np.zeros((len(places), MAX_POINTS), np.int64)
+        weight = np.zeros((len(places), MAX_POINTS))
+        for r, (kind, width_m, x_m, blow) in enumerate(places):
+            pts = self._points(kind, width_m, x_m, blow)
+            count[r] = len(pts)
+            for k, (i, w) in enumerate(pts):
+                index[r, k], weight[r, k] = i, w
+        self.slots["npts"] = count[place]
+        # every junction's points at once (junction j, point k < npts): m', rho, k' of
+        # ``pluck._msd``, each from its junction's contact
+        j, k = np.nonzero(np.arange(MAX_POINTS) < self.slots["npts"][:, None])
+        w = weight[place[j], k]
+        force = np.array([s.force for s in slots], float)[j]
+        mass = np.array([s.mass for s in slots], float)[j]
+        damping = np.array([s.damping for s in slots], float)[j]
+        stiffness = np.array([s.stiffness for s in slots], float)[j]
+        z, rate = self.z, self.rate
         pt = self.points
-        js_idx, js_f, js_mp, js_rho, js_kappa = (pt[f] for f in K.POINT.names)
-        for j, s in enumerate(slots):
-            if s.window == "split":
-                centre = self.n_of(s.x_m)
-                i0 = int(math.floor(centre))
-                pts = [(i0, 1.0 - (centre - i0)), (i0 + 1, centre - i0)]
-                pts = [(i, w) for i, w in pts if w > 0.0]
-            else:
-                pts = window(s.window, s.width_m, s.x_m, X, self.n_of)
-            js_np[j] = len(pts)
-            if s.force != 0.0:  # a blow at i moves the points i - 1 and i: centre it on x
-                pts = [(i + 1, w) for i, w in pts]
-            for k, (i, w) in enumerate(pts):  # m', rho, k' of ``pluck._msd``
-                js_idx[j, k] = i
-                js_f[j, k] = w * s.force
-                js_mp[j, k] = min(w * s.mass * rate / z, MAX_MASS_RATIO)
-                js_rho[j, k] = min(w * s.damping / (2.0 * z), rho_max)
-                js_kappa[j, k] = w * s.stiffness / (4.0 * rate * z)
+        pt["n"][j, k] = index[place[j], k]
+        pt["f"][j, k] = w * force
+        pt["mp"][j, k] = np.minimum(w * mass * rate / z, MAX_MASS_RATIO)
+        pt["rho"][j, k] = np.minimum(w * damping / (2.0 * z), max_damping(rate))
+        pt["kappa"][j, k] = w * stiffness / (4.0 * rate * z)
+
+    def _points(self, kind: str, width_m: float, x_m: float, blow: bool
+                ) -> list[tuple[int, float]]:
+        """(grid index, weight) of the points of a junction of window ``kind`` (``Slot.window``)
+        ``width_m`` wide at ``x_m``: a split contact's two points around x (one if x is on a
+        point), a window's (``pluck.window``).  A ``blow`` (a junction with a force) at i moves
+        the points i - 1 and i: its points are shifted by one to centre it on x."""
+        if kind == "split":
+            centre = self.n_of(x_m)
+            i0 = int(math.floor(centre))
+            pts = [(i0, 1.0 - (centre - i0)), (i0 + 1, centre - i0)]
+            pts = [(i, w) for i, w in pts if w > 0.0]
+        else:
+            pts = window(kind, width_m, x_m, self.x_step, self.n_of)
+        if blow:
+            pts = [(i + 1, w) for i, w in pts]
+        return pts
 
     def _stops_and_pitch(self, tl: Timeline) -> None:
         """The pitch ratio's breakpoints and the changes of the stop."""

@@ -208,26 +208,26 @@ def viterbi(times, ends, pitches, tuning, frets) -> Fingered:
     back: list[dict] = []
     for si, (keep, shapes) in enumerate(slices):
         cur: dict[tuple[int, int | None], tuple[float, tuple | None]] = {}
-        t_on = times[keep[0]] if keep else None
+        if prev:
+            # per shape of the slice before: the strings of its notes still sounding when this
+            # slice starts, which this slice cuts if it takes them (a slice of no notes takes none)
+            pkeep, pshapes = slices[si - 1]
+            t_cut = times[keep[0]] + CUT_GRACE_S if keep else math.inf
+            ringing = [{s for (s, _f), i in zip(p.position, pkeep, strict=False) if ends[i] > t_cut}
+                       for p in pshapes]
         for k, shape in enumerate(shapes):
             h, local = shape.hand, shape.cost
             if not prev:
                 cur[(k, h)] = (local, None)
                 continue
-            pkeep, pshapes = slices[si - 1]
-            for (pk, ph), (pc, _) in prev.items():
-                pshape = pshapes[pk]
-                move = abs(h - ph) if (h is not None and ph is not None) else 0.0
-                cut = 0
-                if t_on is not None:
-                    for (s, _f), i in zip(pshape.position, pkeep, strict=False):
-                        if s in shape.strings and ends[i] > t_on + CUT_GRACE_S:
-                            cut += 1
-                c = pc + MOVE * move + local + CUT * cut
-                hh = h if h is not None else ph
-                key = (k, hh)
+            cuts = [CUT * len(shape.strings & r) for r in ringing]
+            for pkey, (pc, _) in prev.items():
+                pk, ph = pkey
+                move = MOVE * abs(h - ph) if (h is not None and ph is not None) else 0.0
+                c = pc + move + local + cuts[pk]
+                key = (k, h if h is not None else ph)
                 if key not in cur or c < cur[key][0]:
-                    cur[key] = (c, (pk, ph))
+                    cur[key] = (c, pkey)
         back.append(cur)
         prev = cur
     chosen = [0] * len(slices)

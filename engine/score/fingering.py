@@ -213,8 +213,8 @@ def viterbi(times, ends, pitches, tuning, frets) -> Fingered:
             # slice starts, which this slice cuts if it takes them (a slice of no notes takes none)
             pkeep, pshapes = slices[si - 1]
             t_cut = times[keep[0]] + CUT_GRACE_S if keep else math.inf
-            ringing = [{s for (s, _f), i in zip(p.position, pkeep, strict=False) if ends[i] > t_cut}
-                       for p in pshapes]
+            sounding = [j for j, i in enumerate(pkeep) if ends[i] > t_cut]
+            ringing = [{p.position[j][0] for j in sounding} for p in pshapes]
         for k, shape in enumerate(shapes):
             h, local = shape.hand, shape.cost
             if not prev:

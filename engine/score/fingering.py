@@ -40,6 +40,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 CHORD_S = 0.02
 MAX_SPAN = 5
@@ -114,16 +115,30 @@ def _fingers(frets: list[int]) -> int:
     return len(fretted) - max(fretted.count(low) - 1, 0)
 
 
-def _shapes(notes: list[int], pitch, tuning, frets) -> list[tuple]:
-    """Shapes ((string, fret) per note, in ``notes`` order) that a hand can hold."""
+class _Shape(NamedTuple):
+    """A shape with what the search asks of it, worked out once."""
+
+    position: tuple  # (string, fret) per note, in the chord's order
+    hand: int | None  # the lowest fretted fret; None for an all-open shape
+    cost: float  # the terms of the cost that depend on this shape alone (``_static``)
+    strings: frozenset[int]  # the strings it takes
+
+
+def _shape(position: tuple) -> _Shape:
+    return _Shape(position, _hand(position), _static(position), frozenset(s for s, _ in position))
+
+
+def _shapes(chord: list[int], tuning, frets) -> list[_Shape]:
+    """Shapes (``_Shape.position`` in ``chord`` order) that a hand can hold for the pitches
+    ``chord``, at most ``MAX_SHAPES``, the lowest ``_static`` cost first."""
     out: list[tuple] = []
-    opts = [[(s + 1, pitch[i] - tuning[s]) for s in range(len(tuning))
-             if 0 <= pitch[i] - tuning[s] <= frets] for i in notes]
+    opts = [[(s + 1, p - tuning[s]) for s in range(len(tuning)) if 0 <= p - tuning[s] <= frets]
+            for p in chord]
 
     def rec(k, used, chosen, lo, hi):
         if len(out) >= 4 * MAX_SHAPES:
             return
-        if k == len(notes):
+        if k == len(chord):
             if _fingers([f for _, f in chosen]) <= MAX_FINGERS:
                 out.append(tuple(chosen))
             return
@@ -136,8 +151,8 @@ def _shapes(notes: list[int], pitch, tuning, frets) -> list[tuple]:
             rec(k + 1, used | {s}, chosen + [(s, f)], nlo, nhi)
 
     rec(0, frozenset(), [], math.inf, -math.inf)
-    out.sort(key=_static)
-    return out[:MAX_SHAPES]
+    shapes = sorted(map(_shape, out), key=lambda sh: sh.cost)
+    return shapes[:MAX_SHAPES]
 
 
 def _hand(shape) -> int | None:
@@ -153,25 +168,24 @@ def _static(shape) -> float:
     return SPAN * max(0, span - 3) + FRETTED * len(fretted) + HEIGHT * min(fretted)
 
 
-def _best_shapes(idx, pitch, tuning, frets, dropped):
-    """Shapes for the most notes of ``idx`` that any shape can hold; the others go to dropped."""
-    by_pitch = sorted(idx, key=lambda i: pitch[i])
-    prefer = by_pitch[1:-1] + by_pitch[-1:] + by_pitch[:1] if len(idx) > 1 else by_pitch
-    for k in range(0, len(idx)):
+def _best_shapes(chord: tuple[int, ...], tuning, frets) -> tuple[list[int], list[_Shape]]:
+    """The shapes for the most notes of the pitches ``chord`` that any shape can hold: (the
+    indices into ``chord`` of the notes kept, their shapes); the other notes are left out."""
+    notes = range(len(chord))
+    by_pitch = sorted(notes, key=lambda i: chord[i])
+    prefer = by_pitch[1:-1] + by_pitch[-1:] + by_pitch[:1] if len(chord) > 1 else by_pitch
+    for k in range(0, len(chord)):
         found = []
         for gone in itertools.combinations(prefer, k):
-            keep = [i for i in idx if i not in gone]
-            sh = _shapes(keep, pitch, tuning, frets)
+            keep = [i for i in notes if i not in gone]
+            sh = _shapes([chord[i] for i in keep], tuning, frets)
             if sh:
                 found.append((keep, sh))
             if k and len(found) >= 3:
                 break
         if found:
-            keep, sh = min(found, key=lambda ks: _static(ks[1][0]))
-            dropped.update(i for i in idx if i not in keep)
-            return keep, sh
-    dropped.update(idx)
-    return [], [()]
+            return min(found, key=lambda ks: ks[1][0].cost)
+    return [], [_shape(())]
 
 
 def viterbi(times, ends, pitches, tuning, frets) -> Fingered:
@@ -180,37 +194,40 @@ def viterbi(times, ends, pitches, tuning, frets) -> Fingered:
     pitch, moved = _prepare(pitches, tuning, frets)
     dropped: set[int] = set()
     slices = []
+    shapes_of: dict[tuple[int, ...], tuple] = {}  # pitches -> _best_shapes (songs repeat chords)
     for idx in _slices(times):
         keep = _thin(idx, pitch, len(tuning), dropped)
-        keep, shapes = _best_shapes(keep, pitch, tuning, frets, dropped)
-        slices.append((keep, shapes))
+        chord = tuple(pitch[i] for i in keep)
+        if chord not in shapes_of:
+            shapes_of[chord] = _best_shapes(chord, tuning, frets)
+        kept, shapes = shapes_of[chord]
+        dropped.update(i for j, i in enumerate(keep) if j not in kept)
+        slices.append(([keep[j] for j in kept], shapes))
     # DP over (shape index, hand position)
     prev: dict[tuple[int, int | None], tuple[float, tuple | None]] = {}
     back: list[dict] = []
     for si, (keep, shapes) in enumerate(slices):
         cur: dict[tuple[int, int | None], tuple[float, tuple | None]] = {}
-        t_on = times[keep[0]] if keep else None
+        if prev:
+            # per shape of the slice before: the strings of its notes still sounding when this
+            # slice starts, which this slice cuts if it takes them (a slice of no notes takes none)
+            pkeep, pshapes = slices[si - 1]
+            t_cut = times[keep[0]] + CUT_GRACE_S if keep else math.inf
+            sounding = [j for j, i in enumerate(pkeep) if ends[i] > t_cut]
+            ringing = [{p.position[j][0] for j in sounding} for p in pshapes]
         for k, shape in enumerate(shapes):
-            h = _hand(shape)
-            local = _static(shape)
-            strings = {s for s, _ in shape}
+            h, local = shape.hand, shape.cost
             if not prev:
                 cur[(k, h)] = (local, None)
                 continue
-            pkeep, pshapes = slices[si - 1]
-            for (pk, ph), (pc, _) in prev.items():
-                pshape = pshapes[pk]
-                move = abs(h - ph) if (h is not None and ph is not None) else 0.0
-                cut = 0
-                if t_on is not None:
-                    for (s, _f), i in zip(pshape, pkeep, strict=False):
-                        if s in strings and ends[i] > t_on + CUT_GRACE_S:
-                            cut += 1
-                c = pc + MOVE * move + local + CUT * cut
-                hh = h if h is not None else ph
-                key = (k, hh)
+            cuts = [CUT * len(shape.strings & r) for r in ringing]
+            for pkey, (pc, _) in prev.items():
+                pk, ph = pkey
+                move = MOVE * abs(h - ph) if (h is not None and ph is not None) else 0.0
+                c = pc + move + local + cuts[pk]
+                key = (k, h if h is not None else ph)
                 if key not in cur or c < cur[key][0]:
-                    cur[key] = (c, (pk, ph))
+                    cur[key] = (c, pkey)
         back.append(cur)
         prev = cur
     chosen = [0] * len(slices)
@@ -224,7 +241,7 @@ def viterbi(times, ends, pitches, tuning, frets) -> Fingered:
             key = bp
     position: list = [None] * len(pitches)
     for si, (keep, shapes) in enumerate(slices):
-        for i, pos in zip(keep, shapes[chosen[si]], strict=False):
+        for i, pos in zip(keep, shapes[chosen[si]].position, strict=False):
             position[i] = pos
     return _finish(times, ends, pitch, position, moved, dropped)
 

@@ -473,9 +473,8 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tupl
     if stems is not None and sc.output.normalize:
         # one gain for the mix and its stems, which puts the loudest at -1 dBFS (as engine.render
         # with stems): the stems are scaled into place with it
-        velocity = audio / engine.FIXED_GAIN
-        peak = max(float(np.max(np.abs(velocity))) if velocity.size else 0.0,
-                   stems.peak / engine.FIXED_GAIN)
+        velocity = np.divide(audio, engine.FIXED_GAIN, out=audio)  # held once (below)
+        peak = max(engine.largest_magnitude(velocity), stems.peak / engine.FIXED_GAIN)
         gain = engine.output_gain(peak, True)
         stems.close(gain / engine.FIXED_GAIN)
         audio = np.multiply(velocity, gain, out=velocity)
@@ -483,11 +482,15 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tupl
         stems.close()  # written at the fixed gain as they came
     seconds = time.perf_counter() - t0
     if sc.output.normalize and stems is None:  # blocks come at the fixed gain; as engine.render
-        audio = engine.to_output_scale(audio / engine.FIXED_GAIN, True)
+        # in place: a song's audio is held once (a copy of a long song's is a hundred megabytes,
+        # and the system's time to map it in was a tenth of the render's)
+        velocity = np.divide(audio, engine.FIXED_GAIN, out=audio)
+        audio = engine.to_output_scale(velocity, True, in_place=True)
     return audio, seconds
 
 
 def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> None:
+    """Write ``audio`` (samples, full scale 1) to ``path``, clipped to full scale in place."""
     import numpy as np
     import soundfile as sf
 
@@ -495,7 +498,8 @@ def write_audio(path: str, audio: Any, rate: int, fmt: str, subtype: str) -> Non
         subtype = "PCM_16" if subtype == "PCM_16" else "PCM_24"
     elif fmt == "ogg":
         subtype = "VORBIS"
-    sf.write(path, np.clip(audio, -1.0, 1.0), rate, format=fmt.upper(), subtype=subtype)
+    sf.write(path, np.clip(audio, -1.0, 1.0, out=audio), rate, format=fmt.upper(),
+             subtype=subtype)
 
 
 def write_labels(path: str, sc: Any, title: str = "", metadata: dict | None = None) -> None:

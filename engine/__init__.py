@@ -63,6 +63,7 @@ from .scene import MODELS, ModelName, QualityName, Scene, frame_count, parse_sce
 _LAZY = {
     "FIXED_GAIN": "output",
     "to_output_scale": "output",
+    "largest_magnitude": "output",
     "output_gain": "output",
     "Stem": "scene",
     "stems_index": "scene",

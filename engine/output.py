@@ -192,12 +192,18 @@ def output_gain(peak: float, normalize: bool) -> float:
     return 10.0 ** (PEAK_DBFS / 20.0) / peak if peak > 0.0 else 1.0
 
 
+def largest_magnitude(x: np.ndarray) -> float:
+    """max |x| (0 for no samples), without an array of magnitudes: a long render's would be as
+    large as its audio."""
+    return float(max(x.max(), -x.min())) if x.size else 0.0
+
+
 def to_output_scale(velocity: np.ndarray, normalize: bool, in_place: bool = False) -> np.ndarray:
     """Pickup velocity (m/s) -> samples: peak at ``PEAK_DBFS``, or the fixed gain ``FIXED_GAIN``
     (``output_gain``).  ``in_place``: scale ``velocity`` itself (a long render holds one copy of
     its output)."""
     out = velocity if in_place else None
-    peak = float(np.max(np.abs(velocity))) if normalize and velocity.size else 0.0
+    peak = largest_magnitude(velocity) if normalize else 0.0
     if normalize and peak == 0.0:
         return velocity if in_place else velocity.copy()
     return np.multiply(velocity, output_gain(peak, normalize), out=out)

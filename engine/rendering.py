@@ -22,7 +22,7 @@ import numpy as np
 
 from .mix import Mix, prepare
 from .options import RenderOptions
-from .output import FIXED_GAIN, convolve_ir, output_gain
+from .output import FIXED_GAIN, convolve_ir, largest_magnitude, output_gain
 from .scene import Scene, Stem, parse_scene
 
 log = logging.getLogger("engine")
@@ -99,7 +99,7 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
         at = mix.frame - len(blk)
         vel[at:mix.frame] = blk
         if string_blk is not None and string_blk.size:
-            stems_peak = max(stems_peak, float(np.max(np.abs(string_blk))))
+            stems_peak = max(stems_peak, largest_magnitude(string_blk))
         if on_stems is not None:
             on_stems(string_blk)
         elif strings is not None:
@@ -112,7 +112,7 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     # one gain for the mix and its stems: the loudest of them sets it (``to_output_scale``'s
     # arithmetic; times 1.0 for silence leaves the samples as they are)
     normalize = sc.output.normalize
-    peak = max(float(np.max(np.abs(vel))), stems_peak) if normalize and vel.size else 0.0
+    peak = max(largest_magnitude(vel), stems_peak) if normalize and vel.size else 0.0
     gain = output_gain(peak, normalize)
     audio = np.multiply(vel, gain, out=vel)
     if strings is not None:

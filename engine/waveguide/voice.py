@@ -21,7 +21,6 @@ done at once, the corner at the crown would leave at any speed, far faster than 
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -156,6 +155,7 @@ class WaveguideVoice:
         ns = len(slots)
         self.slots = np.zeros(ns, K.SLOT)
         self.js_on[:] = [s.on for s in slots]
+        self.onsets = np.sort(self.js_on)  # in time order: where a sleeping string wakes
         self.js_off[:] = [s.off for s in slots]
         self.js_len[:] = [s.length for s in slots]
         # every contact lets go over its pulse's length, at least RELEASE_S
@@ -422,22 +422,24 @@ class WaveguideVoice:
             if held != self.stop_held:  # a finger comes to rest on the fret or slides off it:
                 self._configure(fret, held)  # only the termination's reflection changes
             return
-        mask = len(self.R) - 1
+        st = self.carry[0]  # (``st``, ``R``, ``Mb``: each a view made when it is read)
         s = self.step
-        nt_old = int(self.st["n_t"])
+        nt_old = int(st["n_t"])
         self._configure(fret, held)
         nt = self._place(self.loop(fret, held))
         release = self._fret_x(fret) < self._fret_x(old)
         if release and nt < nt_old:
+            R, Mb = self.rails
+            mask = len(R) - 1
             lo = max(nt - 8, nt - self.n)
             back = np.arange(lo, nt_old)  # the part cut off comes back at rest
-            self.R[(s - back) & mask] = 0.0
-            self.Mb[(s + back) & mask] = 0.0
-        self.st["n_t"] = nt
+            R[(s - back) & mask] = 0.0
+            Mb[(s + back) & mask] = 0.0
+        st["n_t"] = nt
         if release:  # the filters' memory belongs to the loop that was cut
-            self.st["loss"] = 0.0
-            self.st["ap_x"] = 0.0
-            self.st["ap_y"] = 0.0
+            st["loss"] = 0.0
+            st["ap_x"] = 0.0
+            st["ap_y"] = 0.0
         if release or strike > 0.0:
             # the string moves from the old rest line to the new one at the finger's speed: the
             # displacement from the rest line changes by rest_old - rest_new over that time, in
@@ -464,20 +466,25 @@ class WaveguideVoice:
             self.ramps["n"][:len(idx)] = idx
             self.ramps["d"][:len(idx)] = delta / steps
             self.pk["jump"] = jumps / steps
-            self.st["ramp_n"] = len(idx)
-            self.st["ramp_left"] = steps
+            st["ramp_n"] = len(idx)
+            st["ramp_left"] = steps
 
     # -- running ---------------------------------------------------------------------------------
     def _next_event(self) -> int:
         """The first step from now at which something acts on the string: a junction starts, the
         stop changes, a pitch breakpoint (NEVER if none): where a sleeping string wakes."""
         s = self.step
-        later = [int(a[a >= s].min()) for a in (self.js_on, self.pb_step) if np.any(a >= s)]
-        for c in itertools.islice(self.changes, self.change_i, None):  # the first from now
-            if c[0] >= s:
-                later.append(c[0])
-                break
-        return int(min(later, default=NEVER))
+        later = NEVER
+        for steps in (self.onsets, self.pb_step):  # both in time order
+            i = int(np.searchsorted(steps, s))  # the first at or after s
+            if i < len(steps):
+                later = min(later, int(steps[i]))
+        changes, i = self.changes, self.change_i
+        while i < len(changes) and changes[i][0] < s:
+            i += 1
+        if i < len(changes):
+            later = min(later, changes[i][0])
+        return later
 
     def _sleep(self) -> None:
         """The kernel found the string still with nothing to act on it for ``kernel.LOOKAHEAD``

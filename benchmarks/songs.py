@@ -12,7 +12,9 @@ corpus (``make test-data``: PyGuitarPro's Guitar Pro files, music21's and midito
 files, in .cache/score-corpus).  Each renderer runs as a user runs it, one process per render,
 pinned to one core, and is charged the CPU time of that whole process (user + system, from
 ``wait4``; children included): CPU time moves far less than wall time when other processes share
-the machine.
+the machine.  With ``--repeat N`` a song is rendered in rounds, each renderer once a round, and
+each renderer's least CPU time counts: on a host whose speed drifts over minutes the renderers
+compared share its slow and its fast stretches.
 
 * ``fdtd``: ``python -m cli.main render SONG -o out.wav --model fdtd --quality standard
   --all-instruments`` (every pitched track played, the orchestral MIDI files' too, as FluidSynth
@@ -157,16 +159,22 @@ def song(name: str, max_seconds: float | None, soundfont: str | None, core: int 
     scene = score.score_to_scene(path, **opts)
     presets = [t["guitar"]["preset"] for t in scene["tracks"]]
     notes = label_notes(score.scene_labels(scene))
-    cpu = {}
     env = engine_env()
-    for model in models:
-        cpu[model] = best([cli_render(path, tmp / "song.wav", model, env, core, max_seconds)
-                           for _ in range(repeat)]).cpu
+    midi = tmp / "song.mid"
     if soundfont is not None:
-        midi = tmp / "song.mid"
         write_midi(notes, presets, midi)
-        cpu["fluidsynth"] = best([fluidsynth(midi, tmp / "song_fs.wav", soundfont, core)
-                                  for _ in range(max(repeat, 3))]).cpu
+    # in rounds, each renderer once a round: a machine whose speed drifts over minutes (a shared
+    # host) slows every renderer alike, not the one that happened to run then
+    runs: dict[str, list[Run]] = {}
+    for i in range(max(repeat, 3) if soundfont is not None else repeat):
+        if i < repeat:
+            for model in models:
+                runs.setdefault(model, []).append(
+                    cli_render(path, tmp / "song.wav", model, env, core, max_seconds))
+        if soundfont is not None:
+            runs.setdefault("fluidsynth", []).append(
+                fluidsynth(midi, tmp / "song_fs.wav", soundfont, core))
+    cpu = {name: best(r).cpu for name, r in runs.items()}
     kinds = sorted(set(presets), key=presets.index)
     return Song(path.name, len(presets), ", ".join(kinds), len(notes), float(scene["duration"]),
                 cpu)
@@ -249,8 +257,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--songs", nargs="+", metavar="SCORE",
                     help=f"scores (a path, or a name in the corpus; default {', '.join(SONGS)})")
     ap.add_argument("--max-seconds", type=float, metavar="S", help="play only the first S s")
-    ap.add_argument("--repeat", type=int, default=1, help="renders per song and model (the "
-                    "least CPU time counts; FluidSynth always at least 3)")
+    ap.add_argument("--repeat", type=int, default=1, help="renders per song and model, in "
+                    "rounds with FluidSynth's (the least CPU time counts; FluidSynth always at "
+                    "least 3)")
     ap.add_argument("--no-cold", action="store_true", help="leave the cold start out")
     ap.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS),
                     help="the string models to run (default: both)")

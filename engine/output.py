@@ -69,8 +69,10 @@ class Body:
     """A modal body filter with state kept across blocks (one per output channel)."""
 
     def __init__(self, name: str, rate: float, channels: int):
-        self.name, self.rate = name, rate  # what the filter is: two bodies with both equal are
-        modes = BODIES[name]               # the same linear filter (``engine.mix`` shares them)
+        # what the filter is: two bodies of one name at one rate are the same linear filter
+        # (``engine.mix`` shares one between tracks)
+        self.name, self.rate = name, rate
+        modes = BODIES[name]
         self.coef = np.zeros((len(modes), 3))  # a1, a2, gain
         for i, (f, q, g) in enumerate(modes):
             r = math.exp(-math.pi * f / (q * rate))

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import hashlib
+import sys
 import time
 
 import numpy as np
@@ -154,8 +155,13 @@ def main() -> None:
                     help="WaveguideOptions.damped_velocity, m/s (default: the option's, "
                          f"{WaveguideOptions.damped_velocity:g}; 0: no damped rest)")
     args = ap.parse_args()
+    from cli.common import BadInput
+
     for f in args.files:
-        print(profile(f, args.max_seconds, args.damped_velocity), flush=True)
+        try:
+            print(profile(f, args.max_seconds, args.damped_velocity), flush=True)
+        except BadInput as e:  # a missing or unreadable file: the CLI's one line, not a traceback
+            sys.exit(f"wg_song_profile: {e}")
 
 
 if __name__ == "__main__":

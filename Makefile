@@ -32,8 +32,8 @@ $(VENV)/.installed: pyproject.toml | venv-support
 # sources, so an update that changes them (a pull, a checkout) warms them again here instead of in
 # the first render after it; when nothing changed this stamp is newer and nothing runs.  And the
 # bytecode of our own modules: pip compiles an installed package's, not an editable one's, and
-# where PYTHONDONTWRITEBYTECODE is set every process would compile them again (a tenth of a second
-# of each CLI render and each worker's start).
+# where PYTHONDONTWRITEBYTECODE is set every process would compile them again (each CLI render
+# and each worker's start).
 PRODUCT_SOURCES := $(shell find engine cli service -name '*.py' -not -path '*/__pycache__/*')
 $(VENV)/.warm: $(VENV)/.installed $(PRODUCT_SOURCES)
 	$(BIN)/python -m compileall -q engine cli service

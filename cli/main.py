@@ -483,7 +483,7 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tupl
     seconds = time.perf_counter() - t0
     if sc.output.normalize and stems is None:  # blocks come at the fixed gain; as engine.render
         # in place: a song's audio is held once (a copy of a long song's is a hundred megabytes,
-        # and the system's time to map it in was a tenth of the render's)
+        # which the system maps in page by page)
         velocity = np.divide(audio, engine.FIXED_GAIN, out=audio)
         audio = engine.to_output_scale(velocity, True, in_place=True)
     return audio, seconds

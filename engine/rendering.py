@@ -98,7 +98,7 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
         blk, string_blk = item if with_stems else (item, None)
         at = mix.frame - len(blk)
         vel[at:mix.frame] = blk
-        if string_blk is not None and string_blk.size:
+        if string_blk is not None:
             stems_peak = max(stems_peak, largest_magnitude(string_blk))
         if on_stems is not None:
             on_stems(string_blk)
@@ -112,7 +112,7 @@ def render_result(scene: Scene | dict, options: RenderOptions | None = None,
     # one gain for the mix and its stems: the loudest of them sets it (``to_output_scale``'s
     # arithmetic; times 1.0 for silence leaves the samples as they are)
     normalize = sc.output.normalize
-    peak = max(largest_magnitude(vel), stems_peak) if normalize and vel.size else 0.0
+    peak = max(largest_magnitude(vel), stems_peak) if normalize else 0.0
     gain = output_gain(peak, normalize)
     audio = np.multiply(vel, gain, out=vel)
     if strings is not None:

@@ -105,6 +105,11 @@ def difference(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     return d, (20.0 * np.log10(d / peak) if d > 0.0 and peak > 0.0 else -np.inf)
 
 
+def db_full_scale(d: float) -> float:
+    """A difference of the output (m/s) in dB of full scale after the fixed gain."""
+    return 20.0 * np.log10(d * FIXED_GAIN) if d > 0.0 else -np.inf
+
+
 def windows(a: np.ndarray, b: np.ndarray, rate: float) -> tuple[float, float, float]:
     """How a differs from b window by window (``WINDOW`` s, Hann, hop half a window): the share
     of windows whose largest |a - b| exceeds ``TOLERANCE``, and the median and the largest
@@ -140,13 +145,13 @@ def rows(scenes: dict) -> list[str]:
         d1, _ = difference(a, b)
         c, _ = render(scene, skip_decayed=False)
         d2, db2 = difference(a, c)
-        fs_db = 20.0 * np.log10(d2 * FIXED_GAIN) if d2 > 0.0 else -np.inf
+        fs_db = db_full_scale(d2)
         e, wide = render(scene, damper_bound=False)
         d3, _ = difference(a, e)
         tested = f"{steps['tested']:.3g} / {wide['tested']:.3g}"
         g, creep = render(scene, damped_velocity=0.0)
         d4, _ = difference(a, g)
-        db4 = 20.0 * np.log10(d4 * FIXED_GAIN) if d4 > 0.0 else -np.inf
+        db4 = db_full_scale(d4)
         moved, typical, spectral = windows(a, g, scene.sample_rate)
         out.append(f"{name[:34]:34s} | {share} | {'exact' if d1 == 0.0 else f'{d1:.2e}':>11s} | "
                    f"{'exact' if d3 == 0.0 else f'{d3:.2e}':>9s} {tested:>19s} | "
@@ -172,7 +177,7 @@ def sensitivity_rows(scenes: dict) -> list[str]:
                         e.force *= 1.0 + rel
             b, _ = render(changed)
             d, _ = difference(b, a)
-            db = 20.0 * np.log10(d * FIXED_GAIN) if d > 0.0 else -np.inf
+            db = db_full_scale(d)
             moved, typical, worst = windows(b, a, scene.sample_rate)
             out.append(f"{name[:34]:34s} | forces x (1 + {rel:g}) | {db:7.1f} dB FS "
                        f"{moved:6.1%} {typical:7.1f} / {worst:6.1f} dB")

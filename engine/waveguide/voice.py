@@ -54,6 +54,8 @@ assert MAX_SECTIONS == K.MAX_SECTIONS
 RELEASE_S = 0.002  # a contact (palm, harmonic touch, light finger) lets go over 2 ms
 LIFT_SPEED_M_S = 1.0  # a lifting finger lets the string up at this speed
 RAMP_MAX_S = 0.005  # the longest a move onto a new rest line takes
+# the options a built string's ``_configure`` reads into the kernel's ``CONFIG`` (``set_switches``)
+SWITCHES = ("skip_decayed", "decay_velocity", "steady_runs", "damper_bound", "damped_velocity")
 
 
 def _part(name: str, key: int | str) -> property:
@@ -348,13 +350,15 @@ class WaveguideVoice:
             self.col_live[:] = 0
 
     def set_switches(self, **switches) -> None:
-        """Set the skips' and the damped rest's switches (``skip_decayed``, ``steady_runs``,
-        ``damper_bound``, ``damped_velocity``, ...: the fields of the same names) before the
-        string has run, as ``WaveguideOptions`` would have (the tools that measure them render
-        one prepared scene with each setting)."""
+        """Set the skips' and the damped rest's switches (``SWITCHES``: the fields of the same
+        names, which the kernel's ``CONFIG`` record carries) before the string has run, as
+        ``WaveguideOptions`` would have (the tools that measure them render one prepared scene
+        with each setting).  The other options shape the string as it is built, so they are not
+        switches here."""
         for name, value in switches.items():
-            if not hasattr(self, name):
-                raise AttributeError(f"WaveguideVoice has no switch {name!r}")
+            if name not in SWITCHES:
+                raise AttributeError(f"{name!r} is not a switch of a built string; the switches: "
+                                     f"{', '.join(SWITCHES)}")
             setattr(self, name, value)
         self._configure(self.stop_fret, self.stop_held)
 

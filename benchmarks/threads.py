@@ -11,11 +11,12 @@ Three figures per model:
   which cores that share a physical core or a busy host lower;
 
 * measured: the CLI run as a user runs it (``python -m cli.main render SONG -o x.wav --model M
-  --jobs J``, warm caches), one process per render, ``--jobs 1`` and ``--jobs N`` interleaved for
-  ``--rounds`` rounds; wall and CPU time of each process (``wait4``), the least wall time of each
-  counted.  Both outputs are checked to be the same samples, bit for bit.  The speed-up is the
-  one-thread wall time over the N-thread one; other processes on the machine take cores from
-  the threads, so the load average is printed with it.
+  --all-instruments --jobs J``, the scene ``benchmarks.songs`` renders, warm caches), one process
+  per render, ``--jobs 1`` and ``--jobs N`` interleaved for ``--rounds`` rounds; wall and CPU
+  time of each process (``wait4``), the least wall time of each counted.  Both outputs are
+  checked to be the same samples, bit for bit.  The speed-up is the one-thread wall time over the
+  N-thread one; other processes on the machine take cores from the threads, so the load average
+  is printed with it.
 * schedule: what N idle cores would give, from the CPU time each string took in each block of a
   one-thread render (``time.thread_time``, which other processes do not inflate): the work
   outside the strings plus, per block, the longest thread's share when the strings are dealt to N
@@ -58,7 +59,7 @@ def load() -> str:
 def _argv(song: Path, out: Path, model: str, jobs: int, max_seconds: float) -> list[str]:
     return [sys.executable, "-m", "cli.main", "render", str(song), "-o", str(out), "-q",
             "--subtype", "FLOAT", "--model", model, "--max-seconds", f"{max_seconds:g}",
-            "--jobs", str(jobs)]
+            "--all-instruments", "--jobs", str(jobs)]
 
 
 def _start(argv: list[str], core: int | None = None) -> tuple[subprocess.Popen, float]:
@@ -66,14 +67,17 @@ def _start(argv: list[str], core: int | None = None) -> tuple[subprocess.Popen, 
     pre = (lambda: os.sched_setaffinity(0, {core})) if core is not None else None
     t0 = time.perf_counter()
     return subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, preexec_fn=pre), t0
+                            stderr=subprocess.PIPE, preexec_fn=pre), t0
 
 
 def _wait(proc: subprocess.Popen, t0: float) -> tuple[float, float]:
+    err = proc.stderr.read().decode(errors="replace").strip()  # (a render writes little there)
+    proc.stderr.close()
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
     if os.waitstatus_to_exitcode(status) != 0:
-        sys.exit(f"{' '.join(map(str, proc.args))} failed")
+        last = err.splitlines()[-1] if err else "no message"
+        sys.exit(f"{' '.join(map(str, proc.args))} failed: {last}")
     return wall, usage.ru_utime + usage.ru_stime
 
 
@@ -121,7 +125,7 @@ def schedule(song: Path, model: str, jobs: int, max_seconds: float, block_frames
     from engine.mix import prepare
 
     args = build_parser().parse_args(["render", str(song), "-o", "x.wav", "--model", model,
-                                      "--max-seconds", f"{max_seconds:g}"])
+                                      "--max-seconds", f"{max_seconds:g}", "--all-instruments"])
     sc = validate(load_input(args)[0], str(song))
     engine.prepare_kernels({model})
     mix = prepare(sc)

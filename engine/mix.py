@@ -25,9 +25,12 @@ each block is computed from the voices' states and the effects' states and hande
 
 Threads (``jobs``): the strings of every track are independent until their instrument sums them, and
 the kernels release the GIL, so with ``jobs`` > 1 each block's voices (of all tracks at once) are
-computed on a pool of that many threads, most costly first (by their cost in the block before), and
-then summed, bodies, effects and faders applied on the calling thread in the same order as with one:
-the samples are the same, bit for bit, whatever ``jobs`` is.
+computed by that many threads (the calling one and ``jobs`` - 1 of a pool), each taking the next
+voice from one list, most costly first (by their cost in the block before), and then summed,
+bodies, effects and faders applied on the calling thread in the same order as with one: the
+samples are the same, bit for bit, whatever ``jobs`` is.  A block hands the pool ``jobs`` - 1
+tasks, not one per voice: a song's voice is a fraction of a millisecond of a block, most of it
+asleep, and a task per voice cost the threads more CPU than it gave them work.
 
 Stems (``Mix.stems``, ``blocks(stems=True)``): each string of each track on its own, its pickup
 velocity before pan, body and effects, times its track's ``gain_db``; their sum is the **dry mix**,
@@ -37,8 +40,9 @@ track by track, within a track from the lowest string to the highest (``Stem``).
 
 from __future__ import annotations
 
+import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from contextlib import nullcontext
 from dataclasses import dataclass, field
 
@@ -100,8 +104,9 @@ class Mix:
         bf = block_frames or self.tracks[0].instrument.options.block_frames
         width = len(self.stems()) if stems else 0
         threads = min(self.jobs, len(self.voices))
-        executor = (ThreadPoolExecutor(threads, thread_name_prefix="guitar-render") if threads >= 2
-                else nullcontext())
+        # the calling thread is one of the ``threads``
+        executor = (ThreadPoolExecutor(threads - 1, thread_name_prefix="guitar-render")
+                    if threads >= 2 else nullcontext())
         with executor as pool:
             while self.frame < self.frames:
                 m = min(bf, self.frames - self.frame)
@@ -113,8 +118,9 @@ class Mix:
 
     def render_frames(self, m: int, pool: ThreadPoolExecutor | None = None,
                       stems: np.ndarray | None = None) -> np.ndarray:
-        """The next ``m`` frames of the mix; with a ``pool``, every voice's frames computed on its
-        threads first; ``stems``, (m, len(self.stems())) zeros: filled with the stems."""
+        """The next ``m`` frames of the mix; with a ``pool`` (``blocks``'), every voice's frames
+        computed on its threads and this one first; ``stems``, (m, len(self.stems())) zeros:
+        filled with the stems."""
         per_track = self._voice_frames(m, pool) if pool is not None else [None] * len(self.tracks)
         mix = None
         shared: list = [None] * len(self.bodies)
@@ -135,18 +141,33 @@ class Mix:
         return mix
 
     def _voice_frames(self, m: int, pool: ThreadPoolExecutor) -> list[list[np.ndarray]]:
-        """Every voice's next ``m`` frames, per track, computed on ``pool``: submitted most costly
-        first (longest processing time first, by the block before), so that no thread is left
-        with a long string at the end of the block while the others wait."""
+        """Every voice's next ``m`` frames, per track, computed by this thread and ``pool``'s:
+        each takes the next voice of one list, most costly first (longest processing time
+        first, by the block before), so that no thread is left with a long string at the end of
+        the block while the others wait."""
         work = [(t.instrument, v) for t in self.tracks for v in t.instrument.voices]
         if len(self._cost) != len(work):
             self._cost = [0.0] * len(work)
-        order = sorted(range(len(work)), key=self._cost.__getitem__, reverse=True)
-        futures = {i: pool.submit(_timed, *work[i], m) for i in order}
-        out: list[np.ndarray] = []
-        for i in range(len(work)):
-            y, self._cost[i] = futures[i].result()
-            out.append(y)
+        order = iter(sorted(range(len(work)), key=self._cost.__getitem__, reverse=True))
+        lock = threading.Lock()
+        out: list = [None] * len(work)
+
+        def drain() -> None:
+            while True:
+                with lock:
+                    i = next(order, None)
+                if i is None:
+                    return
+                out[i], self._cost[i] = _timed(*work[i], m)
+
+        # ``blocks``' pool: one thread fewer than it deals the voices to
+        helpers = [pool.submit(drain) for _ in range(min(self.jobs, len(work)) - 1)]
+        try:
+            drain()
+        finally:  # every thread done before the block is used or an error raised
+            wait(helpers)
+        for f in helpers:
+            f.result()  # a voice's error on a pool thread
         per_track, k = [], 0
         for t in self.tracks:
             n = len(t.instrument.voices)

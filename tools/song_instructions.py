@@ -5,8 +5,9 @@ measure that does not move with the machine's load.
     python -m tools.song_instructions FILE [FILE ...] --windows    # what holds the general step
 
 Each FILE (a Guitar Pro or MIDI file, or a scene .json) becomes the scene that
-``guitar-synth render FILE --model MODEL [--max-seconds S]`` renders (``cli.main.load_input``), and
-is rendered block by block as the CLI does (``engine.blocks``).  As in ``tools.instructions``
+``guitar-synth render FILE --model MODEL --all-instruments [--max-seconds S]`` renders
+(``tools.song_scene``: ``benchmarks.songs``' command), and is rendered block by block as the CLI
+does (``engine.blocks``).  As in ``tools.instructions``
 (whose pinned CPU, cache and markers this reuses), one child process renders the first half
 second of every scene natively to load the compiled kernels, then, under callgrind, prepares and
 renders each scene with ``os.getppid()`` markers around the render: the counts are the render's
@@ -41,16 +42,12 @@ from tools.instructions import CPU_NAME, callgrind_marked, pinned_env
 CHILD = r"""
 import json, os, sys
 import engine
-from cli.main import build_parser, load_input, validate
 from engine.mix import prepare
 import engine.waveguide.voice as wv
+from tools.song_scene import song_scene
 jobs = json.loads(sys.argv[1])
 def scene_of(path, model, seconds):
-    argv = ["render", path, "-o", "/dev/null", "--model", model]
-    if seconds is not None:
-        argv += ["--max-seconds", str(seconds)]
-    scene, _ = load_input(build_parser().parse_args(argv))
-    return validate(scene, path)
+    return song_scene(path, seconds, model)
 ran = [0]  # string-steps the waveguide kernel ran (a native run only: counting costs)
 if os.environ.get("SONG_COUNT_STEPS") == "1":
     entry = wv.entry_point
@@ -105,15 +102,11 @@ def windows(path: str, seconds: float | None) -> str:
 
     import numpy as np
 
-    from cli.main import build_parser, load_input, validate
     from engine.mix import prepare
     from engine.waveguide.pluck import LEAK_HZ
+    from tools.song_scene import song_scene
 
-    argv = ["render", path, "-o", "/dev/null", "--model", "waveguide"]
-    if seconds is not None:
-        argv += ["--max-seconds", str(seconds)]
-    scene, _ = load_input(build_parser().parse_args(argv))
-    sc = validate(scene, path)
+    sc = song_scene(path, seconds)
     mix = prepare(sc)
     frames = mix.frames
     tot = dict.fromkeys(("any", "pulse", "steady", "leak", "in_force"), 0)

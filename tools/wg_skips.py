@@ -55,6 +55,7 @@ import numpy as np
 
 from engine.output import FIXED_GAIN
 from engine.waveguide import WaveguideOptions
+from tools.song_scene import song_scene
 
 CORPUS = Path(__file__).resolve().parent.parent / ".cache" / "score-corpus"
 SONGS = ("gp/Demo v5.gp5", "gp/001_Funky_Guy.gp5", "gp/Slides.gp5", "gp/Strokes.gp5")
@@ -62,17 +63,6 @@ TOLERANCE_DB_FS = -140.0  # the decay stop's bound, dB of full scale after the f
 TOLERANCE = 10.0 ** (TOLERANCE_DB_FS / 20.0) / FIXED_GAIN  # the same in m/s of the output
 WINDOW = 0.05  # s: the damped rest's windows (``windows``)
 SENSITIVITY = (1e-6, 1e-4, 1e-2)  # ``--sensitivity``: relative changes of every force
-
-
-def song_scene(path: str | Path, seconds: float | None):
-    """The scene ``guitar-synth render FILE --model waveguide [--max-seconds S]`` renders."""
-    from cli.main import build_parser, load_input, validate
-
-    argv = ["render", str(path), "-o", "/dev/null", "--model", "waveguide"]
-    if seconds is not None:
-        argv += ["--max-seconds", str(seconds)]
-    scene, _ = load_input(build_parser().parse_args(argv))
-    return validate(scene, str(path))
 
 
 def render(scene, **switches) -> tuple[np.ndarray, dict[str, int]]:

@@ -39,16 +39,7 @@ import time
 import numpy as np
 
 from engine.waveguide import WaveguideOptions
-
-
-def _scene(path: str, seconds: float | None):
-    from cli.main import build_parser, load_input, validate
-
-    argv = ["render", path, "-o", "/dev/null", "--model", "waveguide", "--all-instruments"]
-    if seconds is not None:
-        argv += ["--max-seconds", str(seconds)]
-    scene, _ = load_input(build_parser().parse_args(argv))
-    return validate(scene, path)
+from tools.song_scene import song_scene
 
 
 def profile(path: str, seconds: float | None, damped_velocity: float | None = None) -> str:
@@ -89,13 +80,13 @@ def profile(path: str, seconds: float | None, damped_velocity: float | None = No
     wv.entry_point = counting
     wv.WaveguideVoice.run = timed_run
     try:
-        for _ in engine.blocks(_scene(path, 0.5)):  # load the kernels: not counted
+        for _ in engine.blocks(song_scene(path, 0.5)):  # load the kernels: not counted
             pass
         calls.clear()
         spent[0] = 0.0
         over[0] = 0.0
         t0 = time.process_time()
-        sc = _scene(path, seconds)
+        sc = song_scene(path, seconds)
         t_load = time.process_time() - t0
         t0 = time.process_time()
         mix = prepare(sc)

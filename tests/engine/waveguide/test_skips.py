@@ -22,7 +22,8 @@ import engine
 from engine import models, waveguide
 from engine.testing.scenes import fret, pluck, scene
 from engine.waveguide import WaveguideOptions
-from tools.wg_skips import CORPUS, TOLERANCE, render, song_scene
+from tools.song_scene import song_scene
+from tools.wg_skips import CORPUS, TOLERANCE, render
 
 
 def _scene(events: list, duration: float, **extra):

@@ -19,6 +19,15 @@ cover every path of ``engine/waveguide/kernel.py``: open and fretted plucks, a s
 plucks that glide, bends, vibrato, slides, hammer-ons, pull-offs, taps, harmonics, palm mutes,
 dead notes, damps, slap and pop against the frets, one, several and cut-off pickups, stereo and
 a body, another rate, and strings that decay to the stop.
+
+    python -m tools.render_digest --first-process [--waveguide]
+
+Compare digests only between processes that load the kernels from numba's cache.  The process
+that compiles them (an empty or outdated cache) renders with code that rounds otherwise than
+the code it writes to the cache and every later process loads, so its digests differ from theirs
+in every scene.  ``--first-process`` shows it: each scene as a user renders it, in a child process
+that compiles the kernels into an empty cache and then in one that loads them from it, and the
+largest difference between the two per scene, against the scene's peak.
 """
 
 from __future__ import annotations
@@ -26,7 +35,11 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
+import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -207,12 +220,47 @@ def run() -> dict[str, dict]:
     return out
 
 
+FIRST_PROCESS = r"""
+import sys
+import numpy as np
+import engine
+from tools.render_digest import SCENES, WAVEGUIDE
+scenes = WAVEGUIDE if sys.argv[2] == "1" else SCENES
+np.savez(sys.argv[1], **{k: np.asarray(engine.render(sc)) for k, sc in scenes.items()})
+"""
+
+
+def first_process(waveguide: bool) -> None:
+    """The ``--first-process`` table (the module's docstring)."""
+    root = Path(__file__).resolve().parent.parent
+    with tempfile.TemporaryDirectory(prefix="guitar-first-") as tmp:
+        env = {**os.environ, "NUMBA_CACHE_DIR": tmp, "PYTHONPATH": str(root)}
+        runs = []
+        for name in ("compiling", "loading"):
+            out = os.path.join(tmp, f"{name}.npz")
+            subprocess.run([sys.executable, "-c", FIRST_PROCESS, out, str(int(waveguide))],
+                           env=env, cwd=root, check=True)
+            runs.append(np.load(out))
+        print("| scene | identical | largest difference / peak |")
+        print("| --- | --- | ---: |")
+        for k in runs[0].files:
+            a, b = runs[0][k], runs[1][k]
+            peak = float(np.max(np.abs(b))) or 1.0
+            print(f"| {k} | {'yes' if np.array_equal(a, b) else 'no'} | "
+                  f"{float(np.max(np.abs(a - b))) / peak:.1e} |")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", metavar="JSON", help="compare with a digest printed earlier")
     ap.add_argument("--waveguide", action="store_true",
                     help="the waveguide's scenes (WAVEGUIDE) instead of the default set")
+    ap.add_argument("--first-process", action="store_true",
+                    help="the compiling process against one that loads the cache (the docstring)")
     args = ap.parse_args()
+    if args.first_process:
+        first_process(args.waveguide)
+        return 0
     before = None
     if args.check:
         with open(args.check) as f:

@@ -5,7 +5,10 @@
 * ``nogil``: kernels release the GIL, so strings can be stepped from threads.
 * ``fastmath``: only re-association and contraction (FMA), which let LLVM vectorise the stencil's
   reductions.  No ``nnan``/``ninf``: the kernels must be able to see a non-finite value and report it.
-  Results stay deterministic for a given machine, so block and one-shot renders are bit-identical.
+  Results stay deterministic for a given machine, so block and one-shot renders are bit-identical,
+  as long as the kernels are loaded from numba's cache: the process that compiles a kernel with
+  fastmath runs code that rounds otherwise than the object code it caches (``tools.render_digest
+  --first-process``), which is why ``engine.precompile`` compiles in a child process.
   The step loops are compiled without them (``JIT_STEP``).  ``GUITAR_NUMBA_FASTMATH=0`` compiles
   every kernel without them.
 

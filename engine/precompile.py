@@ -10,6 +10,13 @@ progress bar starts, and says so when the kernels are not in the cache yet
 folder): processes started together, like the service's workers on a first start, wait for the
 first one and then load what it wrote, instead of each compiling everything.
 
+Kernels are compiled in a child process (``python -m engine.precompile``), and every renderer,
+the first included, loads them from the cache: the process that compiles a kernel runs code that
+rounds otherwise than the object code it writes to the cache where fastmath is on (the
+finite-difference kernels: ``python -m tools.render_digest --first-process``), so a render in that
+process would differ, by rounding, from the same render in every later one.  Where the child
+cannot compile (numba's cache off or not writable), this process compiles.
+
 ``WARMUP_SCENES`` are tiny scenes that between them take every numba kernel path a render can
 take: fingers (fret, tap, hammer-on, pull-off, slide), rigid frets and the fretboard, the
 Kirchhoff-Carrier column, dampers (harmonic, palm mute), tension breakpoints (bend, vibrato),
@@ -21,7 +28,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 from . import config
 from .rendering import render
@@ -108,9 +118,18 @@ def kernels_cached(models) -> bool:
         return False
 
 
+# set in the child that compiles (``_compile_in_child``): it compiles in its own process, under
+# its parent's lock
+CHILD_ENV = "GUITAR_COMPILING_CHILD"
+
+
 @contextlib.contextmanager
 def _compile_lock():
-    """One process compiles at a time: the others wait here, then load what it cached."""
+    """One process compiles at a time: the others wait here, then load what it cached.  (The
+    child that compiles for its parent runs under the parent's lock.)"""
+    if os.environ.get(CHILD_ENV) == "1":
+        yield
+        return
     folder = os.environ.get("NUMBA_CACHE_DIR") or config.CACHE_DIR
     try:
         import fcntl
@@ -128,6 +147,23 @@ def _compile_lock():
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
+def _compile_in_child(argv: list[str]) -> None:
+    """Compile the kernels into numba's cache in a child process, ``python -m engine.precompile
+    ARGV`` (the module's docstring says why); nothing if caching is off or this is that child.
+    A child that fails leaves the compiling to this process."""
+    from numba.core import config as numba_config
+
+    if (not config.JIT["cache"] or numba_config.DISABLE_JIT
+            or os.environ.get(CHILD_ENV) == "1"):
+        return
+    root = str(Path(__file__).resolve().parent.parent)
+    path = os.environ.get("PYTHONPATH")
+    env = {**os.environ, CHILD_ENV: "1",
+           "PYTHONPATH": root if not path else root + os.pathsep + path}
+    subprocess.run([sys.executable, "-m", "engine.precompile", *argv], env=env, cwd=root,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+
+
 def prepare_kernels(models=("fdtd",)) -> float:
     """Load, or compile once per machine, the kernels a render of ``models`` calls, so that the
     render itself spends no time on them.  Returns the seconds it took."""
@@ -138,6 +174,8 @@ def prepare_kernels(models=("fdtd",)) -> float:
             render(KERNEL_SCENES[m])
     else:
         with _compile_lock():
+            if not kernels_cached(models):  # (another process may have compiled them meanwhile)
+                _compile_in_child(["--kernels-only", "--models", *models])
             for m in models:
                 render(KERNEL_SCENES[m])
     return time.perf_counter() - t0
@@ -153,6 +191,8 @@ def warmup() -> float:
             render(scene)
     else:
         with _compile_lock():
+            if not kernels_cached(KERNEL_SCENES):
+                _compile_in_child(["--kernels-only"])
             for scene in WARMUP_SCENES:
                 render(scene)
     return time.perf_counter() - t0
@@ -199,8 +239,11 @@ def main() -> None:
                                  "numba's compiled kernels (NUMBA_CACHE_DIR) and the fret "
                                  "calibrations of every preset (GUITAR_CACHE_DIR).")
     ap.add_argument("--kernels-only", action="store_true", help="no calibrations")
+    ap.add_argument("--models", nargs="+", choices=sorted(KERNEL_SCENES),
+                    help="only the kernels a render of these string models calls")
     args = ap.parse_args()
-    print(f"compiling kernels (or loading them from the cache) ... {warmup():.1f} s", flush=True)
+    seconds = prepare_kernels(args.models) if args.models else warmup()
+    print(f"compiling kernels (or loading them from the cache) ... {seconds:.1f} s", flush=True)
     if not args.kernels_only:
         print(f"calibrating the frets of every preset ... {warm_calibrations():.1f} s", flush=True)
 

@@ -27,7 +27,10 @@ that compiles them (an empty or outdated cache) renders with code that rounds ot
 the code it writes to the cache and every later process loads, so its digests differ from theirs
 in every scene.  ``--first-process`` shows it: each scene as a user renders it, in a child process
 that compiles the kernels into an empty cache and then in one that loads them from it, and the
-largest difference between the two per scene, against the scene's peak.
+largest difference between the two per scene, against the scene's peak.  (The product's paths do
+not meet it: ``engine.prepare_kernels`` and ``engine.warmup``, which the CLI, the service, the
+batches and the tests call before they render, compile in a child process and load what it
+cached.  This tool's children call ``engine.render`` alone, so the first compiles in-process.)
 """
 
 from __future__ import annotations

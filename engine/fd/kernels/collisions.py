@@ -10,12 +10,39 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.core import cgutils
+from numba.core import config as numba_config
+from numba.extending import intrinsic
 
 from ...config import JIT_HELPER, JIT_STEP
 from .data import EPS, RIGID
 from .linear import _q_index
 from .sav import _apply_gamma
+
+
+@intrinsic
+def _borrowed(typingctx, arr):
+    """``arr`` as a view that holds no reference (its meminfo and parent null): for a call in a
+    step loop whose caller holds ``arr`` for the whole call, so that the reference counts the
+    callee's inlined body makes are on nothing (``engine.config``: numba's pruner left them in
+    the held run's loop, atomic operations in every step).  Only for such calls: the view must
+    not outlive the array it borrows."""
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(arr)(context, builder, value=args[0])
+        ary.meminfo = cgutils.get_null_value(ary.meminfo.type)
+        ary.parent = cgutils.get_null_value(ary.parent.type)
+        return ary._getvalue()
+
+    return arr(arr), codegen
+
+
+if numba_config.DISABLE_JIT:  # the kernels run as Python (NUMBA_DISABLE_JIT=1): nothing is counted
+    def _borrowed(arr):  # noqa: F811
+        return arr
 
 
 @njit(**JIT_STEP)
@@ -28,8 +55,9 @@ def _contact(c, below, close, UF, du, Q, fret_p, fret_w0, fret_w1, fret_m0, fret
         return True
     if c.fret_mode != 1:  # penalty frets act on u^n: within reach is all there is to know
         return True
-    return _fret_hit(c.kc > 0.0, close > 0, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
-                     fret_m0, fret_active, nfret, kq) >= 0
+    return _fret_hit(c.kc > 0.0, close > 0, below > 0, _borrowed(UF), _borrowed(du),
+                     _borrowed(Q), _borrowed(fret_p), _borrowed(fret_w0), _borrowed(fret_w1),
+                     _borrowed(fret_m0), _borrowed(fret_active), nfret, kq) >= 0
 
 
 @njit(**JIT_HELPER)

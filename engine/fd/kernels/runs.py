@@ -11,7 +11,7 @@ from __future__ import annotations
 from numba import njit
 
 from ...config import JIT, JIT_STEP
-from .collisions import _add_rigid, _contact, _fret_hit, _rigid_row
+from .collisions import _add_rigid, _borrowed, _contact, _fret_hit, _rigid_row
 from .data import ACTIVE, FINGER, IDLE, KC
 from .energy import _step_energy
 from .excitation import _pluck_forces
@@ -298,8 +298,10 @@ def _held_run(c, geo, ctl, st, w, slot, U0, U1, UF, out, it, it_end, step0, s_la
                 return done, s_last
         if c.fret_mode == 1:
             xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-            add = _fret_hit(c.kc > 0.0, True, below > 0, UF, du, Q, fret_p, fret_w0, fret_w1,
-                            fret_m0, fret_active, geo.nfret, lam * xk)
+            add = _fret_hit(c.kc > 0.0, True, below > 0, _borrowed(UF), _borrowed(du),
+                            _borrowed(Q), _borrowed(fret_p), _borrowed(fret_w0),
+                            _borrowed(fret_w1), _borrowed(fret_m0), _borrowed(fret_active),
+                            geo.nfret, lam * xk)
             _unscatter(nc, cstart, cidx, du)
             if add >= 0:  # a fret would join it
                 return done, s_last

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 from ...config import JIT, JIT_STEP
-from .collisions import _add_rigid, _fret_hit, _remove_col, _sav_board, _sav_frets
+from .collisions import _add_rigid, _borrowed, _fret_hit, _remove_col, _sav_board, _sav_frets
 from .data import (
     ACTIVE,
     BOARD,
@@ -393,8 +393,10 @@ def _advance(c, geo, ctl, st, pol, w, step0, nsteps, out, diag, e_h, e_q, e_p):
                     continue
                 # every reaction >= 0: add the fret the prediction penetrates deepest, if any
                 xk = _scatter(nc, kind, cstart, cidx, cval, x, lam, du)
-                add = _fret_hit(c.kc > 0.0, True, below > 0, UF, du, Q, fret_p, fret_w0,
-                                fret_w1, fret_m0, fret_active, geo.nfret, lam * xk)
+                add = _fret_hit(c.kc > 0.0, True, below > 0, _borrowed(UF), _borrowed(du),
+                                _borrowed(Q), _borrowed(fret_p), _borrowed(fret_w0),
+                                _borrowed(fret_w1), _borrowed(fret_m0), _borrowed(fret_active),
+                                geo.nfret, lam * xk)
                 _unscatter(nc, cstart, cidx, du)
                 if add < 0:
                     break

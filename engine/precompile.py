@@ -27,6 +27,7 @@ several pickups, stereo, both built-in bodies and none, the energy terms, oversa
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import subprocess
 import sys
@@ -102,13 +103,63 @@ def _dispatchers(model: str) -> list:
     return list(models.ENTRY_POINTS[model])
 
 
-def kernels_cached(models) -> bool:
-    """Whether numba's cache holds, for this machine's CPU and the kernels' current source, the
-    compiled kernels a render of ``models`` calls (so ``prepare_kernels`` loads rather than
-    compiles).  Reads numba's cache index (not public API): False if it cannot tell."""
+# numba keys a cached kernel by its own source file only: where a helper it calls from another file
+# changed (a pull that changes engine/fd/kernels/collisions.py and not step.py), it would load the
+# kernel compiled from the old helper.  So next to each entry point's cache lies a digest of the
+# sources compiled code is made of (``sources_digest``, in ``_stamp_path``), written once the kernel
+# is compiled or loaded; a cache with another digest, or none, is flushed and compiled again.
+
+
+# what the compiled code is made of, under engine/: the flags, the body filter and the decimator,
+# the finite-difference kernels and the constants they read, the waveguide's package (its kernel
+# reads constants of its other modules)
+KERNEL_SOURCES = ("config.py", "output.py", "fd/kernels", "waveguide")
+
+
+def sources_digest() -> str:
+    """SHA-256 of ``KERNEL_SOURCES`` (their paths and bytes)."""
+    root = Path(__file__).resolve().parent
+    files = []
+    for name in KERNEL_SOURCES:
+        p = root / name
+        files += sorted(p.glob("*.py")) if p.is_dir() else [p]
+    h = hashlib.sha256()
+    for p in files:
+        h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()
+
+
+def _stamp_path(d) -> str:
+    f = d.py_func
+    return os.path.join(d.stats.cache_path, f"{f.__module__}.{f.__qualname__}.sources.sha256")
+
+
+def _stamped(d, digest: str) -> bool:
     try:
+        with open(_stamp_path(d)) as f:
+            return f.read().strip() == digest
+    except OSError:
+        return False
+
+
+def _stamp(models, digest: str) -> None:
+    for m in models:
+        for d in _dispatchers(m):
+            with contextlib.suppress(OSError), open(_stamp_path(d), "w") as f:
+                f.write(digest + "\n")
+
+
+def kernels_cached(models) -> bool:
+    """Whether numba's cache holds, for this machine's CPU and the kernels' current sources (the
+    entry points' stamps), the compiled kernels a render of ``models`` calls (so
+    ``prepare_kernels`` loads rather than compiles).  Reads numba's cache index (not public API):
+    False if it cannot tell."""
+    try:
+        digest = sources_digest()
         for model in models:
             for d in _dispatchers(model):
+                if not _stamped(d, digest):
+                    return False
                 index = d._cache._cache_file._load_index()
                 magic = d.targetctx.codegen().magic_tuple()
                 if not any(key[1] == magic for key in index):
@@ -174,11 +225,24 @@ def prepare_kernels(models=("fdtd",)) -> float:
             render(KERNEL_SCENES[m])
     else:
         with _compile_lock():
-            if not kernels_cached(models):  # (another process may have compiled them meanwhile)
-                _compile_in_child(["--kernels-only", "--models", *models])
+            _compile(models, ["--kernels-only", "--models", *models])
             for m in models:
                 render(KERNEL_SCENES[m])
+            _stamp(models, sources_digest())
     return time.perf_counter() - t0
+
+
+def _compile(models, argv: list[str]) -> None:
+    """Under the compile lock: flush what was compiled from other sources, and, unless another
+    process compiled the kernels meanwhile, compile them in a child (``_compile_in_child``)."""
+    digest = sources_digest()
+    for m in models:
+        for d in _dispatchers(m):
+            if not _stamped(d, digest):
+                with contextlib.suppress(Exception):  # (numba's internals: compile as it may)
+                    d._cache.flush()  # its kernels from other sources are not loaded
+    if not kernels_cached(models):
+        _compile_in_child(argv)
 
 
 def warmup() -> float:
@@ -191,10 +255,10 @@ def warmup() -> float:
             render(scene)
     else:
         with _compile_lock():
-            if not kernels_cached(KERNEL_SCENES):
-                _compile_in_child(["--kernels-only"])
+            _compile(KERNEL_SCENES, ["--kernels-only"])
             for scene in WARMUP_SCENES:
                 render(scene)
+            _stamp(KERNEL_SCENES, sources_digest())
     return time.perf_counter() - t0
 
 

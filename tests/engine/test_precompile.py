@@ -30,6 +30,24 @@ def test_prepare_kernels_leaves_them_cached(model):
     assert {id(d): len(d.signatures) for d in precompile._dispatchers(model)} == before
 
 
+def test_a_cache_compiled_from_other_sources_is_flushed(monkeypatch):
+    """numba keys a kernel's cache by its own file; the stamp of the kernels' sources says when
+    a helper in another file changed: the kernels are then not cached, and their caches are
+    flushed before they are compiled again."""
+    if not config.JIT["cache"]:
+        pytest.skip("numba's cache is off (GUITAR_NUMBA_CACHE=0)")
+    precompile.prepare_kernels(["waveguide"])  # loads (or compiles) and stamps
+    assert precompile.kernels_cached(["waveguide"])
+    monkeypatch.setattr(precompile, "sources_digest", lambda: "0" * 64)  # a pull changed a helper
+    assert not precompile.kernels_cached(["waveguide"])
+    flushed = []
+    for d in precompile._dispatchers("waveguide"):
+        monkeypatch.setattr(d._cache, "flush", lambda d=d: flushed.append(d))
+    monkeypatch.setattr(precompile, "_compile_in_child", lambda argv: None)
+    precompile._compile(["waveguide"], [])
+    assert flushed == precompile._dispatchers("waveguide")
+
+
 def test_kernels_cached_is_false_for_an_empty_cache(monkeypatch):
     class Empty:
         def _load_index(self):

@@ -108,11 +108,9 @@ def _dispatchers(model: str) -> list:
 # kernel compiled from the old helper.  So next to each entry point's cache lies a digest of the
 # sources compiled code is made of (``sources_digest``, in ``_stamp_path``), written once the kernel
 # is compiled or loaded; a cache with another digest, or none, is flushed and compiled again.
-
-
-# what the compiled code is made of, under engine/: the flags, the body filter and the decimator,
+# What the compiled code is made of, under engine/: the flags, the body filter and the decimator,
 # the finite-difference kernels and the constants they read, the waveguide's package (its kernel
-# reads constants of its other modules)
+# reads constants of its other modules).
 KERNEL_SOURCES = ("config.py", "output.py", "fd/kernels", "waveguide")
 
 

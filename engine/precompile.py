@@ -105,9 +105,12 @@ def _dispatchers(model: str) -> list:
 
 # numba keys a cached kernel by its own source file only: where a helper it calls from another file
 # changed (a pull that changes engine/fd/kernels/collisions.py and not step.py), it would load the
-# kernel compiled from the old helper.  So next to each entry point's cache lies a digest of the
-# sources compiled code is made of (``sources_digest``, in ``_stamp_path``), written once the kernel
-# is compiled or loaded; a cache with another digest, or none, is flushed and compiled again.
+# kernel compiled from the old helper, and so would every kernel between them that has a cache of
+# its own (the held run, the quiet run, ...).  So next to each entry point's cache lies a digest of
+# the sources compiled code is made of (``sources_digest``, in ``_stamp_path``), written once the
+# kernel is compiled or loaded; where an entry point's digest differs, or is missing, the cache of
+# every compiled function of those sources is flushed (``_kernel_dispatchers``) and they are
+# compiled again.
 # What the compiled code is made of, under engine/: the flags, the body filter and the decimator,
 # the finite-difference kernels and the constants they read, the waveguide's package (its kernel
 # reads constants of its other modules).
@@ -125,6 +128,22 @@ def sources_digest() -> str:
     for p in files:
         h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes())
     return h.hexdigest()
+
+
+def _kernel_dispatchers() -> list:
+    """Every compiled function of ``KERNEL_SOURCES``' modules (imported with the models)."""
+    from numba.core.dispatcher import Dispatcher
+
+    from . import models  # noqa: F401  (imports every kernel module)
+
+    names = ["engine." + source.removesuffix(".py").replace("/", ".") for source in KERNEL_SOURCES]
+    found: dict[int, Dispatcher] = {}
+    for name, module in list(sys.modules.items()):
+        if any(name == n or name.startswith(n + ".") for n in names):
+            for obj in vars(module).values():
+                if isinstance(obj, Dispatcher):
+                    found[id(obj)] = obj
+    return list(found.values())
 
 
 def _stamp_path(d) -> str:
@@ -234,11 +253,10 @@ def _compile(models, argv: list[str]) -> None:
     """Under the compile lock: flush what was compiled from other sources, and, unless another
     process compiled the kernels meanwhile, compile them in a child (``_compile_in_child``)."""
     digest = sources_digest()
-    for m in models:
-        for d in _dispatchers(m):
-            if not _stamped(d, digest):
-                with contextlib.suppress(Exception):  # (numba's internals: compile as it may)
-                    d._cache.flush()  # its kernels from other sources are not loaded
+    if not all(_stamped(d, digest) for m in models for d in _dispatchers(m)):
+        for d in _kernel_dispatchers():  # none of them is loaded as compiled from other sources
+            with contextlib.suppress(Exception):  # (numba's internals: compile as it may)
+                d._cache.flush()
     if not kernels_cached(models):
         _compile_in_child(argv)
 

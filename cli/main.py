@@ -405,9 +405,8 @@ def prepare_kernels(sc: Any, quiet: bool) -> None:
         engine.prepare_kernels(models)
         return
     if not quiet:
-        took = "a minute or so" if "fdtd" in models else "under half a minute"
-        print(f"compiling kernels ({', '.join(sorted(models))}), first run only: {took} ...",
-              file=sys.stderr, flush=True)
+        print(f"compiling kernels ({', '.join(sorted(models))}), first run only: about "
+              f"{engine.compile_seconds(models)} s ...", file=sys.stderr, flush=True)
     seconds = engine.prepare_kernels(models)
     if not quiet:
         print(f"compiled in {seconds:.1f} s (kept in the cache for the next runs)",

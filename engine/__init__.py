@@ -92,6 +92,7 @@ _LAZY = {
     "select_warnings": "score",
     "WARNING_MODES": "score",
     "kernels_cached": "precompile",
+    "compile_seconds": "precompile",
     "prepare_kernels": "precompile",
     "KERNEL_SCENES": "precompile",
     "Session": "live",

@@ -51,10 +51,14 @@ class Traits:
     energy_balance: bool  # a discrete energy balance (``Instrument.energy_error``, diagnostics)
     grid: bool  # strings on a grid oversampled per quality level (``options.Quality``)
     fret_loops: bool  # a loop filter per stopping fret, designed on first use (``Voice.loop``)
+    # about how long its kernels take to compile on a machine's first render, s (the CLI says so;
+    # on the 2-core development machine the CLI printed 60.6-66.1 s for the finite-difference
+    # kernels, and ``tools.compile_time`` 15.2 s for the waveguide's)
+    compile_s: int
 
 
-TRAITS = {"fdtd": Traits(energy_balance=True, grid=True, fret_loops=False),
-          "waveguide": Traits(energy_balance=False, grid=False, fret_loops=True)}
+TRAITS = {"fdtd": Traits(energy_balance=True, grid=True, fret_loops=False, compile_s=60),
+          "waveguide": Traits(energy_balance=False, grid=False, fret_loops=True, compile_s=20)}
 
 
 # The compiled functions a render of each model calls from Python: ``engine.precompile`` loads or

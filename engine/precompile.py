@@ -232,6 +232,14 @@ def _compile_in_child(argv: list[str]) -> None:
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
 
 
+def compile_seconds(models) -> int:
+    """About how long compiling the kernels of ``models`` takes the first time, s
+    (``models.Traits.compile_s``): what the CLI tells a user who waits for it."""
+    from .models import TRAITS
+
+    return sum(TRAITS[m].compile_s for m in set(models))
+
+
 def prepare_kernels(models=("fdtd",)) -> float:
     """Load, or compile once per machine, the kernels a render of ``models`` calls, so that the
     render itself spends no time on them.  Returns the seconds it took."""

@@ -76,12 +76,17 @@ _WARM = False
 
 def _warm() -> None:
     """Load (or compile) every numba kernel once per worker process, before the first item's
-    clock starts."""
+    clock starts; then freeze what the process holds out of the garbage collector's sight, as the
+    service's workers do after their warm-up: each full collection an item's allocations trigger
+    would walk numba's objects again (``python -m benchmarks.gc_pause``)."""
     global _WARM
     if not _WARM:
+        import gc
+
         import engine
 
         engine.warmup()
+        gc.freeze()
         _WARM = True
 
 

@@ -17,6 +17,7 @@ public API (``engine.parse_scene``, ``engine.blocks``, ``engine.frame_count``,
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -441,6 +442,11 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tupl
     audio = np.zeros((frames, 2) if sc.output.channels == 2 else frames)
     t0 = time.perf_counter()
     prepare_kernels(sc, quiet)
+    # What the process holds now (numba's types and registries, the kernels, the modules) lives
+    # until it exits: frozen out of the garbage collector's sight, it is walked neither by the
+    # full collections the render's allocations trigger nor by the interpreter's at exit
+    # (``python -m tools.startup``: the "exit" column)
+    gc.freeze()
     with _progress(frames / rate, quiet) as bar:
         def calibrating(kind: str) -> None:
             what = CALIBRATING.get(kind, "calibrating frets")

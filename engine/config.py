@@ -13,11 +13,15 @@
   every kernel without them.
 
 ``entry_point`` calls a compiled kernel without numba's dispatcher (both models' voices use it).
+
+Importing this module also spares every process numba's BLAS probe (``_SkipBlasProbe``).
 """
 
 from __future__ import annotations
 
+import importlib.abc
 import os
+import sys
 
 import numpy as np
 
@@ -88,6 +92,40 @@ CACHE_DIR = os.environ.get("GUITAR_CACHE_DIR") or os.path.join(
     os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"),
     "guitar-synth")
 CALIBRATION_CACHE = os.environ.get("GUITAR_CALIBRATION_CACHE", "1") != "0"
+
+
+# ---- numba's start-up -------------------------------------------------------------------------
+
+class _SkipBlasProbe(importlib.abc.MetaPathFinder):
+    """Refuses ``scipy.linalg`` to numba's BLAS probe, and to nothing else.
+
+    The first kernel a process compiles or loads makes numba import its lowering registries, and one
+    of them (``numba.np.arraymath``, as of numba 0.68) imports ``scipy.linalg.cython_blas`` at
+    import time only to choose how ``np.convolve`` and ``np.correlate`` take their inner products (a
+    BLAS dot, or a loop when the import fails).  ``scipy.linalg`` pulls in numpy's f2py and testing
+    packages and starts OpenBLAS's threads: 0.09-0.10 s of CPU in every process that renders, pinned
+    to one core (each CLI render, service worker and batch worker; ``python -m tools.startup``), and
+    none of the kernels calls either function.  So while that module is being imported (it is in
+    ``sys.modules`` but has not yet set ``_HAVE_BLAS``), the import of ``scipy.linalg`` fails here,
+    numba takes the loop, and the kernels render the same samples (``tools.render_digest``: kernels
+    compiled with the probe and without).  ``GUITAR_NUMBA_BLAS_PROBE=1`` leaves the probe to numba.
+    Any other import of
+    ``scipy.linalg``, before or after, is untouched (numba's own linear algebra imports it again
+    when it compiles a call).  Should numba rename either, this finder refuses nothing, and the
+    process pays the probe again: ``tests/engine/test_startup.py`` says so."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name == "scipy.linalg":
+            arraymath = sys.modules.get("numba.np.arraymath")
+            if arraymath is not None and not hasattr(arraymath, "_HAVE_BLAS"):
+                raise ImportError("scipy.linalg is not imported for numba's BLAS probe "
+                                  "(engine.config._SkipBlasProbe)")
+        return None
+
+
+if os.environ.get("GUITAR_NUMBA_BLAS_PROBE", "0") != "1" and not any(
+        isinstance(f, _SkipBlasProbe) for f in sys.meta_path):
+    sys.meta_path.insert(0, _SkipBlasProbe())
 
 
 # ---- calling a compiled kernel ----------------------------------------------------------------

@@ -383,3 +383,28 @@ def test_a_render_says_when_it_compiles_kernels(monkeypatch, capsys) -> None:
     assert models == [{"waveguide"}]
     cli_main.prepare_kernels(sc, quiet=True)
     assert capsys.readouterr().err == ""
+
+
+def test_a_render_freezes_what_the_process_holds_before_it_renders(monkeypatch) -> None:
+    """Once the kernels are loaded, the CLI moves the process's objects (numba's, the modules')
+    out of the garbage collector's sight: the full collections during the render and at the exit
+    do not walk them (``python -m tools.startup`` measures the exit's part)."""
+    import gc
+
+    from cli import main as cli_main
+    from engine.scene import Scene
+
+    frozen = []
+    real_prepare = cli_main.prepare_kernels
+    monkeypatch.setattr(cli_main, "prepare_kernels",
+                        lambda sc, quiet: (real_prepare(sc, quiet), frozen.append(
+                            gc.get_freeze_count())))
+    gc.unfreeze()
+    try:
+        audio, _ = cli_main.render_audio(
+            Scene.model_validate({**SCENE, "model": "waveguide", "duration": 0.1}), quiet=True)
+        assert frozen == [0]  # nothing frozen before the kernels are loaded
+        assert gc.get_freeze_count() > 100_000  # numba's objects and the engine's
+        assert np.all(np.isfinite(audio)) and np.any(audio)
+    finally:
+        gc.unfreeze()

@@ -133,8 +133,11 @@ def _one_file_engine(tmp: str) -> Path:
     concatenated, each without its docstring and imports, under the imports they make of other
     packages (``...config`` becoming ``..config``).  Returns the folder to put first on PYTHONPATH."""
     src = Path(tmp) / "src"
-    shutil.copytree(ROOT / "engine", src / "engine", ignore=shutil.ignore_patterns(
-        "__pycache__", "kernels"))
+    shutil.copytree(ROOT / "engine", src / "engine", ignore=shutil.ignore_patterns("__pycache__"))
+    # the package's files stay, for the digests of the sources that read them (the calibration
+    # store's keys, the kernels' stamps), but not as a package: without its ``__init__.py`` the
+    # folder is a namespace package, which ``kernels.py`` beside it takes precedence over
+    (src / "engine" / "fd" / "kernels" / "__init__.py").unlink()
     imports = {"from __future__ import annotations": None}
     bodies = []
     modules = sorted(KERNELS.glob("*.py"), key=lambda p: (p.stem != "data", p.stem))

@@ -37,3 +37,12 @@ def test_the_line_table_build_has_every_kernel_in_one_module(tmp_path):
     helpers = [name for _, name in _helpers(src / "engine" / "fd" / "kernels.py")]
     assert {"_held_run", "_pass_kc", "_solve", "step_block"} <= set(helpers)
     assert len(helpers) == len(set(helpers))
+    # what a render of the copy reads besides the kernels: the digests of the sources behind the
+    # calibration store's keys and the kernels' stamps, which name the package's files
+    digests = ("import engine.calibration_store as c, engine.precompile as p; "
+               "print(len(c._version()), len(p.sources_digest()))")
+    out = subprocess.run([sys.executable, "-c", digests], capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": f"{src}{os.pathsep}{ROOT}"},
+                         cwd=tmp_path)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split() == ["64", "64"]

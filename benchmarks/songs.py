@@ -33,7 +33,10 @@ per-song figures less it show what a song costs once a renderer is up (the servi
 
 Cold start: a 2 s strummed C chord rendered through the CLI with an empty numba cache
 (``NUMBA_CACHE_DIR``) and an empty calibration store (``GUITAR_CACHE_DIR``), as after a fresh
-install, then once more with what that run left: wall and CPU time of each.
+install, then once more with what that run left: wall and CPU time of each.  With both models,
+also every kernel compiled into an empty cache as `make install` and a service's first start
+compile them (``python -m engine.precompile --kernels-only``, not pinned: one child process per
+model), with ``GUITAR_COMPILE_JOBS=1`` (one model after the other) and as shipped (at once).
 
 The load on the machine (``os.getloadavg``) is printed before and after: figures taken on a
 shared machine mean little without it.
@@ -133,6 +136,10 @@ def fluidsynth(midi: Path, wav: Path, soundfont: str, core: int | None) -> Run:
 
 def best(runs: list[Run]) -> Run:
     return min(runs, key=lambda r: r.cpu)
+
+
+def cores() -> int:
+    return len(os.sched_getaffinity(0))
 
 
 def load() -> str:
@@ -246,6 +253,16 @@ def cold_start(models: tuple[str, ...], core: int | None, tmp: Path) -> None:
         print(f"| {model}, the second time | {warm.wall:.1f} | {warm.cpu:.1f} |")
         shutil.rmtree(numba, ignore_errors=True)
         shutil.rmtree(cal, ignore_errors=True)
+    if len(models) > 1:  # what `make install` and a service's first start wait for
+        for jobs in ("1", ""):
+            numba = Path(tempfile.mkdtemp(dir=tmp))
+            env = {**engine_env(numba), "GUITAR_COMPILE_JOBS": jobs}
+            run = run_process([sys.executable, "-m", "engine.precompile", "--kernels-only"], env,
+                              None)
+            how = "one model at a time" if jobs else f"the models at once on {cores()} cores"
+            print(f"| every kernel, empty cache (`engine.precompile --kernels-only`), {how} "
+                  f"| {run.wall:.1f} | {run.cpu:.1f} |")
+            shutil.rmtree(numba, ignore_errors=True)
     print()
 
 

@@ -10,12 +10,13 @@ progress bar starts, and says so when the kernels are not in the cache yet
 folder): processes started together, like the service's workers on a first start, wait for the
 first one and then load what it wrote, instead of each compiling everything.
 
-Kernels are compiled in a child process (``python -m engine.precompile``), and every renderer,
-the first included, loads them from the cache: the process that compiles a kernel runs code that
-rounds otherwise than the object code it writes to the cache where fastmath is on (the
-finite-difference kernels: ``python -m tools.render_digest --first-process``), so a render in that
-process would differ, by rounding, from the same render in every later one.  Where the child
-cannot compile (numba's cache off or not writable), this process compiles.
+Kernels are compiled in child processes (``python -m engine.precompile``), one per string model
+and all at once (numba compiles on one thread), and every renderer, the first included, loads them
+from the cache: the process that compiles a kernel runs code that rounds otherwise than the object
+code it writes to the cache where fastmath is on (the finite-difference kernels: ``python -m
+tools.render_digest --first-process``), so a render in that process would differ, by rounding, from
+the same render in every later one.  Where the children cannot compile (numba's cache off or not
+writable), this process compiles.
 
 ``WARMUP_SCENES`` are tiny scenes that between them take every numba kernel path a render can
 take: fingers (fret, tap, hammer-on, pull-off, slide), rigid frets and the fretboard, the
@@ -186,8 +187,8 @@ def kernels_cached(models) -> bool:
         return False
 
 
-# set in the child that compiles (``_compile_in_child``): it compiles in its own process, under
-# its parent's lock
+# set in the children that compile (``_compile_in_children``): they compile in their own
+# processes, under their parent's lock
 CHILD_ENV = "GUITAR_COMPILING_CHILD"
 
 
@@ -215,10 +216,13 @@ def _compile_lock():
             fcntl.flock(f, fcntl.LOCK_UN)
 
 
-def _compile_in_child(argv: list[str]) -> None:
-    """Compile the kernels into numba's cache in a child process, ``python -m engine.precompile
-    ARGV`` (the module's docstring says why); nothing if caching is off or this is that child.
-    A child that fails leaves the compiling to this process."""
+def _compile_in_children(argvs: list[list[str]]) -> None:
+    """Compile the kernels into numba's cache in child processes, ``python -m engine.precompile
+    ARGV`` for each of ``argvs``, at once (the module's docstring says why in a child; one child
+    per string model, ``compile_jobs()`` at a time, because numba compiles on one thread and the
+    models share no compiled function but the output's few, which they compile alike); nothing
+    if caching is off or this is such a child.  A child that fails leaves the compiling to this
+    process."""
     from numba.core import config as numba_config
 
     if (not config.JIT["cache"] or numba_config.DISABLE_JIT
@@ -228,8 +232,25 @@ def _compile_in_child(argv: list[str]) -> None:
     path = os.environ.get("PYTHONPATH")
     env = {**os.environ, CHILD_ENV: "1",
            "PYTHONPATH": root if not path else root + os.pathsep + path}
-    subprocess.run([sys.executable, "-m", "engine.precompile", *argv], env=env, cwd=root,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+    jobs = compile_jobs()
+    for i in range(0, len(argvs), jobs):
+        children = [subprocess.Popen([sys.executable, "-m", "engine.precompile", *argv],
+                                     env=env, cwd=root, stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL) for argv in argvs[i:i + jobs]]
+        for child in children:
+            child.wait()
+
+
+def compile_jobs() -> int:
+    """How many children compile at once: ``GUITAR_COMPILE_JOBS`` (a positive integer), else
+    the cores this process may use.  Each holds one numba compile in memory; 1 compiles the
+    models one after the other, where memory is short."""
+    value = os.environ.get("GUITAR_COMPILE_JOBS", "").strip()
+    if not value:
+        return max(1, len(os.sched_getaffinity(0)))
+    if not value.isdigit() or int(value) < 1:
+        raise ValueError(f"GUITAR_COMPILE_JOBS: a positive integer, not {value!r}")
+    return int(value)
 
 
 def compile_seconds(models) -> int:
@@ -250,39 +271,52 @@ def prepare_kernels(models=("fdtd",)) -> float:
             render(KERNEL_SCENES[m])
     else:
         with _compile_lock():
-            _compile(models, ["--kernels-only", "--models", *models])
+            _compile(models, [["--kernels-only", "--models", m] for m in models])
             for m in models:
                 render(KERNEL_SCENES[m])
             _stamp(models, sources_digest())
     return time.perf_counter() - t0
 
 
-def _compile(models, argv: list[str]) -> None:
+def _compile(models, argvs: list[list[str]]) -> None:
     """Under the compile lock: flush what was compiled from other sources, and, unless another
-    process compiled the kernels meanwhile, compile them in a child (``_compile_in_child``)."""
+    process compiled the kernels meanwhile, compile them in children (``_compile_in_children``,
+    one per argv).  The children flush nothing: the one compiling a model would flush what the
+    other has just written."""
+    if os.environ.get(CHILD_ENV) == "1":
+        return
     digest = sources_digest()
     if not all(_stamped(d, digest) for m in models for d in _dispatchers(m)):
         for d in _kernel_dispatchers():  # none of them is loaded as compiled from other sources
             with contextlib.suppress(Exception):  # (numba's internals: compile as it may)
                 d._cache.flush()
     if not kernels_cached(models):
-        _compile_in_child(argv)
+        _compile_in_children(argvs)
 
 
-def warmup() -> float:
-    """Compile the numba kernels, or load them from the cache (``NUMBA_CACHE_DIR``), by rendering
-    ``WARMUP_SCENES``, so that the first real render of a process spends no time compiling; one
-    process at a time when they must be compiled.  Returns the seconds it took."""
+def _model_of(scene: dict) -> str:
+    from .scene import Scene
+
+    return scene.get("model", Scene.model_fields["model"].default)
+
+
+def warmup(models=None) -> float:
+    """Compile the numba kernels of ``models`` (default: every string model), or load them from
+    the cache (``NUMBA_CACHE_DIR``), by rendering their ``WARMUP_SCENES``, so that the first real
+    render of a process spends no time compiling; one process at a time when they must be
+    compiled.  Returns the seconds it took."""
     t0 = time.perf_counter()
-    if kernels_cached(KERNEL_SCENES):
-        for scene in WARMUP_SCENES:
+    models = sorted(set(models or KERNEL_SCENES))
+    scenes = [s for s in WARMUP_SCENES if _model_of(s) in models]
+    if kernels_cached(models):
+        for scene in scenes:
             render(scene)
     else:
         with _compile_lock():
-            _compile(KERNEL_SCENES, ["--kernels-only"])
-            for scene in WARMUP_SCENES:
+            _compile(models, [["--kernels-only", "--every-path", "--models", m] for m in models])
+            for scene in scenes:
                 render(scene)
-            _stamp(KERNEL_SCENES, sources_digest())
+            _stamp(models, sources_digest())
     return time.perf_counter() - t0
 
 
@@ -329,8 +363,13 @@ def main() -> None:
     ap.add_argument("--kernels-only", action="store_true", help="no calibrations")
     ap.add_argument("--models", nargs="+", choices=sorted(KERNEL_SCENES),
                     help="only the kernels a render of these string models calls")
+    ap.add_argument("--every-path", action="store_true",
+                    help="with --models: every path of theirs (WARMUP_SCENES), as without it")
     args = ap.parse_args()
-    seconds = prepare_kernels(args.models) if args.models else warmup()
+    if args.models and not args.every_path:
+        seconds = prepare_kernels(args.models)
+    else:
+        seconds = warmup(args.models)
     print(f"compiling kernels (or loading them from the cache) ... {seconds:.1f} s", flush=True)
     if not args.kernels_only:
         print(f"calibrating the frets of every preset ... {warm_calibrations():.1f} s", flush=True)

@@ -45,7 +45,7 @@ def test_a_cache_compiled_from_other_sources_is_flushed(monkeypatch):
     every = precompile._kernel_dispatchers()
     for d in every:
         monkeypatch.setattr(d._cache, "flush", lambda d=d: flushed.append(d))
-    monkeypatch.setattr(precompile, "_compile_in_child", lambda argv: None)
+    monkeypatch.setattr(precompile, "_compile_in_children", lambda argvs: None)
     precompile._compile(["waveguide"], [])
     names = {f"{d.py_func.__module__}.{d.py_func.__name__}" for d in flushed}
     assert len(flushed) == len(every)
@@ -124,3 +124,58 @@ def test_the_process_that_compiles_renders_what_later_processes_render(tmp_path)
                               check=True).stdout.strip()
                for _ in range(2)]  # the first compiles (into the empty cache), the second loads
     assert digests[0] and digests[0] == digests[1]
+
+
+def test_each_model_is_compiled_by_a_child_of_its_own_at_once(monkeypatch):
+    """Kernels that must be compiled are compiled in children, one per string model, started
+    together (``compile_jobs`` at a time); a child compiles its own model's and flushes nothing."""
+    if not config.JIT["cache"]:
+        pytest.skip("numba's cache is off (GUITAR_NUMBA_CACHE=0)")
+    started, waited = [], []
+
+    class Child:
+        def __init__(self, argv, **kw):
+            assert kw["env"][precompile.CHILD_ENV] == "1"
+            started.append((argv[3:], len(waited)))
+
+        def wait(self):
+            waited.append(1)
+
+    monkeypatch.setattr(precompile.subprocess, "Popen", Child)
+    monkeypatch.setattr(precompile, "kernels_cached", lambda models: False)
+    monkeypatch.delenv(precompile.CHILD_ENV, raising=False)
+    monkeypatch.setenv("GUITAR_COMPILE_JOBS", "2")
+    precompile._compile(["fdtd", "waveguide"], [["--kernels-only", "--models", m]
+                                                for m in ("fdtd", "waveguide")])
+    # both started before either was waited for
+    assert started == [(["--kernels-only", "--models", "fdtd"], 0),
+                       (["--kernels-only", "--models", "waveguide"], 0)]
+    started.clear()
+    waited.clear()
+    monkeypatch.setenv("GUITAR_COMPILE_JOBS", "1")  # one after the other
+    precompile._compile(["fdtd", "waveguide"], [["--models", "fdtd"], ["--models", "waveguide"]])
+    assert started == [(["--models", "fdtd"], 0), (["--models", "waveguide"], 1)]
+    # in a child: neither a flush nor a grandchild
+    started.clear()
+    monkeypatch.setenv(precompile.CHILD_ENV, "1")
+    monkeypatch.setattr(precompile, "_kernel_dispatchers", lambda: pytest.fail("flushed"))
+    precompile._compile(["fdtd"], [["--models", "fdtd"]])
+    assert started == []
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "two", "1.5"])
+def test_a_bad_compile_jobs_names_the_variable(monkeypatch, value):
+    monkeypatch.setenv("GUITAR_COMPILE_JOBS", value)
+    with pytest.raises(ValueError, match="GUITAR_COMPILE_JOBS: a positive integer"):
+        precompile.compile_jobs()
+
+
+def test_warmup_of_one_model_renders_only_its_scenes(monkeypatch):
+    rendered = []
+    monkeypatch.setattr(precompile, "kernels_cached", lambda models: True)
+    monkeypatch.setattr(precompile, "render", lambda scene: rendered.append(scene))
+    precompile.warmup(["waveguide"])
+    assert rendered == [s for s in precompile.WARMUP_SCENES if s.get("model") == "waveguide"]
+    rendered.clear()
+    precompile.warmup()
+    assert rendered == list(precompile.WARMUP_SCENES)

@@ -109,10 +109,9 @@ class _SkipBlasProbe(importlib.abc.MetaPathFinder):
     ``sys.modules`` but has not yet set ``_HAVE_BLAS``), the import of ``scipy.linalg`` fails here,
     numba takes the loop, and the kernels render the same samples (``tools.render_digest``: kernels
     compiled with the probe and without).  ``GUITAR_NUMBA_BLAS_PROBE=1`` leaves the probe to numba.
-    Any other import of
-    ``scipy.linalg``, before or after, is untouched (numba's own linear algebra imports it again
-    when it compiles a call).  Should numba rename either, this finder refuses nothing, and the
-    process pays the probe again: ``tests/engine/test_startup.py`` says so."""
+    Any other import of ``scipy.linalg``, before or after, is untouched (numba's own linear algebra
+    imports it again when it compiles a call).  Should numba rename either, this finder refuses
+    nothing, and the process pays the probe again: ``tests/engine/test_startup.py`` says so."""
 
     def find_spec(self, name, path=None, target=None):
         if name == "scipy.linalg":

@@ -100,6 +100,12 @@ class Settings(BaseSettings):
                     "the same for any number. Keep workers x render_threads at the cores: 1 with a "
                     "worker per core, the cores with a single worker (one long song at a time, "
                     "fast)")
+    compile_jobs: int | None = Field(
+        None, ge=1, le=64,
+        description="child processes that compile the numba kernels at once when they are not "
+                    "in the cache (a first start), one per string model; read by the engine "
+                    "from the environment. Default: the cores; 1 compiles one model after the "
+                    "other, where memory is short")
 
     # Streaming
     # a multiple of 1024: the waveguide model's blocks then give the samples of a whole render

@@ -37,6 +37,11 @@ def test_the_documented_defaults_are_the_codes(monkeypatch: pytest.MonkeyPatch) 
     assert s.workers == len(os.sched_getaffinity(0))
     assert documented.pop("heavy_workers") == "workers − 1 (at least 1)"
     assert s.heavy_workers is None and s.heavy_slots() == max(1, s.workers - 1)
+    # read by the engine from the environment; the setting validates it at start-up
+    assert documented.pop("compile_jobs") == "the cores"
+    from engine import precompile
+
+    assert s.compile_jobs is None and precompile.compile_jobs() == len(os.sched_getaffinity(0))
     for name, text in documented.items():
         value = getattr(s, name)
         if isinstance(value, bool):

@@ -23,8 +23,9 @@ numba's line tables give an inlined helper's lines the file of the function it w
 so the second child runs a copy of the engine whose kernels are one module: the package's modules
 concatenated, their imports dropped (``_one_file_engine``); the code compiled is the same.
 
-It also prints how many columns the step's small system has (the solves per step by size), from a
-short render with the kernels run as Python (``NUMBA_DISABLE_JIT=1``), counting the calls.
+It also prints how many columns the step's small system has (the solves per step by size) and how
+many of those systems are arrowheads, from a short render with the kernels run as Python
+(``NUMBA_DISABLE_JIT=1``), counting the calls; ``--sizes-only`` prints just that.
 
 Shares are of all samples of each child.  "Outside step_block and its runs" is the Python around
 the kernel and every other compiled function; the build with line tables may place code there that
@@ -103,15 +104,16 @@ from tools.profile_step import scene_and_options
 from engine.fd.kernels import runs, step, system
 from engine.fd.instrument import prepare
 string, fret, kc = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3] == "1"
-sizes = collections.Counter()
+sizes, arrows = collections.Counter(), collections.Counter()
 def counted(A, r, n):
     sizes[n] += 1
+    arrows[n] += bool(system._is_arrow(A, n))  # the arrowhead's solver, or pivoting elimination
     return system._solve(A, r, n)
 step._solve = runs._solve = counted
 eng = prepare(*scene_and_options(string, fret, kc, 0.25))
 for _ in eng.blocks():
     pass
-print(json.dumps({"steps": eng.voices[0].step, "sizes": sizes}))
+print(json.dumps({"steps": eng.voices[0].step, "sizes": sizes, "arrows": arrows}))
 """
 
 
@@ -282,10 +284,7 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
                 m = re.search(r"kernels\.py:(\d+)", loc)
                 lines[a] = int(m.group(1)) if m else None
         helpers = _helpers(Path(tmp) / "src" / "engine" / "fd" / "kernels.py")
-    sizes = json.loads(subprocess.run(
-        [sys.executable, "-c", SIZES, str(string), str(fret), "1" if kc else "0"],
-        env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(ROOT)},
-        capture_output=True, text=True, check=True).stdout)
+    sizes = _sizes(string, fret, kc)
     by_helper: collections.Counter = collections.Counter()
     for a, n in offsets.items():
         helper = _helper_of(lines[a], helpers)
@@ -303,12 +302,26 @@ def profile(string: int, fret: int, kc: bool, seconds: float, event: str = "cpu-
     for name, n in by_helper.most_common():
         label = "step_block's own lines" if name == "step_block" else name
         print(f"{label:43s} | {100 * n / total:15.1f} %")
+    print()
+    _print_sizes(sizes)
+
+
+def _sizes(string: int, fret: int, kc: bool) -> dict:
+    return json.loads(subprocess.run(
+        [sys.executable, "-c", SIZES, str(string), str(fret), "1" if kc else "0"],
+        env={**os.environ, "NUMBA_DISABLE_JIT": "1", "PYTHONPATH": str(ROOT)},
+        capture_output=True, text=True, check=True).stdout)
+
+
+def _print_sizes(sizes: dict) -> None:
     steps = sizes["steps"]
-    print(f"\nsolves of the small system per time step, by its size (columns), over the first 0.25 s "
-          f"({steps} steps)")
-    print("columns | solves per step")
+    print(f"solves of the small system per time step, by its size (columns), over the first 0.25 s "
+          f"({steps} steps), and the share of them that are arrowheads (``system._solve_arrow``; "
+          "the others take pivoting elimination, ``_solve_n``)")
+    print("columns | solves per step | arrowheads")
+    arrows = {int(k): v for k, v in sizes["arrows"].items()}
     for n, count in sorted((int(k), v) for k, v in sizes["sizes"].items()):
-        print(f"{n:7d} | {count / steps:15.3f}")
+        print(f"{n:7d} | {count / steps:15.3f} | {100 * arrows.get(n, 0) / count:8.1f} %")
 
 
 def main() -> None:
@@ -321,7 +334,12 @@ def main() -> None:
                     help="perf event to sample: cpu-clock (works in any VM), or, where the machine "
                          "has hardware counters, cycles or instructions (a share of instructions "
                          "is a count of work, and does not move with what else the machine does)")
+    ap.add_argument("--sizes-only", action="store_true",
+                    help="only the solves' table (the kernels run as Python; no perf needed)")
     args = ap.parse_args()
+    if args.sizes_only:
+        _print_sizes(_sizes(args.string, args.fret, not args.no_kc))
+        return
     profile(args.string, args.fret, not args.no_kc, args.seconds, args.event)
 
 

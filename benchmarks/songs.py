@@ -66,6 +66,7 @@ from benchmarks.scores import (  # noqa: E402
     label_notes,
     write_midi,
 )
+from benchmarks.threads import cores, load  # noqa: E402
 from engine import score  # noqa: E402
 
 # The longest multi-track scores of the corpus: a Guitar Pro 5 demo (two electric guitars, an
@@ -136,14 +137,6 @@ def fluidsynth(midi: Path, wav: Path, soundfont: str, core: int | None) -> Run:
 
 def best(runs: list[Run]) -> Run:
     return min(runs, key=lambda r: r.cpu)
-
-
-def cores() -> int:
-    return len(os.sched_getaffinity(0))
-
-
-def load() -> str:
-    return " / ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 # ---- songs ----------------------------------------------------------------------------------

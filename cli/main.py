@@ -429,7 +429,8 @@ BLOCK_FRAMES = 16384
 def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tuple[Any, float]:
     """The scene's audio (frames,) or (frames, 2), scaled as its ``output`` asks, rendered
     block by block on ``jobs`` threads with a progress bar; and the wall time of the render
-    (kernels loaded or compiled first, the preparation included).  ``stems``: a
+    (the preparation included; loading or compiling the kernels, which ``prepare_kernels``
+    reports on a line of its own when it compiles, not).  ``stems``: a
     ``cli.stems.StemWriter`` given each block of stems at the fixed gain as it comes."""
     import numpy as np
 
@@ -440,13 +441,13 @@ def render_audio(sc: Any, quiet: bool, jobs: int = 1, stems: Any = None) -> tupl
     frames = engine.frame_count(sc)
     # written block by block into the output: a song holds no more than its audio
     audio = np.zeros((frames, 2) if sc.output.channels == 2 else frames)
-    t0 = time.perf_counter()
     prepare_kernels(sc, quiet)
     # What the process holds now (numba's types and registries, the kernels, the modules) lives
     # until it exits: frozen out of the garbage collector's sight, it is walked neither by the
     # full collections the render's allocations trigger nor by the interpreter's at exit
     # (``python -m tools.startup``: the "exit" column)
     gc.freeze()
+    t0 = time.perf_counter()
     with _progress(frames / rate, quiet) as bar:
         def calibrating(kind: str) -> None:
             what = CALIBRATING.get(kind, "calibrating frets")

@@ -52,8 +52,8 @@ class Traits:
     grid: bool  # strings on a grid oversampled per quality level (``options.Quality``)
     fret_loops: bool  # a loop filter per stopping fret, designed on first use (``Voice.loop``)
     # about how long its kernels take to compile on a machine's first render, s (the CLI says so;
-    # on the 2-core development machine the CLI printed 60.6-66.1 s for the finite-difference
-    # kernels, and ``tools.compile_time`` 15.2 s for the waveguide's)
+    # on the 2-core development machine ``tools.compile_time`` printed 58.4 s for the
+    # finite-difference kernels and 19.0 s for the waveguide's)
     compile_s: int
 
 

@@ -221,12 +221,11 @@ def _compile_in_children(argvs: list[list[str]]) -> None:
     ARGV`` for each of ``argvs``, at once (the module's docstring says why in a child; one child
     per string model, ``compile_jobs()`` at a time, because numba compiles on one thread and the
     models share no compiled function but the output's few, which they compile alike); nothing
-    if caching is off or this is such a child.  A child that fails leaves the compiling to this
-    process."""
+    if caching is off (``_compile``, the one caller, starts none from a child).  A child that
+    fails leaves the compiling to this process."""
     from numba.core import config as numba_config
 
-    if (not config.JIT["cache"] or numba_config.DISABLE_JIT
-            or os.environ.get(CHILD_ENV) == "1"):
+    if not config.JIT["cache"] or numba_config.DISABLE_JIT:
         return
     root = str(Path(__file__).resolve().parent.parent)
     path = os.environ.get("PYTHONPATH")
@@ -264,16 +263,24 @@ def compile_seconds(models) -> int:
 def prepare_kernels(models=("fdtd",)) -> float:
     """Load, or compile once per machine, the kernels a render of ``models`` calls, so that the
     render itself spends no time on them.  Returns the seconds it took."""
-    t0 = time.perf_counter()
     models = sorted(set(models))
+    return _load(models, [KERNEL_SCENES[m] for m in models], [])
+
+
+def _load(models: list[str], scenes: list[dict], flags: list[str]) -> float:
+    """Render ``scenes``, which load the kernels of ``models`` from the cache; where they are not
+    cached, first compile them, one process at a time (``_compile_lock``), in a child per model
+    (``python -m engine.precompile --kernels-only FLAGS --models M``), then stamp them with their
+    sources' digest.  Returns the seconds it took."""
+    t0 = time.perf_counter()
     if kernels_cached(models):
-        for m in models:
-            render(KERNEL_SCENES[m])
+        for scene in scenes:
+            render(scene)
     else:
         with _compile_lock():
-            _compile(models, [["--kernels-only", "--models", m] for m in models])
-            for m in models:
-                render(KERNEL_SCENES[m])
+            _compile(models, [["--kernels-only", *flags, "--models", m] for m in models])
+            for scene in scenes:
+                render(scene)
             _stamp(models, sources_digest())
     return time.perf_counter() - t0
 
@@ -305,19 +312,8 @@ def warmup(models=None) -> float:
     the cache (``NUMBA_CACHE_DIR``), by rendering their ``WARMUP_SCENES``, so that the first real
     render of a process spends no time compiling; one process at a time when they must be
     compiled.  Returns the seconds it took."""
-    t0 = time.perf_counter()
     models = sorted(set(models or KERNEL_SCENES))
-    scenes = [s for s in WARMUP_SCENES if _model_of(s) in models]
-    if kernels_cached(models):
-        for scene in scenes:
-            render(scene)
-    else:
-        with _compile_lock():
-            _compile(models, [["--kernels-only", "--every-path", "--models", m] for m in models])
-            for scene in scenes:
-                render(scene)
-            _stamp(models, sources_digest())
-    return time.perf_counter() - t0
+    return _load(models, [s for s in WARMUP_SCENES if _model_of(s) in models], ["--every-path"])
 
 
 def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("draft", "standard"),
@@ -357,14 +353,20 @@ def warm_calibrations(presets=None, models=("fdtd", "waveguide"), qualities=("dr
 def main() -> None:
     import argparse
 
-    ap = argparse.ArgumentParser(description="Fill the caches a first render would wait for: "
-                                 "numba's compiled kernels (NUMBA_CACHE_DIR) and the fret "
-                                 "calibrations of every preset (GUITAR_CACHE_DIR).")
+    ap = argparse.ArgumentParser(
+        prog="python -m engine.precompile",
+        description="Fill the caches a first render would wait for: numba's compiled kernels "
+                    "(NUMBA_CACHE_DIR) and the fret calibrations of every preset "
+                    "(GUITAR_CACHE_DIR).",
+        epilog="Kernels not in the cache compile in a child process per string model, "
+               "GUITAR_COMPILE_JOBS at once (default: the cores this process may use).")
     ap.add_argument("--kernels-only", action="store_true", help="no calibrations")
     ap.add_argument("--models", nargs="+", choices=sorted(KERNEL_SCENES),
                     help="only the kernels a render of these string models calls")
     ap.add_argument("--every-path", action="store_true",
-                    help="with --models: every path of theirs (WARMUP_SCENES), as without it")
+                    help="with --models: compile every path a render of those models may take "
+                         "(WARMUP_SCENES, as without --models), not only the ones a plain render "
+                         "takes (KERNEL_SCENES)")
     args = ap.parse_args()
     if args.models and not args.every_path:
         seconds = prepare_kernels(args.models)

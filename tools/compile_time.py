@@ -25,6 +25,10 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from engine.precompile import CHILD_ENV  # noqa: E402
 
 CHILD = r"""
 import json, sys, time
@@ -77,7 +81,9 @@ print(json.dumps({"total": total, "rows": rows}))
 
 def measure(model: str, opt: int | None) -> dict:
     with tempfile.TemporaryDirectory(prefix="guitar-compile-") as cache:
-        env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": cache}
+        # as the child engine.precompile starts to compile: here, in the process that listens
+        # (without it, prepare_kernels would compile in a child of its own, out of earshot)
+        env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": cache, CHILD_ENV: "1"}
         if opt is not None:
             env["NUMBA_OPT"] = str(opt)
         res = subprocess.run([sys.executable, "-c", CHILD, model], cwd=ROOT, env=env,

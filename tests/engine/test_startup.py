@@ -1,6 +1,7 @@
 """What a rendering process imports: numba's BLAS probe is skipped (``config._SkipBlasProbe``), so
-a render of either model never imports ``scipy.linalg`` (about 0.3 s of CPU per process), while
-every other use of it, numba's own linear algebra included, works as before."""
+a render of either model never imports ``scipy.linalg`` (``python -m tools.startup`` prints what
+that saves a process), while every other use of it, numba's own linear algebra included, works as
+before."""
 
 from __future__ import annotations
 
